@@ -1,0 +1,3 @@
+//! bonefit (being written).
+mod skeleton;
+pub use skeleton::*;

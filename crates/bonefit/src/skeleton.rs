@@ -1,0 +1,58 @@
+//! The bonefit stage's artifact: a skeleton with constant bones and its motion.
+
+use serde::{Deserialize, Serialize};
+
+/// Schema version of [`Skeleton`]; bump when its fields or the algorithm's output change.
+pub const SCHEMA_VERSION: u32 = 1;
+
+/// A hierarchy with constant offsets and per-frame rotations, ready for animation files.
+///
+/// Forward kinematics: the root point is `root_positions[f]`; the root segment's rotation
+/// is `root_rotations[f]`. A joint's global position is its parent's position (the root
+/// point for children of the root) plus the parent's global rotation applied to the
+/// joint's `offset`. A joint's global rotation is its parent's global rotation times its
+/// `local_rotations[f]`; it is the orientation of the joint's child segment. Positions
+/// given by this are exactly `positions` (where not NaN).
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+pub struct Skeleton {
+    /// Frames per second.
+    pub frame_rate: f64,
+    /// Number of frames.
+    pub frame_count: usize,
+    /// Segment at the root.
+    pub root_segment: usize,
+    /// Name of the root node in animation files.
+    pub root_name: String,
+    /// Root point per frame (mm, global); NaN where unknown.
+    #[serde(with = "mocap_io::bulk::vec3s")]
+    pub root_positions: Vec<[f64; 3]>,
+    /// Root segment orientation per frame, unit quaternion `[x, y, z, w]`; never NaN
+    /// (unknown frames carry an interpolated or held value; see `positions` for what is known).
+    #[serde(with = "mocap_io::bulk::vec4s")]
+    pub root_rotations: Vec<[f64; 4]>,
+    /// Joints, every parent before its children (same order as the topology's joints).
+    pub joints: Vec<SkeletonJoint>,
+}
+
+/// One joint of the skeleton.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+pub struct SkeletonJoint {
+    /// Name shared with the topology, skeleton.json and the BVH.
+    pub name: String,
+    /// Index of the parent joint in `Skeleton::joints`; `None` when the parent is the root.
+    pub parent: Option<usize>,
+    /// Segment nearer the root.
+    pub parent_segment: usize,
+    /// Segment farther from the root.
+    pub child_segment: usize,
+    /// Constant offset from the parent joint (or root point) in the parent's rest frame (mm).
+    pub offset: [f64; 3],
+    /// Constant bone length: the norm of `offset` (mm).
+    pub bone_length: f64,
+    /// Rotation of the child segment relative to the parent, per frame, `[x, y, z, w]`; never NaN.
+    #[serde(with = "mocap_io::bulk::vec4s")]
+    pub local_rotations: Vec<[f64; 4]>,
+    /// Global position per frame given by forward kinematics (mm); NaN where unknown.
+    #[serde(with = "mocap_io::bulk::vec3s")]
+    pub positions: Vec<[f64; 3]>,
+}

@@ -1,0 +1,3 @@
+//! jointfit (being written).
+mod pairfits;
+pub use pairfits::*;

@@ -1,0 +1,86 @@
+//! The jointfit stage's artifact: segment poses and a joint fit for every segment pair.
+
+use serde::{Deserialize, Serialize};
+
+/// Schema version of [`PairFits`]; bump when its fields or the algorithm's output change.
+pub const SCHEMA_VERSION: u32 = 1;
+
+/// Per-frame rigid poses of every segment and the joint fitted to every segment pair.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+pub struct PairFits {
+    /// Number of frames of the capture.
+    pub frames: usize,
+    /// One entry per segment, indexed by segment id.
+    pub poses: Vec<SegmentPoses>,
+    /// One entry per unordered segment pair `(a, b)` with `a < b`, in lexicographic order.
+    pub pairs: Vec<PairFit>,
+}
+
+/// The rigid motion of one segment: local frame → global frame at every frame.
+///
+/// Local frame: origin at the centroid of the reference shape, axes of the global frame
+/// at the reference. Global position of a local point `p` at frame `f`:
+/// `rotations[f] * p + translations[f]` (millimetres).
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+pub struct SegmentPoses {
+    /// Segment id.
+    pub segment: usize,
+    /// Reference positions of the segment's markers in the local frame (mm), in the
+    /// segment's marker order; NaN for a marker never seen together with the others.
+    #[serde(with = "mocap_io::bulk::vec3s")]
+    pub reference: Vec<[f64; 3]>,
+    /// Unit quaternion `[x, y, z, w]` per frame; NaN where the pose is unknown.
+    #[serde(with = "mocap_io::bulk::vec4s")]
+    pub rotations: Vec<[f64; 4]>,
+    /// Translation per frame (mm); NaN where the pose is unknown.
+    #[serde(with = "mocap_io::bulk::vec3s")]
+    pub translations: Vec<[f64; 3]>,
+    /// RMS distance of the visible markers from the posed reference, per frame (mm); NaN where unknown.
+    #[serde(with = "mocap_io::bulk::f64s")]
+    pub rms_mm: Vec<f64>,
+}
+
+/// How two segments are articulated, as far as the fit can tell.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(rename_all = "lowercase")]
+pub enum JointKind {
+    /// Three rotational degrees of freedom about a point.
+    Ball,
+    /// One rotational degree of freedom about an axis.
+    Hinge,
+    /// Two rotational degrees of freedom.
+    Universal,
+    /// No relative motion: the two are one body.
+    Rigid,
+}
+
+/// The joint fitted between segments `a` and `b`.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+pub struct PairFit {
+    /// Lower segment id.
+    pub a: usize,
+    /// Higher segment id.
+    pub b: usize,
+    /// Method that produced the fit ("aguiar", "score", "local").
+    pub method: String,
+    /// The pair cost the topology is built from (lower = more likely a real joint), per
+    /// marker and per frame so segments with few markers are not favoured.
+    pub cost: f64,
+    /// Joint centre in `a`'s local frame (mm).
+    pub centre_in_a: [f64; 3],
+    /// Joint centre in `b`'s local frame (mm).
+    pub centre_in_b: [f64; 3],
+    /// Joint centre in the global frame at every frame (mm); NaN where it cannot be known.
+    #[serde(with = "mocap_io::bulk::vec3s")]
+    pub positions: Vec<[f64; 3]>,
+    /// Articulation kind.
+    pub kind: JointKind,
+    /// Hinge axis in `a`'s local frame (unit vector), for hinges.
+    pub axis_in_a: Option<[f64; 3]>,
+    /// RMS over frames of the distance between the centre as `a` and as `b` carry it (mm).
+    pub residual_rms_mm: f64,
+    /// Frames in which both segments have a pose.
+    pub frames_used: usize,
+    /// Human-readable evidence for `kind` (conditioning, range of motion).
+    pub evidence: String,
+}

@@ -1,0 +1,228 @@
+//! The CBOR envelope every stage artifact is stored in, and content hashing.
+//!
+//! File layout: the CBOR self-describe tag 55799 (bytes `d9 d9 f7`, our magic) around a
+//! map `{ "header": ArtifactHeader, "payload": <stage payload> }`. Bulk floats in a
+//! payload are byte strings (see [`crate::bulk`]). Maps are `BTreeMap`s or structs, never
+//! `HashMap`s, so the same value always encodes to the same bytes.
+
+use std::io::Write as _;
+use std::path::Path;
+
+use serde::{Deserialize, Serialize, de::DeserializeOwned};
+
+use crate::error::IoError;
+
+/// The CBOR self-describe tag that opens every artifact.
+pub const MAGIC: [u8; 3] = [0xd9, 0xd9, 0xf7];
+const SELF_DESCRIBE_TAG: u64 = 55799;
+
+/// What an artifact is, what made it and what it came from.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+pub struct ArtifactHeader {
+    /// Stage that produced the payload: "mocap-io", "segment", "jointfit", ...
+    pub stage: String,
+    /// Version of the stage's payload schema and algorithm; bumped when either changes.
+    pub schema_version: u32,
+    /// Version of ossify that wrote the file.
+    pub tool_version: String,
+    /// The stage's parameters, as the stage's serde struct encodes them.
+    pub params: ciborium::Value,
+    /// Content hashes of the inputs, by role ("capture", "segment", ...).
+    pub inputs: Vec<InputHash>,
+}
+
+/// One input of an artifact: its role and the blake3 hash of its bytes.
+#[derive(Clone, Debug, PartialEq, Eq, Serialize, Deserialize)]
+pub struct InputHash {
+    /// Role of the input for the stage ("capture", "segment", ...).
+    pub role: String,
+    /// Lower-case hex blake3 of the input file's bytes.
+    pub blake3: String,
+}
+
+#[derive(Serialize, Deserialize)]
+struct Envelope<H, P> {
+    header: H,
+    payload: P,
+}
+
+/// Lower-case hex blake3 hash of some bytes.
+pub fn content_hash(bytes: &[u8]) -> String {
+    blake3::hash(bytes).to_hex().to_string()
+}
+
+/// Encodes a header and payload as artifact bytes.
+pub fn encode<P: Serialize>(header: &ArtifactHeader, payload: &P) -> Result<Vec<u8>, IoError> {
+    let mut out = Vec::new();
+    let env = ciborium::tag::Required::<_, SELF_DESCRIBE_TAG>(Envelope { header, payload });
+    ciborium::into_writer(&env, &mut out)
+        .map_err(|e| IoError::Invalid(format!("cannot encode artifact: {e}")))?;
+    Ok(out)
+}
+
+/// Decodes artifact bytes into header and payload; `path` only names the source in errors.
+pub fn decode<P: DeserializeOwned>(
+    bytes: &[u8],
+    path: &Path,
+) -> Result<(ArtifactHeader, P), IoError> {
+    let bad = |problem: String| IoError::Artifact {
+        path: path.to_path_buf(),
+        problem,
+    };
+    if !bytes.starts_with(&MAGIC) {
+        return Err(bad(
+            "missing the CBOR self-describe tag (d9 d9 f7) that opens every artifact".into(),
+        ));
+    }
+    let env: ciborium::tag::Required<Envelope<ArtifactHeader, P>, SELF_DESCRIBE_TAG> =
+        ciborium::from_reader(bytes).map_err(|e| bad(e.to_string()))?;
+    Ok((env.0.header, env.0.payload))
+}
+
+/// Reads and decodes an artifact file, checking that it came from `stage`.
+pub fn read<P: DeserializeOwned>(path: &Path, stage: &str) -> Result<(ArtifactHeader, P), IoError> {
+    let bytes = std::fs::read(path).map_err(|source| IoError::Read {
+        path: path.to_path_buf(),
+        source,
+    })?;
+    let (header, payload) = decode::<P>(&bytes, path)?;
+    if header.stage != stage {
+        return Err(IoError::Artifact {
+            path: path.to_path_buf(),
+            problem: format!("made by stage '{}', expected '{stage}'", header.stage),
+        });
+    }
+    Ok((header, payload))
+}
+
+/// Reads any artifact generically (header plus payload as a CBOR value), for inspection.
+pub fn read_any(path: &Path) -> Result<(ArtifactHeader, ciborium::Value), IoError> {
+    let bytes = std::fs::read(path).map_err(|source| IoError::Read {
+        path: path.to_path_buf(),
+        source,
+    })?;
+    decode(&bytes, path)
+}
+
+/// Writes bytes atomically: a temporary file beside `path`, then a rename.
+///
+/// A crash or error leaves either the old file or none, never a half-written one.
+pub fn write_atomic(path: &Path, bytes: &[u8]) -> Result<(), IoError> {
+    let err = |source| IoError::Write {
+        path: path.to_path_buf(),
+        source,
+    };
+    let dir = path
+        .parent()
+        .filter(|p| !p.as_os_str().is_empty())
+        .unwrap_or(Path::new("."));
+    std::fs::create_dir_all(dir).map_err(err)?;
+    let name = path
+        .file_name()
+        .map(|n| n.to_string_lossy().into_owned())
+        .unwrap_or_default();
+    let tmp = dir.join(format!(".{name}.tmp-{}", std::process::id()));
+    let result = (|| {
+        let mut f = std::fs::File::create(&tmp)?;
+        f.write_all(bytes)?;
+        f.sync_all()?;
+        std::fs::rename(&tmp, path)
+    })();
+    if let Err(source) = result {
+        let _ = std::fs::remove_file(&tmp);
+        return Err(err(source));
+    }
+    Ok(())
+}
+
+/// Encodes and writes an artifact atomically.
+pub fn write<P: Serialize>(
+    path: &Path,
+    header: &ArtifactHeader,
+    payload: &P,
+) -> Result<(), IoError> {
+    write_atomic(path, &encode(header, payload)?)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::Trajectories;
+
+    fn header() -> ArtifactHeader {
+        ArtifactHeader {
+            stage: "mocap-io".into(),
+            schema_version: 1,
+            tool_version: "0.1.0".into(),
+            params: ciborium::Value::Map(vec![]),
+            inputs: vec![InputHash {
+                role: "capture".into(),
+                blake3: content_hash(b"x"),
+            }],
+        }
+    }
+
+    fn sample() -> Trajectories {
+        Trajectories::new(
+            vec!["A".into(), "B".into()],
+            120.0,
+            1,
+            2,
+            vec![
+                [1.0, 2.0, 3.0],
+                [f64::NAN; 3],
+                [4.5, -6.0, 1e9],
+                [0.0, 0.0, 0.25],
+            ],
+        )
+        .unwrap()
+    }
+
+    #[test]
+    fn trajectories_round_trip_through_an_artifact() {
+        let t = sample();
+        let bytes = encode(&header(), &t).unwrap();
+        assert!(bytes.starts_with(&MAGIC));
+        let (h, back): (_, Trajectories) = decode(&bytes, Path::new("t.cbor")).unwrap();
+        assert_eq!(h, header());
+        assert_eq!(back.labels(), t.labels());
+        assert_eq!(back.get(0, 1), None);
+        assert_eq!(back.get(1, 0), Some([4.5, -6.0, 1e9]));
+        assert_eq!(back.missing_samples(), 1);
+        // Same value, same bytes: the cache relies on it.
+        assert_eq!(encode(&header(), &back).unwrap(), bytes);
+    }
+
+    #[test]
+    fn bulk_positions_are_one_byte_string() {
+        let bytes = encode(&header(), &sample()).unwrap();
+        // 4 samples × 3 × 8 bytes = 96 bytes, stored as CBOR bytes of length 96 (0x58 0x60).
+        assert!(bytes.windows(2).any(|w| w == [0x58, 96]));
+    }
+
+    #[test]
+    fn garbage_and_truncation_are_errors_not_panics() {
+        let bytes = encode(&header(), &sample()).unwrap();
+        for cut in 0..bytes.len() {
+            assert!(decode::<Trajectories>(&bytes[..cut], Path::new("t.cbor")).is_err());
+        }
+        let err = decode::<Trajectories>(b"hello", Path::new("t.cbor")).unwrap_err();
+        assert!(err.to_string().contains("t.cbor"), "{err}");
+    }
+
+    #[test]
+    fn atomic_write_leaves_no_temp_file() {
+        let dir = std::env::temp_dir().join(format!("ossify-art-{}", std::process::id()));
+        let path = dir.join("a.cbor");
+        write(&path, &header(), &sample()).unwrap();
+        let (_, t): (_, Trajectories) = read(&path, "mocap-io").unwrap();
+        assert_eq!(t.frames(), 2);
+        assert!(read::<Trajectories>(&path, "segment").is_err());
+        let names: Vec<_> = std::fs::read_dir(&dir)
+            .unwrap()
+            .map(|e| e.unwrap().file_name())
+            .collect();
+        assert_eq!(names.len(), 1, "{names:?}");
+        std::fs::remove_dir_all(&dir).unwrap();
+    }
+}

@@ -1,0 +1,140 @@
+//! mocap-io: capture files in, [`Trajectories`] out; and the artifact envelope.
+//!
+//! Takes C3D (all three processor formats, integer and float), TRC and CSV files and
+//! gives [`Trajectories`]: labels, frame rate, first frame, positions in millimetres with
+//! gaps as missing samples (one representation, documented on the type), plus a
+//! [`CaptureInfo`] saying what the file declared and what was guessed (warnings).
+//! Writes C3D, TRC and CSV for the synthetic generator and the exporters.
+//!
+//! It also owns the CBOR artifact envelope ([`artifact`]) every stage's output is stored
+//! in, and the bulk-float encoding ([`bulk`]). It does not cache, schedule stages or
+//! know what a segment is: that is `xtask` and the stage crates.
+
+pub mod artifact;
+pub mod bulk;
+pub mod c3d;
+pub mod csv;
+mod error;
+mod trajectories;
+pub mod trc;
+
+use std::path::Path;
+
+use serde::{Deserialize, Serialize};
+
+pub use error::{FormatError, IoError};
+pub use trajectories::{MISSING, Trajectories, is_present};
+
+/// Stage name of capture artifacts.
+pub const STAGE: &str = "mocap-io";
+/// Schema version of capture artifacts ([`Capture`]).
+pub const SCHEMA_VERSION: u32 = 1;
+
+/// The file formats we read.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(rename_all = "lowercase")]
+pub enum Format {
+    /// C3D (c3d.org), any processor type, integer or float.
+    C3d,
+    /// TRC (Motion Analysis / OpenSim).
+    Trc,
+    /// ossify's documented CSV layout: `frame,label_x,label_y,label_z,...`.
+    Csv,
+}
+
+impl Format {
+    /// Lower-case name as printed by `inspect`.
+    pub fn name(self) -> &'static str {
+        match self {
+            Format::C3d => "c3d",
+            Format::Trc => "trc",
+            Format::Csv => "csv",
+        }
+    }
+}
+
+/// What a file declared about itself, beside its trajectories.
+#[derive(Clone, Debug, Default, PartialEq, Serialize, Deserialize)]
+pub struct CaptureInfo {
+    /// Length units as the file declares them ("mm", "cm", "m", "mete", ...); `None` when absent.
+    pub declared_units: Option<String>,
+    /// C3D only: "intel", "dec" or "mips".
+    pub processor: Option<String>,
+    /// C3D only: "integer" or "float" (from the sign of POINT:SCALE).
+    pub storage: Option<String>,
+    /// C3D only: POINT:SCALE as read.
+    pub point_scale: Option<f64>,
+    /// Things a user should know: guesses made, disagreements resolved, data skipped.
+    pub warnings: Vec<String>,
+}
+
+/// A capture as read: its trajectories, format and what the file declared.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+pub struct Capture {
+    /// Format the file was read as.
+    pub format: Format,
+    /// Marker trajectories in millimetres.
+    pub trajectories: Trajectories,
+    /// Declarations and warnings.
+    pub info: CaptureInfo,
+}
+
+/// Options for reading captures; defaults suit every file we know of.
+#[derive(Clone, Debug, Default, PartialEq, Serialize, Deserialize)]
+#[serde(default, deny_unknown_fields)]
+pub struct ReadOptions {
+    /// C3D: keep samples whose residual is negative when a file flags *every* sample
+    /// invalid although its coordinates vary (SIMI writes such files). Default false:
+    /// they are read as missing, with a warning naming this option.
+    pub keep_invalid_residuals: bool,
+}
+
+/// Reads a capture file, choosing the format by content (C3D) or extension (TRC, CSV).
+pub fn read_capture(path: &Path, options: &ReadOptions) -> Result<Capture, IoError> {
+    let bytes = std::fs::read(path).map_err(|source| IoError::Read {
+        path: path.to_path_buf(),
+        source,
+    })?;
+    let format = detect_format(path, &bytes).ok_or_else(|| IoError::UnknownFormat {
+        path: path.to_path_buf(),
+    })?;
+    let parsed = match format {
+        Format::C3d => c3d::parse(&bytes, options),
+        Format::Trc => trc::parse(&bytes, options),
+        Format::Csv => csv::parse(&bytes, options),
+    };
+    parsed.map_err(|error| IoError::Format {
+        path: path.to_path_buf(),
+        error,
+    })
+}
+
+/// The format of a file: by extension, else C3D when byte 2 holds its 0x50 key.
+pub fn detect_format(path: &Path, bytes: &[u8]) -> Option<Format> {
+    let ext = path
+        .extension()
+        .map(|e| e.to_string_lossy().to_ascii_lowercase());
+    match ext.as_deref() {
+        Some("c3d") => Some(Format::C3d),
+        Some("trc") => Some(Format::Trc),
+        Some("csv") => Some(Format::Csv),
+        _ if bytes.len() >= 2 && bytes[1] == 0x50 => Some(Format::C3d),
+        _ if bytes.starts_with(b"PathFileType") => Some(Format::Trc),
+        _ => None,
+    }
+}
+
+/// Writes trajectories as a C3D file (Intel, float, residual −1 for missing samples), atomically.
+pub fn write_c3d(path: &Path, trajectories: &Trajectories) -> Result<(), IoError> {
+    artifact::write_atomic(path, &c3d::write(trajectories)?)
+}
+
+/// Writes trajectories as a TRC file (millimetres, empty fields for missing samples), atomically.
+pub fn write_trc(path: &Path, trajectories: &Trajectories) -> Result<(), IoError> {
+    artifact::write_atomic(path, trc::write(trajectories).as_bytes())
+}
+
+/// Writes trajectories in ossify's CSV layout, atomically.
+pub fn write_csv(path: &Path, trajectories: &Trajectories) -> Result<(), IoError> {
+    artifact::write_atomic(path, csv::write(trajectories).as_bytes())
+}

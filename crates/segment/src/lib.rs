@@ -1,0 +1,3 @@
+//! segment (being written).
+mod segmentation;
+pub use segmentation::*;

@@ -1,0 +1,3 @@
+//! topo (being written).
+mod topology;
+pub use topology::*;

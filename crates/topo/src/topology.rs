@@ -1,0 +1,33 @@
+//! The topo stage's artifact: the tree of segments.
+
+use serde::{Deserialize, Serialize};
+
+/// Schema version of [`Topology`]; bump when its fields or the algorithm's output change.
+pub const SCHEMA_VERSION: u32 = 1;
+
+/// A tree over the segments: a root and one joint per edge, parent to child.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+pub struct Topology {
+    /// Segment at the root of the tree.
+    pub root_segment: usize,
+    /// Joints in breadth-first order from the root: every parent before its children.
+    pub joints: Vec<TreeJoint>,
+    /// Segments not connected to the tree (no usable pair fit), if any.
+    pub detached_segments: Vec<usize>,
+}
+
+/// One edge of the tree.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+pub struct TreeJoint {
+    /// Joint name, shared by skeleton.json and the BVH: `j<child_segment>`.
+    pub name: String,
+    /// Segment nearer the root.
+    pub parent_segment: usize,
+    /// Segment farther from the root.
+    pub child_segment: usize,
+    /// Index of the pair's fit in `PairFits::pairs`.
+    pub pair: usize,
+    /// Index in `joints` of the joint at the parent segment's own proximal end; `None` when
+    /// the parent is the root segment.
+    pub parent_joint: Option<usize>,
+}
