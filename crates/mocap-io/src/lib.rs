@@ -15,6 +15,7 @@ pub mod bulk;
 pub mod c3d;
 pub mod csv;
 mod error;
+pub mod testdata;
 mod trajectories;
 pub mod trc;
 
