@@ -1,0 +1,116 @@
+//! The runner as a user drives it: default run, caching, reruns, bad input, inspect.
+
+use crate::support::{Scratch, read_json, xtask, xtask_ok};
+
+fn stages(json: &serde_json::Value) -> Vec<(String, bool)> {
+    json["stages"]
+        .as_array()
+        .expect("stages array")
+        .iter()
+        .map(|s| (s["name"].as_str().unwrap().to_owned(), s["cached"].as_bool().unwrap()))
+        .collect()
+}
+
+#[test]
+fn default_run_writes_the_contract_and_caches_every_stage() {
+    let tmp = Scratch::new("default-run");
+    let (out, cache) = (tmp.path("out"), tmp.path("cache"));
+    let (out, cache) = (out.to_str().unwrap(), cache.to_str().unwrap());
+    let args = ["run", "--out", out, "--cache", cache, "--json"];
+
+    let first: serde_json::Value = serde_json::from_str(&xtask_ok(&args)).unwrap();
+    let names: Vec<_> = stages(&first).into_iter().map(|(n, _)| n).collect();
+    assert_eq!(names, ["mocap-io", "segment", "jointfit", "topo", "bonefit", "export"]);
+    assert!(stages(&first).iter().all(|(_, cached)| !cached), "{first}");
+
+    let skeleton = read_json(&tmp.path("out/skeleton.json"));
+    assert_eq!(skeleton["units"], "mm");
+    let frames = skeleton["frame_count"].as_u64().unwrap() as usize;
+    assert!(skeleton["frame_rate"].as_f64().unwrap() > 0.0);
+    assert!(skeleton["segments"].as_array().unwrap().len() >= 15, "human has ≥ 15 segments");
+    assert!(skeleton["unassigned_markers"].is_array());
+    let root = skeleton["root_segment"].as_u64().unwrap();
+    let joints = skeleton["joints"].as_array().unwrap();
+    assert_eq!(joints.len() + 1, skeleton["segments"].as_array().unwrap().len());
+    let bvh = std::fs::read_to_string(tmp.path("out/skeleton.bvh")).unwrap();
+    assert!(bvh.starts_with("HIERARCHY"));
+    assert!(bvh.contains(&format!("Frames: {frames}")));
+    for j in joints {
+        assert_eq!(j["positions"].as_array().unwrap().len(), frames);
+        let name = j["name"].as_str().unwrap();
+        assert!(bvh.contains(&format!("JOINT {name}\n")), "BVH lacks joint {name}");
+        assert!(["ball", "hinge", "universal", "rigid"].contains(&j["kind"].as_str().unwrap()));
+        assert_ne!(j["child_segment"].as_u64().unwrap(), root);
+    }
+    let csv = std::fs::read_to_string(tmp.path("out/joints.csv")).unwrap();
+    assert!(csv.starts_with("frame,joint,x,y,z"));
+
+    // Nothing changed: nothing recomputed, and the outputs are byte-identical.
+    let json_bytes = std::fs::read(tmp.path("out/skeleton.json")).unwrap();
+    let again: serde_json::Value = serde_json::from_str(&xtask_ok(&args)).unwrap();
+    assert!(stages(&again).iter().all(|(_, cached)| *cached), "{again}");
+    assert_eq!(std::fs::read(tmp.path("out/skeleton.json")).unwrap(), json_bytes);
+
+    // A jointfit parameter reruns jointfit and everything downstream, nothing upstream.
+    let mut set = args.to_vec();
+    set.extend(["--set", "jointfit.alpha=0.25"]);
+    let rerun: serde_json::Value = serde_json::from_str(&xtask_ok(&set)).unwrap();
+    let cached: Vec<_> = stages(&rerun).into_iter().map(|(_, c)| c).collect();
+    assert_eq!(cached, [true, true, false, false, false, false], "{rerun}");
+}
+
+#[test]
+fn recomputing_without_the_cache_gives_byte_identical_files() {
+    let tmp = Scratch::new("determinism");
+    let run = |name: &str| {
+        let out = tmp.path(name);
+        let cache = tmp.path(&format!("cache-{name}"));
+        xtask_ok(&["run", "--out", out.to_str().unwrap(), "--cache", cache.to_str().unwrap()]);
+        ["skeleton.json", "skeleton.bvh", "joints.csv"]
+            .map(|f| std::fs::read(out.join(f)).unwrap())
+    };
+    assert!(run("a") == run("b"), "two fresh runs differ");
+}
+
+#[test]
+fn a_bad_capture_fails_clearly_and_writes_nothing() {
+    let tmp = Scratch::new("bad-input");
+    let bad = tmp.path("broken.c3d");
+    let mut bytes = vec![0u8; 1024];
+    bytes[0] = 2;
+    bytes[1] = 0x50;
+    bytes[2..4].copy_from_slice(&u16::MAX.to_le_bytes());
+    std::fs::write(&bad, &bytes).unwrap();
+    let out = tmp.path("out");
+    let result = xtask(&[
+        "run",
+        bad.to_str().unwrap(),
+        "--out",
+        out.to_str().unwrap(),
+        "--cache",
+        tmp.path("cache").to_str().unwrap(),
+    ]);
+    assert!(!result.status.success());
+    let stderr = String::from_utf8_lossy(&result.stderr);
+    assert!(stderr.contains("broken.c3d"), "error does not name the file: {stderr}");
+    assert!(!out.join("skeleton.json").exists() && !out.join("skeleton.bvh").exists());
+}
+
+#[test]
+fn inspect_json_summarises_a_capture() {
+    let fixture = crate::support::root().join("fixtures");
+    let c3d = std::fs::read_dir(&fixture)
+        .unwrap()
+        .map(|e| e.unwrap().path())
+        .find(|p| p.extension().is_some_and(|e| e == "c3d"))
+        .expect("a committed C3D fixture");
+    let json: serde_json::Value =
+        serde_json::from_str(&xtask_ok(&["inspect", c3d.to_str().unwrap(), "--json"])).unwrap();
+    assert_eq!(json["format"], "c3d");
+    assert_eq!(json["units"], "mm");
+    let markers = json["markers"].as_u64().unwrap() as usize;
+    assert_eq!(json["labels"].as_array().unwrap().len(), markers);
+    assert_eq!(json["middle_frame"].as_array().unwrap().len(), markers);
+    assert!(json["frames"].as_u64().unwrap() > 0);
+    assert!(json["warnings"].is_array());
+}
