@@ -1,3 +1,65 @@
-//! topo (being written).
+//! topo: the tree of segments.
+//!
+//! Takes the segmentation and the jointfit stage's pair fits ([`jointfit::PairFits`]) and
+//! gives a [`Topology`]: a minimum spanning tree over the pair costs (Kruskal, as the
+//! Aguiar et al. paper does), a root segment, and one [`TreeJoint`] per tree edge in
+//! breadth-first order from the root, parent before child.
+//!
+//! Choices, documented here because they shape every output downstream:
+//! - Pairs whose cost is NaN or infinite are not edges (no usable fit). Segments left
+//!   without an edge, and components other than the tree's, are `detached_segments`.
+//! - Pairs of kind `rigid` (no relative motion: the two are one body) are taken before
+//!   every other edge, because two segments that never move relative to each other are
+//!   certainly neighbours; the topology's `notes` say so, since a rigid pair usually means
+//!   the segmentation split one body in two.
+//! - Ties in cost are broken by the lower segment ids, so the tree is deterministic.
+//! - Root: the tree's centre (minimum eccentricity in hops), ties by most markers, then
+//!   lowest id; it lands on the pelvis or torso of a human and the body of an animal.
+//!   `topo.root` forces a segment id (its component becomes the tree).
+//!
+//! It does not fit joints, bone lengths or rotations (jointfit and bonefit do), and does
+//! no I/O.
+mod error;
+mod mst;
 mod topology;
+
+pub use error::Error;
+pub use mst::run;
 pub use topology::*;
+
+use serde::{Deserialize, Serialize};
+
+/// Name of this stage (cache keys, artifact headers).
+pub const STAGE: &str = "topo";
+
+/// Parameters of the topo stage.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(default, deny_unknown_fields)]
+pub struct Params {
+    /// Segment id to force as the root; `None` (default) picks the tree's centre.
+    pub root: Option<usize>,
+    /// Take `rigid` pairs before all other edges (default true); false uses their cost as is.
+    pub rigid_first: bool,
+}
+
+impl Default for Params {
+    fn default() -> Self {
+        Self {
+            root: None,
+            rigid_first: true,
+        }
+    }
+}
+
+/// Every parameter: (field name, "meaning, units, default").
+pub const PARAM_DOCS: &[(&str, &str)] = &[
+    (
+        "root",
+        "segment id forced as the tree's root; default none: the tree's centre (fewest hops \
+         to the farthest segment, ties by most markers, then lowest id)",
+    ),
+    (
+        "rigid_first",
+        "take pairs of kind rigid (no relative motion) before all other edges; default true",
+    ),
+];

@@ -14,6 +14,10 @@ pub struct Topology {
     pub joints: Vec<TreeJoint>,
     /// Segments not connected to the tree (no usable pair fit), if any.
     pub detached_segments: Vec<usize>,
+    /// Things a user should know about the tree, in words (rigid pairs joined, detached
+    /// segments and why, a forced root).
+    #[serde(default)]
+    pub notes: Vec<String>,
 }
 
 /// One edge of the tree.
@@ -30,4 +34,7 @@ pub struct TreeJoint {
     /// Index in `joints` of the joint at the parent segment's own proximal end; `None` when
     /// the parent is the root segment.
     pub parent_joint: Option<usize>,
+    /// The pair's cost (`PairFit::cost`) that put this edge in the tree.
+    #[serde(default)]
+    pub cost: f64,
 }

@@ -1,0 +1,47 @@
+//! Errors of the topo stage.
+
+/// Why the topology could not be built.
+#[derive(Debug, thiserror::Error)]
+pub enum Error {
+    /// The segmentation holds no segment, so there is nothing to connect.
+    #[error("topo: the segmentation has no segments; nothing to build a tree from")]
+    NoSegments,
+    /// The pair fits and the segmentation disagree on the number of segments.
+    #[error(
+        "topo: the pair fits hold poses for {poses} segments but the segmentation has {segments}; \
+         rerun jointfit on this segmentation"
+    )]
+    SegmentCountMismatch {
+        /// Segments in the segmentation.
+        segments: usize,
+        /// Segment pose tracks in the pair fits.
+        poses: usize,
+    },
+    /// A pair fit names a segment that does not exist, or is not ordered `a < b`.
+    #[error(
+        "topo: pair fit {pair} joins segments {a} and {b}, but only segments 0..{segments} exist \
+         (and a < b is required); the pair fits do not belong to this segmentation"
+    )]
+    BadPair {
+        /// Index in `PairFits::pairs`.
+        pair: usize,
+        /// Its first segment.
+        a: usize,
+        /// Its second segment.
+        b: usize,
+        /// Number of segments.
+        segments: usize,
+    },
+    /// The forced root (`topo.root`) is not a segment of the tree.
+    #[error(
+        "topo: topo.root = {root} is not usable: {reason}; pick one of the tree's segments {tree:?}"
+    )]
+    BadRoot {
+        /// The requested root segment id.
+        root: usize,
+        /// Why it cannot be used.
+        reason: String,
+        /// Segments of the tree that could be the root.
+        tree: Vec<usize>,
+    },
+}

@@ -1,0 +1,509 @@
+//! Kruskal's minimum spanning tree over the pair costs, the root choice and the
+//! breadth-first joint order.
+
+use std::collections::VecDeque;
+
+use jointfit::{JointKind, PairFits};
+use segment::Segmentation;
+
+use crate::{Error, Params, Topology, TreeJoint};
+
+/// Builds the segment tree: Kruskal on the pair costs, a root, joints in BFS order.
+///
+/// See the crate docs for how rigid pairs, unusable costs, ties and the root are handled.
+pub fn run(seg: &Segmentation, fits: &PairFits, params: &Params) -> Result<Topology, Error> {
+    let n = seg.segments.len();
+    if n == 0 {
+        return Err(Error::NoSegments);
+    }
+    if fits.poses.len() != n {
+        return Err(Error::SegmentCountMismatch {
+            segments: n,
+            poses: fits.poses.len(),
+        });
+    }
+    let marker_count: Vec<usize> = seg.segments.iter().map(|s| s.markers.len()).collect();
+    let mut notes = Vec::new();
+
+    // Candidate edges: (rank, cost, a, b, pair index); rank 0 = rigid pair taken first.
+    let mut edges: Vec<(u8, f64, usize, usize, usize)> = Vec::with_capacity(fits.pairs.len());
+    for (i, p) in fits.pairs.iter().enumerate() {
+        if p.a >= p.b || p.b >= n {
+            return Err(Error::BadPair {
+                pair: i,
+                a: p.a,
+                b: p.b,
+                segments: n,
+            });
+        }
+        if !p.cost.is_finite() {
+            continue;
+        }
+        let rank = u8::from(!(params.rigid_first && p.kind == JointKind::Rigid));
+        edges.push((rank, p.cost, p.a, p.b, i));
+    }
+    edges.sort_by(|x, y| {
+        x.0.cmp(&y.0)
+            .then(x.1.total_cmp(&y.1))
+            .then(x.2.cmp(&y.2))
+            .then(x.3.cmp(&y.3))
+    });
+
+    let mut sets = DisjointSets::new(n);
+    let mut accepted = Vec::new();
+    for &(rank, cost, a, b, pair) in &edges {
+        if sets.union(a, b) {
+            if rank == 0 {
+                notes.push(format!(
+                    "segments {a} and {b} do not move relative to each other (pair kind rigid); \
+                     joined first: they are probably one body split in two"
+                ));
+            }
+            accepted.push((a, b, pair, cost));
+        }
+    }
+
+    // Components; the tree is the forced root's, else the biggest (segments, markers, id).
+    let mut members: Vec<Vec<usize>> = vec![Vec::new(); n];
+    for s in 0..n {
+        let r = sets.find(s);
+        members[r].push(s);
+    }
+    let components: Vec<&Vec<usize>> = members.iter().filter(|m| !m.is_empty()).collect();
+    let tree_set: Vec<usize> = match params.root {
+        Some(root) => {
+            if root >= n {
+                return Err(Error::BadRoot {
+                    root,
+                    reason: format!("there are only {n} segments"),
+                    tree: (0..n).collect(),
+                });
+            }
+            notes.push(format!("root forced to segment {root} (topo.root)"));
+            members[sets.find(root)].clone()
+        }
+        None => components
+            .iter()
+            .max_by(|x, y| {
+                let mx: usize = x.iter().map(|&s| marker_count[s]).sum();
+                let my: usize = y.iter().map(|&s| marker_count[s]).sum();
+                x.len()
+                    .cmp(&y.len())
+                    .then(mx.cmp(&my))
+                    // Lower smallest id wins the tie, so compare reversed.
+                    .then(y[0].cmp(&x[0]))
+            })
+            .map(|c| (*c).clone())
+            .unwrap_or_default(),
+    };
+    let mut in_tree = vec![false; n];
+    for &s in &tree_set {
+        in_tree[s] = true;
+    }
+    let mut has_edge = vec![false; n];
+    for p in &fits.pairs {
+        if p.cost.is_finite() {
+            has_edge[p.a] = true;
+            has_edge[p.b] = true;
+        }
+    }
+    let detached_segments: Vec<usize> = (0..n).filter(|&s| !in_tree[s]).collect();
+    for &s in &detached_segments {
+        if has_edge[s] {
+            let comp = &members[sets.find(s)];
+            notes.push(format!(
+                "segment {s} is detached: its component {comp:?} has no finite-cost pair with the tree"
+            ));
+        } else {
+            notes.push(format!(
+                "segment {s} is detached: no pair fit with a finite cost involves it"
+            ));
+        }
+    }
+
+    // Tree adjacency, neighbours ascending for a deterministic BFS.
+    let mut adjacency: Vec<Vec<(usize, usize, f64)>> = vec![Vec::new(); n];
+    for &(a, b, pair, cost) in &accepted {
+        if in_tree[a] {
+            adjacency[a].push((b, pair, cost));
+            adjacency[b].push((a, pair, cost));
+        }
+    }
+    for adj in &mut adjacency {
+        adj.sort_by_key(|e| e.0);
+    }
+
+    let root_segment = match params.root {
+        Some(root) => root,
+        None => centre(&tree_set, &adjacency, &marker_count),
+    };
+
+    // Breadth-first from the root: every parent joint before its children.
+    let mut joints: Vec<TreeJoint> = Vec::with_capacity(tree_set.len().saturating_sub(1));
+    let mut joint_of_segment: Vec<Option<usize>> = vec![None; n];
+    let mut visited = vec![false; n];
+    let mut queue = VecDeque::from([root_segment]);
+    visited[root_segment] = true;
+    while let Some(parent) = queue.pop_front() {
+        for &(child, pair, cost) in &adjacency[parent] {
+            if visited[child] {
+                continue;
+            }
+            visited[child] = true;
+            joint_of_segment[child] = Some(joints.len());
+            joints.push(TreeJoint {
+                name: format!("j{child}"),
+                parent_segment: parent,
+                child_segment: child,
+                pair,
+                parent_joint: joint_of_segment[parent],
+                cost,
+            });
+            queue.push_back(child);
+        }
+    }
+
+    Ok(Topology {
+        root_segment,
+        joints,
+        detached_segments,
+        notes,
+    })
+}
+
+/// The tree's centre: minimum eccentricity in hops, ties by most markers, then lowest id.
+fn centre(tree: &[usize], adjacency: &[Vec<(usize, usize, f64)>], marker_count: &[usize]) -> usize {
+    let n = adjacency.len();
+    let mut best: Option<(usize, usize, usize)> = None; // (eccentricity, markers, id)
+    let mut hops = vec![usize::MAX; n];
+    let mut queue = VecDeque::new();
+    for &s in tree {
+        hops.fill(usize::MAX);
+        hops[s] = 0;
+        queue.clear();
+        queue.push_back(s);
+        let mut eccentricity = 0;
+        while let Some(u) = queue.pop_front() {
+            eccentricity = eccentricity.max(hops[u]);
+            for &(v, _, _) in &adjacency[u] {
+                if hops[v] == usize::MAX {
+                    hops[v] = hops[u] + 1;
+                    queue.push_back(v);
+                }
+            }
+        }
+        let candidate = (eccentricity, marker_count[s], s);
+        best = match best {
+            None => Some(candidate),
+            Some(b) => {
+                let better = candidate.0 < b.0 || (candidate.0 == b.0 && candidate.1 > b.1);
+                // Same eccentricity and markers: `tree` is ascending, so the first stays.
+                Some(if better { candidate } else { b })
+            }
+        };
+    }
+    best.map_or(0, |b| b.2)
+}
+
+/// Union–find with path halving and union by size.
+struct DisjointSets {
+    parent: Vec<usize>,
+    size: Vec<usize>,
+}
+
+impl DisjointSets {
+    fn new(n: usize) -> Self {
+        Self {
+            parent: (0..n).collect(),
+            size: vec![1; n],
+        }
+    }
+
+    fn find(&mut self, mut x: usize) -> usize {
+        while self.parent[x] != x {
+            self.parent[x] = self.parent[self.parent[x]];
+            x = self.parent[x];
+        }
+        x
+    }
+
+    /// Joins the sets of `a` and `b`; false when they were already one set.
+    fn union(&mut self, a: usize, b: usize) -> bool {
+        let (mut ra, mut rb) = (self.find(a), self.find(b));
+        if ra == rb {
+            return false;
+        }
+        if self.size[ra] < self.size[rb] {
+            std::mem::swap(&mut ra, &mut rb);
+        }
+        self.parent[rb] = ra;
+        self.size[ra] += self.size[rb];
+        true
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use jointfit::{PairFit, SegmentPoses};
+    use segment::Segment;
+
+    /// A segmentation with the given marker count per segment (markers numbered in order).
+    fn segmentation(markers: &[usize]) -> Segmentation {
+        let mut next = 0;
+        let segments = markers
+            .iter()
+            .enumerate()
+            .map(|(id, &m)| {
+                let s = Segment {
+                    id,
+                    markers: (next..next + m).collect(),
+                };
+                next += m;
+                s
+            })
+            .collect();
+        Segmentation {
+            segments,
+            unassigned: Vec::new(),
+            markers: Vec::new(),
+        }
+    }
+
+    /// Pair fits over `n` segments with `cost(a, b)` for every pair (a < b).
+    fn fits(n: usize, cost: impl Fn(usize, usize) -> (f64, JointKind)) -> PairFits {
+        let poses = (0..n)
+            .map(|segment| SegmentPoses {
+                segment,
+                reference: Vec::new(),
+                rotations: Vec::new(),
+                translations: Vec::new(),
+                rms_mm: Vec::new(),
+            })
+            .collect();
+        let mut pairs = Vec::new();
+        for a in 0..n {
+            for b in a + 1..n {
+                let (cost, kind) = cost(a, b);
+                pairs.push(PairFit {
+                    a,
+                    b,
+                    method: "test".into(),
+                    cost,
+                    centre_in_a: [0.0; 3],
+                    centre_in_b: [0.0; 3],
+                    positions: Vec::new(),
+                    kind,
+                    axis_in_a: None,
+                    residual_rms_mm: 0.0,
+                    frames_used: 0,
+                    evidence: String::new(),
+                });
+            }
+        }
+        PairFits {
+            frames: 0,
+            poses,
+            pairs,
+        }
+    }
+
+    /// Costs that make `edges` (unordered) the cheapest, everything else expensive.
+    fn tree_costs(edges: &[(usize, usize)]) -> impl Fn(usize, usize) -> (f64, JointKind) + '_ {
+        move |a, b| {
+            let on_tree = edges
+                .iter()
+                .position(|&(x, y)| (x.min(y), x.max(y)) == (a, b));
+            match on_tree {
+                Some(i) => (1.0 + 0.1 * i as f64, JointKind::Ball),
+                None => (10.0 + a as f64 + 0.01 * b as f64, JointKind::Ball),
+            }
+        }
+    }
+
+    fn edge_set(t: &Topology) -> Vec<(usize, usize)> {
+        let mut e: Vec<_> = t
+            .joints
+            .iter()
+            .map(|j| {
+                (
+                    j.parent_segment.min(j.child_segment),
+                    j.parent_segment.max(j.child_segment),
+                )
+            })
+            .collect();
+        e.sort();
+        e
+    }
+
+    #[test]
+    fn human_like_tree_root_bfs_order_and_parent_joints() {
+        // Torso 2 with head 4, arms 0 and 5 (5 has a forearm 1), leg 3.
+        let edges = [(2, 4), (2, 0), (2, 5), (5, 1), (2, 3)];
+        let seg = segmentation(&[3, 3, 6, 3, 3, 3]);
+        let f = fits(6, tree_costs(&edges));
+        let t = run(&seg, &f, &Params::default()).unwrap();
+        let mut want: Vec<_> = edges.iter().map(|&(a, b)| (a.min(b), a.max(b))).collect();
+        want.sort();
+        assert_eq!(edge_set(&t), want);
+        assert_eq!(t.root_segment, 2);
+        let names: Vec<&str> = t.joints.iter().map(|j| j.name.as_str()).collect();
+        assert_eq!(names, ["j0", "j3", "j4", "j5", "j1"]);
+        assert_eq!(t.joints[4].parent_segment, 5);
+        assert_eq!(t.joints[4].parent_joint, Some(3));
+        assert!(t.joints[..4].iter().all(|j| j.parent_joint.is_none()));
+        assert!(t.detached_segments.is_empty());
+        // The pair index points at the pair of the joint's two segments.
+        for j in &t.joints {
+            let p = &f.pairs[j.pair];
+            assert_eq!(
+                (p.a, p.b),
+                (
+                    j.parent_segment.min(j.child_segment),
+                    j.parent_segment.max(j.child_segment)
+                )
+            );
+            assert_eq!(j.cost, p.cost);
+        }
+    }
+
+    #[test]
+    fn centre_ties_go_to_most_markers_then_lowest_id() {
+        // Chain 0-1-2-3: centres 1 and 2 (eccentricity 2).
+        let edges = [(0, 1), (1, 2), (2, 3)];
+        let f = fits(4, tree_costs(&edges));
+        let t = run(&segmentation(&[3, 3, 5, 3]), &f, &Params::default()).unwrap();
+        assert_eq!(t.root_segment, 2);
+        let t = run(&segmentation(&[3, 3, 3, 3]), &f, &Params::default()).unwrap();
+        assert_eq!(t.root_segment, 1);
+        assert_eq!(t.joints[0].name, "j0");
+        assert_eq!(t.joints[1].name, "j2");
+        assert_eq!(t.joints[2].name, "j3");
+        assert_eq!(t.joints[2].parent_joint, Some(1));
+    }
+
+    #[test]
+    fn unusable_costs_detach_segments_and_equal_costs_break_by_id() {
+        // Segment 3 has no finite cost; 0, 1, 2 all cost 1: edges (0,1) and (0,2) win.
+        let f = fits(4, |a, b| {
+            if b == 3 {
+                (
+                    if a == 0 { f64::NAN } else { f64::INFINITY },
+                    JointKind::Ball,
+                )
+            } else {
+                (1.0, JointKind::Ball)
+            }
+        });
+        let t = run(&segmentation(&[3, 3, 3, 3]), &f, &Params::default()).unwrap();
+        assert_eq!(t.detached_segments, vec![3]);
+        assert_eq!(edge_set(&t), vec![(0, 1), (0, 2)]);
+        assert_eq!(t.root_segment, 0);
+        assert!(t.notes.iter().any(|n| n.contains("segment 3 is detached")));
+        // Deterministic: the same input gives the same tree.
+        assert_eq!(
+            t,
+            run(&segmentation(&[3, 3, 3, 3]), &f, &Params::default()).unwrap()
+        );
+    }
+
+    #[test]
+    fn smaller_component_is_detached() {
+        // {0, 1, 2} and {3, 4} are linked only inside themselves.
+        let f = fits(5, |a, b| {
+            let same = (a < 3) == (b < 3);
+            (if same { 1.0 } else { f64::INFINITY }, JointKind::Ball)
+        });
+        let t = run(&segmentation(&[3; 5]), &f, &Params::default()).unwrap();
+        assert_eq!(t.detached_segments, vec![3, 4]);
+        assert_eq!(t.joints.len(), 2);
+        // Forcing a root in the other component makes that one the tree.
+        let p = Params {
+            root: Some(4),
+            ..Params::default()
+        };
+        let t = run(&segmentation(&[3; 5]), &f, &p).unwrap();
+        assert_eq!(t.root_segment, 4);
+        assert_eq!(t.detached_segments, vec![0, 1, 2]);
+        assert_eq!(t.joints.len(), 1);
+        assert_eq!(t.joints[0].name, "j3");
+    }
+
+    #[test]
+    fn rigid_pairs_are_taken_first_and_noted() {
+        // Chain 0-1-2 by cost; pair (0, 2) is rigid with a high cost.
+        let f = fits(3, |a, b| match (a, b) {
+            (0, 2) => (50.0, JointKind::Rigid),
+            (0, 1) => (1.0, JointKind::Ball),
+            _ => (2.0, JointKind::Ball),
+        });
+        let seg = segmentation(&[3, 3, 3]);
+        let t = run(&seg, &f, &Params::default()).unwrap();
+        assert_eq!(edge_set(&t), vec![(0, 1), (0, 2)]);
+        assert!(t.notes.iter().any(|n| n.contains("rigid")));
+        let p = Params {
+            rigid_first: false,
+            ..Params::default()
+        };
+        let t = run(&seg, &f, &p).unwrap();
+        assert_eq!(edge_set(&t), vec![(0, 1), (1, 2)]);
+    }
+
+    #[test]
+    fn forced_root_and_errors() {
+        let edges = [(0, 1), (1, 2)];
+        let f = fits(3, tree_costs(&edges));
+        let seg = segmentation(&[3, 3, 3]);
+        let p = Params {
+            root: Some(0),
+            ..Params::default()
+        };
+        let t = run(&seg, &f, &p).unwrap();
+        assert_eq!(t.root_segment, 0);
+        assert_eq!(t.joints[1].parent_joint, Some(0));
+        let bad = Params {
+            root: Some(7),
+            ..Params::default()
+        };
+        assert!(matches!(
+            run(&seg, &f, &bad),
+            Err(Error::BadRoot { root: 7, .. })
+        ));
+        assert!(matches!(
+            run(&segmentation(&[3, 3]), &f, &Params::default()),
+            Err(Error::SegmentCountMismatch { .. })
+        ));
+        assert!(matches!(
+            run(
+                &segmentation(&[]),
+                &fits(0, tree_costs(&[])),
+                &Params::default()
+            ),
+            Err(Error::NoSegments)
+        ));
+        // A single segment is a tree with no joints.
+        let t = run(
+            &segmentation(&[4]),
+            &fits(1, tree_costs(&[])),
+            &Params::default(),
+        )
+        .unwrap();
+        assert_eq!((t.root_segment, t.joints.len()), (0, 0));
+    }
+
+    #[test]
+    fn params_round_trip_and_docs_cover_every_field() {
+        let p: Params = serde_json::from_str(r#"{"root": 3}"#).unwrap();
+        assert_eq!(p.root, Some(3));
+        assert!(p.rigid_first);
+        assert!(serde_json::from_str::<Params>(r#"{"rooot": 3}"#).is_err());
+        let v = serde_json::to_value(Params::default()).unwrap();
+        let fields: Vec<&String> = v.as_object().unwrap().keys().collect();
+        for f in fields {
+            assert!(
+                crate::PARAM_DOCS.iter().any(|(n, _)| n == f),
+                "{f} undocumented"
+            );
+        }
+    }
+}
