@@ -1,0 +1,572 @@
+//! C3D reading and writing (c3d.org format, all three processor types).
+//!
+//! Reading: the header's byte 1 points at the parameter section, whose byte 3 names the
+//! processor (Intel, DEC with VAX floats, MIPS big-endian). Parameters are walked by their
+//! `next` offsets inside the declared block count. Where header and parameters disagree
+//! (point count, scale, rate, first frame, frame count, data start, analog size) the
+//! parameters win and the header is the fallback, with a warning. POINT:SCALE's sign
+//! decides integer (positive) or float (negative) storage. Coordinates come out in
+//! millimetres; a sample is missing when its residual is negative or it is exactly
+//! (0, 0, 0). Analog data is skipped but its size is counted when stepping frames.
+//!
+//! Nothing a file says is trusted for allocation: the frame count is clipped to the
+//! complete frames the file holds (with a warning), and a file holding not one complete
+//! frame of what it claims is refused before anything is allocated.
+//!
+//! Writing: Intel, float storage (POINT:SCALE −1), residual −1 and zero coordinates for
+//! missing samples, groups POINT, ANALOG (empty) and TRIAL; read back by ezc3d and py-c3d.
+
+mod data;
+mod header;
+mod params;
+mod write;
+
+use crate::{Capture, CaptureInfo, Format, FormatError, ReadOptions, Trajectories};
+use data::{Counts, FloatBe, FloatLe, FloatVax, IntBe, IntLe, SampleCodec};
+use header::{BLOCK, Header, KEY, Processor, take};
+use params::Params;
+
+pub use write::write;
+
+/// Parses C3D bytes into a capture in millimetres; see the module docs for the rules.
+pub fn parse(bytes: &[u8], options: &ReadOptions) -> Result<Capture, FormatError> {
+    if bytes.len() < BLOCK {
+        return Err(FormatError::new(
+            format!("byte {} (header)", bytes.len()),
+            format!(
+                "file is {} bytes, shorter than the {BLOCK}-byte C3D header: empty or truncated",
+                bytes.len()
+            ),
+        ));
+    }
+    let Some([parameter_block, key]) = take::<2>(bytes, 0) else {
+        return Err(FormatError::new(
+            "byte 0 (header)",
+            "cannot read the header",
+        ));
+    };
+    if key != KEY {
+        return Err(FormatError::new(
+            "byte 1 (header)",
+            format!("not a C3D file: byte 1 is 0x{key:02x}, a C3D file has 0x50 there"),
+        ));
+    }
+    if parameter_block == 0 {
+        return Err(FormatError::new(
+            "byte 0 (header)",
+            "the parameter section's block number is 0 (blocks count from 1)",
+        ));
+    }
+    let param_start = (usize::from(parameter_block) - 1) * BLOCK;
+    let Some([_, _, param_blocks, processor_byte]) = take::<4>(bytes, param_start) else {
+        return Err(FormatError::new(
+            "byte 0 (header)",
+            format!(
+                "the parameter section starts at block {parameter_block} (byte {param_start}), past the end of the {}-byte file",
+                bytes.len()
+            ),
+        ));
+    };
+    let processor = Processor::from_byte(processor_byte).ok_or_else(|| {
+        FormatError::new(
+            format!("byte {} (parameter section)", param_start + 3),
+            format!(
+                "unknown processor type {processor_byte} (expected 84 Intel, 85 DEC or 86 MIPS)"
+            ),
+        )
+    })?;
+    let header = Header::read(bytes, processor)?;
+    let header_data = usize::from(header.data_start).saturating_sub(1) * BLOCK;
+    let params = Params::walk(bytes, param_start, param_blocks, header_data, processor);
+    let mut warnings = params.warnings.clone();
+    if params.len() == 0 {
+        warnings.push(format!(
+            "no parameters found (the section at byte {param_start} declares {param_blocks} blocks): using the header alone, marker labels generated"
+        ));
+    }
+    let layout = Layout::resolve(bytes, &header, &params, parameter_block, &mut warnings)?;
+    let labels = labels(&params, layout.points, &mut warnings);
+    let declared_units = params
+        .strings("POINT:UNITS")
+        .and_then(|u| u.into_iter().next())
+        .filter(|u| !u.is_empty());
+    let unit_factor = match &declared_units {
+        Some(u) => unit_factor(u).unwrap_or_else(|| {
+            warnings.push(format!(
+                "POINT:UNITS is {u:?}, a unit we do not know: read as millimetres"
+            ));
+            1.0
+        }),
+        None => 1.0,
+    };
+    let storage_factor = if layout.float {
+        1.0
+    } else {
+        f64::from(layout.scale.abs())
+    };
+    let factor = storage_factor * unit_factor;
+    let data = bytes.get(layout.data_offset..).unwrap_or(&[]);
+    let mut positions = Vec::with_capacity(layout.frames * layout.points);
+    let counts = decode(&layout, processor, data, factor, false, &mut positions);
+
+    let unflagged_out_of_range = counts.out_of_range;
+    // SIMI-style files flag every sample invalid although the coordinates are real.
+    let mut flagged_positions = None;
+    if counts.present == 0 && counts.flagged_nonzero > 0 {
+        let mut kept = Vec::with_capacity(positions.len());
+        let kept_counts = decode(&layout, processor, data, factor, true, &mut kept);
+        if kept_counts.out_of_range > 0 {
+            warnings.push(format!(
+                "{} samples hold coordinates of ±1e9 or non-finite values (a gap fill): read as missing",
+                kept_counts.out_of_range
+            ));
+        }
+        if varies(&kept) {
+            if options.keep_invalid_residuals {
+                warnings.push(format!(
+                    "every sample's residual is negative (invalid) although coordinates vary: {} samples kept because ReadOptions::keep_invalid_residuals is set",
+                    counts.flagged_nonzero
+                ));
+                positions = kept;
+            } else {
+                warnings.push(format!(
+                    "every sample's residual is negative (invalid) although coordinates vary: {} samples read as missing; set ReadOptions::keep_invalid_residuals (keep_invalid_residuals = true) to keep them",
+                    counts.flagged_nonzero
+                ));
+                flagged_positions = Some(kept);
+            }
+        }
+    }
+    if flagged_positions.is_none() && unflagged_out_of_range > 0 && counts.present > 0 {
+        warnings.push(format!(
+            "{unflagged_out_of_range} samples hold coordinates of ±1e9 or non-finite values (a gap fill): read as missing"
+        ));
+    }
+    if declared_units.is_none() {
+        let sample_source = flagged_positions.as_deref().unwrap_or(&positions);
+        let typical = typical_coordinate(sample_source);
+        if typical > 0.0 && typical < 10.0 {
+            warnings.push(format!(
+                "POINT:UNITS is absent; coordinates are under 10 in magnitude (median sample extent {typical:.3}), so the file is read as metres"
+            ));
+            for p in &mut positions {
+                for c in p.iter_mut() {
+                    *c *= 1000.0;
+                }
+            }
+        } else {
+            warnings.push(format!(
+                "POINT:UNITS is absent; coordinates are typically {typical:.1} in magnitude, so the file is read as millimetres"
+            ));
+        }
+    }
+    let trajectories = Trajectories::new(
+        labels,
+        f64::from(layout.rate),
+        layout.first_frame,
+        layout.frames,
+        positions,
+    )
+    .map_err(|e| {
+        FormatError::new(
+            format!("byte {} (data section)", layout.data_offset),
+            e.to_string(),
+        )
+    })?;
+    Ok(Capture {
+        format: Format::C3d,
+        trajectories,
+        info: CaptureInfo {
+            declared_units,
+            processor: Some(processor.name().to_string()),
+            storage: Some(if layout.float { "float" } else { "integer" }.to_string()),
+            point_scale: Some(f64::from(layout.scale)),
+            warnings,
+        },
+    })
+}
+
+/// Where the frames are and how they are stored, after header and parameters are reconciled.
+#[derive(Clone, Debug)]
+struct Layout {
+    points: usize,
+    frames: usize,
+    first_frame: i64,
+    rate: f32,
+    scale: f32,
+    float: bool,
+    data_offset: usize,
+    frame_bytes: usize,
+}
+
+impl Layout {
+    fn resolve(
+        bytes: &[u8],
+        header: &Header,
+        params: &Params,
+        parameter_block: u8,
+        warnings: &mut Vec<String>,
+    ) -> Result<Self, FormatError> {
+        let points = prefer(
+            "point count",
+            params.number("POINT:USED").map(|v| v as usize),
+            "POINT:USED",
+            usize::from(header.points),
+            warnings,
+        );
+
+        let valid_scale = |s: f32| s.is_finite() && s != 0.0;
+        let scale = match params.float32("POINT:SCALE") {
+            Some(s) if valid_scale(s) => {
+                if s != header.scale {
+                    warnings.push(format!(
+                        "header scale {} disagrees with POINT:SCALE {s}: using the parameter",
+                        header.scale
+                    ));
+                }
+                s
+            }
+            other => {
+                if !valid_scale(header.scale) {
+                    return Err(FormatError::new(
+                        "header words 7-8 and parameter POINT:SCALE",
+                        format!(
+                            "no usable point scale (header {}, parameter {other:?}): cannot tell integer from float storage",
+                            header.scale
+                        ),
+                    ));
+                }
+                if other.is_some() {
+                    warnings.push(format!(
+                        "POINT:SCALE {other:?} is unusable: using the header scale {}",
+                        header.scale
+                    ));
+                }
+                header.scale
+            }
+        };
+        let float = scale < 0.0;
+
+        let valid_rate = |r: f32| r.is_finite() && r > 0.0;
+        let rate = match params.float32("POINT:RATE") {
+            Some(r) if valid_rate(r) => {
+                if r != header.frame_rate {
+                    warnings.push(format!(
+                        "header frame rate {} disagrees with POINT:RATE {r}: using the parameter",
+                        header.frame_rate
+                    ));
+                }
+                r
+            }
+            _ if valid_rate(header.frame_rate) => header.frame_rate,
+            _ => {
+                warnings.push(format!(
+                    "no usable frame rate (header {}, POINT:RATE {:?}): rate set to 0 (unknown)",
+                    header.frame_rate,
+                    params.float32("POINT:RATE")
+                ));
+                0.0
+            }
+        };
+
+        // Not the header block, not the parameter section's first block, inside the file.
+        // (Block counts in the parameter section are too often wrong to exclude more.)
+        let valid_start =
+            |b: usize| b >= 2 && b != usize::from(parameter_block) && (b - 1) * BLOCK < bytes.len();
+        let header_start = usize::from(header.data_start);
+        let data_start = match params.number("POINT:DATA_START").map(|v| v as usize) {
+            Some(p) if valid_start(p) => {
+                if p != header_start {
+                    warnings.push(format!(
+                        "header data start block {header_start} disagrees with POINT:DATA_START {p}: using the parameter"
+                    ));
+                }
+                p
+            }
+            param if valid_start(header_start) => {
+                if let Some(p) = param {
+                    warnings.push(format!(
+                        "POINT:DATA_START {p} is not a possible data block: using the header's block {header_start}"
+                    ));
+                }
+                header_start
+            }
+            param => {
+                return Err(FormatError::new(
+                    "header word 9 and parameter POINT:DATA_START",
+                    format!(
+                        "no usable data start block (header {header_start}, parameter {param:?}) in a {}-byte file",
+                        bytes.len()
+                    ),
+                ));
+            }
+        };
+        let data_offset = (data_start - 1) * BLOCK;
+
+        let header_first = i64::from(header.first_frame);
+        let trial_start = params
+            .numbers("TRIAL:ACTUAL_START_FIELD")
+            .and_then(long_field);
+        let first_frame = prefer(
+            "first frame",
+            trial_start,
+            "TRIAL:ACTUAL_START_FIELD",
+            header_first,
+            warnings,
+        );
+
+        let param_frames = frame_count_param(params);
+        let claimed = prefer(
+            "frame count",
+            param_frames,
+            "POINT:FRAMES",
+            i64::from(header.frames()),
+            warnings,
+        )
+        .max(0) as u64;
+
+        let word = if float { 4 } else { 2 };
+        let available = bytes.len().saturating_sub(data_offset);
+        let header_analog = usize::from(header.analog_values);
+        let analog = match analog_from_params(params, rate) {
+            Some(a) if a != header_analog => {
+                let fits = |analog: usize| {
+                    frame_bytes(points, analog, word).is_some_and(|fb| {
+                        (fb as u64)
+                            .checked_mul(claimed)
+                            .is_some_and(|n| n <= available as u64)
+                    })
+                };
+                let pick = if fits(a) || !fits(header_analog) {
+                    a
+                } else {
+                    header_analog
+                };
+                warnings.push(format!(
+                    "header says {header_analog} analog values per frame, ANALOG:USED × ANALOG:RATE / POINT:RATE says {a}: using {pick}, which {} the file size",
+                    if fits(pick) { "fits" } else { "does not fit" }
+                ));
+                pick
+            }
+            Some(a) => a,
+            None => header_analog,
+        };
+        let frame_bytes = frame_bytes(points, analog, word).ok_or_else(|| {
+            FormatError::new(
+                "header and parameters POINT:USED, ANALOG:USED",
+                format!("{points} points and {analog} analog values per frame overflow"),
+            )
+        })?;
+
+        let complete = available.checked_div(frame_bytes).unwrap_or(0) as u64;
+        let frames = if claimed > complete {
+            if frame_bytes > 0 && complete == 0 {
+                return Err(FormatError::new(
+                    format!("byte {data_offset} (data section, block {data_start})"),
+                    format!(
+                        "the file claims {claimed} frames of {frame_bytes} bytes ({points} points, {analog} analog values) but only {available} bytes follow: not one complete frame (truncated, or absurd counts)"
+                    ),
+                ));
+            }
+            if frame_bytes == 0 {
+                warnings.push(format!(
+                    "the file claims {claimed} frames but stores no point or analog data: 0 frames read"
+                ));
+            } else {
+                warnings.push(format!(
+                    "the file claims {claimed} frames but its data section (byte {data_offset}, {available} bytes) holds {complete} complete frames of {frame_bytes} bytes: {complete} read"
+                ));
+            }
+            complete
+        } else {
+            claimed
+        };
+        Ok(Layout {
+            points,
+            frames: frames as usize,
+            first_frame,
+            rate,
+            scale,
+            float,
+            data_offset,
+            frame_bytes,
+        })
+    }
+}
+
+/// The parameter's value when present, else the header's; warns when both exist and differ.
+fn prefer<T: PartialEq + std::fmt::Display>(
+    what: &str,
+    param: Option<T>,
+    key: &str,
+    header: T,
+    warnings: &mut Vec<String>,
+) -> T {
+    match param {
+        Some(p) => {
+            if p != header {
+                warnings.push(format!(
+                    "header {what} {header} disagrees with {key} {p}: using the parameter"
+                ));
+            }
+            p
+        }
+        None => header,
+    }
+}
+
+/// A 32-bit number stored as two unsigned 16-bit words, low word first (TRIAL fields).
+fn long_field(words: Vec<f64>) -> Option<i64> {
+    match words.as_slice() {
+        [lo, hi, ..] => Some(*lo as i64 + (*hi as i64) * 65536),
+        [lo] => Some(*lo as i64),
+        [] => None,
+    }
+}
+
+/// Frame count from POINT:FRAMES, extended past 65535 by POINT:LONG_FRAMES or the TRIAL fields.
+fn frame_count_param(params: &Params) -> Option<i64> {
+    if let Some(long) = params.number("POINT:LONG_FRAMES") {
+        if long.is_finite() && long >= 0.0 {
+            return Some(long as i64);
+        }
+    }
+    let frames = params.number("POINT:FRAMES").map(|f| f as i64)?;
+    let start = params
+        .numbers("TRIAL:ACTUAL_START_FIELD")
+        .and_then(long_field);
+    let end = params
+        .numbers("TRIAL:ACTUAL_END_FIELD")
+        .and_then(long_field);
+    if let (Some(s), Some(e)) = (start, end) {
+        let trial = e - s + 1;
+        // POINT:FRAMES is 16 bits: a longer trial shows as 65535 or as the count modulo 2^16.
+        if trial > 65535 && (frames == 65535 || trial % 65536 == frames) {
+            return Some(trial);
+        }
+    }
+    Some(frames)
+}
+
+/// Analog values per frame from ANALOG:USED × ANALOG:RATE / POINT:RATE, when ANALOG:USED exists.
+fn analog_from_params(params: &Params, point_rate: f32) -> Option<usize> {
+    let used = params.number("ANALOG:USED")? as usize;
+    if used == 0 {
+        return Some(0);
+    }
+    let analog_rate = params.number("ANALOG:RATE")?;
+    if !(point_rate > 0.0 && analog_rate.is_finite() && analog_rate > 0.0) {
+        return None;
+    }
+    let per_frame = (analog_rate / f64::from(point_rate)).round();
+    if !(1.0..=65535.0).contains(&per_frame) {
+        return None;
+    }
+    used.checked_mul(per_frame as usize)
+}
+
+/// Bytes of one frame: 4 words per point plus the analog values.
+fn frame_bytes(points: usize, analog: usize, word: usize) -> Option<usize> {
+    points
+        .checked_mul(4)?
+        .checked_add(analog)?
+        .checked_mul(word)
+}
+
+/// Marker labels from POINT:LABELS, LABELS2, LABELS3, ...; generated where the file has none.
+fn labels(params: &Params, points: usize, warnings: &mut Vec<String>) -> Vec<String> {
+    let mut labels: Vec<String> = Vec::with_capacity(points);
+    let mut key = "POINT:LABELS".to_string();
+    let mut n = 1;
+    while labels.len() < points {
+        let Some(chunk) = params.strings(&key) else {
+            break;
+        };
+        let take = points - labels.len();
+        labels.extend(chunk.into_iter().take(take));
+        n += 1;
+        key = format!("POINT:LABELS{n}");
+    }
+    if labels.len() < points {
+        warnings.push(format!(
+            "POINT:LABELS names {} of {points} points: the others are named P<number>",
+            labels.len()
+        ));
+        let start = labels.len();
+        labels.extend((start..points).map(|i| format!("P{}", i + 1)));
+    }
+    for (i, label) in labels.iter_mut().enumerate() {
+        if label.is_empty() {
+            *label = format!("P{}", i + 1);
+        }
+    }
+    labels
+}
+
+/// Millimetres per declared unit; `None` for a unit we do not know.
+fn unit_factor(units: &str) -> Option<f64> {
+    match units.trim().to_ascii_lowercase().as_str() {
+        "mm" | "millimeter" | "millimeters" | "millimetre" | "millimetres" => Some(1.0),
+        "cm" | "centimeter" | "centimeters" | "centimetre" | "centimetres" => Some(10.0),
+        "dm" => Some(100.0),
+        // "mete" is "meters" cut to the 4-character field some writers use.
+        "m" | "mete" | "meter" | "meters" | "metre" | "metres" => Some(1000.0),
+        "in" | "inch" | "inches" => Some(25.4),
+        _ => None,
+    }
+}
+
+/// Decodes the data section with the codec for this processor and storage.
+fn decode(
+    layout: &Layout,
+    processor: Processor,
+    data: &[u8],
+    factor: f64,
+    keep_flagged: bool,
+    out: &mut Vec<[f64; 3]>,
+) -> Counts {
+    fn run<C: SampleCodec>(
+        l: &Layout,
+        data: &[u8],
+        factor: f64,
+        keep: bool,
+        out: &mut Vec<[f64; 3]>,
+    ) -> Counts {
+        data::decode::<C>(data, l.frame_bytes, l.frames, l.points, factor, keep, out)
+    }
+    match (processor, layout.float) {
+        (Processor::Intel, true) => run::<FloatLe>(layout, data, factor, keep_flagged, out),
+        (Processor::Mips, true) => run::<FloatBe>(layout, data, factor, keep_flagged, out),
+        (Processor::Dec, true) => run::<FloatVax>(layout, data, factor, keep_flagged, out),
+        (Processor::Intel | Processor::Dec, false) => {
+            run::<IntLe>(layout, data, factor, keep_flagged, out)
+        }
+        (Processor::Mips, false) => run::<IntBe>(layout, data, factor, keep_flagged, out),
+    }
+}
+
+/// True when the present samples are not all the same point (real coordinates, not a fill value).
+fn varies(positions: &[[f64; 3]]) -> bool {
+    let mut present = positions.iter().filter(|p| crate::is_present(**p));
+    let Some(first) = present.next() else {
+        return false;
+    };
+    present.any(|p| p != first)
+}
+
+/// Median over present samples of the largest absolute coordinate (0 when none).
+///
+/// A median, not a maximum: a few wild samples must not decide the units of a capture.
+fn typical_coordinate(positions: &[[f64; 3]]) -> f64 {
+    let mut extents: Vec<f64> = positions
+        .iter()
+        .filter(|p| crate::is_present(**p))
+        .map(|p| p[0].abs().max(p[1].abs()).max(p[2].abs()))
+        .collect();
+    if extents.is_empty() {
+        return 0.0;
+    }
+    let mid = extents.len() / 2;
+    let (_, median, _) = extents.select_nth_unstable_by(mid, f64::total_cmp);
+    *median
+}
