@@ -284,7 +284,8 @@ pub fn parse(bytes: &[u8], _options: &ReadOptions) -> Result<Capture, FormatErro
 ///
 /// Labels are written with commas, quotes and control characters replaced by `_`, and an
 /// empty label as `M<n>`, so the file always parses back to the same markers. A present
-/// sample at exactly (0, 0, 0) reads back as missing.
+/// sample at exactly (0, 0, 0) reads back as missing. An unknown frame rate (0) is
+/// written as `# frame_rate: 0`, which the reader refuses.
 pub fn write(t: &Trajectories) -> String {
     let markers = t.markers();
     let mut out = String::with_capacity(128 + markers * 32 + t.frames() * (8 + markers * 36));

@@ -317,6 +317,8 @@ pub fn parse(bytes: &[u8], _options: &ReadOptions) -> Result<Capture, FormatErro
 /// Labels are written with tabs and line breaks replaced by `_`, and an empty label as
 /// `M<n>` (1-based marker number), so the file always parses back to the same markers.
 /// A present sample at exactly (0, 0, 0) reads back as missing (see the module docs).
+/// An unknown frame rate (0) is written as `0.00` with every `Time` 0, which the reader
+/// refuses: give trajectories a rate before exporting them.
 pub fn write(t: &Trajectories) -> String {
     let markers = t.markers();
     let rate = t.frame_rate();
@@ -851,6 +853,17 @@ mod tests {
         // Every data row has 2 + 3 × markers fields plus OpenSim's trailing tab.
         let row = text.lines().nth(6).unwrap();
         assert_eq!(row.split('\t').count(), 2 + 3 * 2 + 1);
+    }
+
+    #[test]
+    fn labels_separated_by_single_tabs_and_no_coordinate_line() {
+        let text = "PathFileType\t4\nNumMarkers\tDataRate\n2\t30\nFrame#\tTime\tA\tB\n\
+            7\t0\t1\t2\t3\t4\t5\t6\n";
+        let c = read(text).unwrap();
+        assert_eq!(c.trajectories.labels(), ["A", "B"]);
+        assert_eq!(c.trajectories.first_frame(), 7);
+        assert_eq!(c.trajectories.get(0, 1), Some([4.0, 5.0, 6.0]));
+        assert!(c.info.warnings.iter().any(|w| w.contains("no `Units`")));
     }
 
     #[test]
