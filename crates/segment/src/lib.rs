@@ -1,3 +1,226 @@
-//! segment (being written).
+//! segment: which markers move rigidly together.
+//!
+//! Takes [`mocap_io::Trajectories`] and gives a [`Segmentation`]: rigid segments (marker
+//! indices), the markers left out with the reason, and per-marker diagnostics (rigidity
+//! residual, skin sliding). One pass over the frames gives every pair's distance mean and
+//! standard deviation ρ over the frames where both are seen (a marker is never dropped for
+//! a gap); an affinity from ρ, normalised spectral clustering with the eigen-gap segment
+//! count and seeded k-means (Aguiar et al. 2006, Sect. 3), then a rigidity check that
+//! splits, moves and merges under a tolerance; or rigid cliques (`method = "cliques"`).
+//!
+//! It does not estimate poses, joints or topology (jointfit, topo) and does no I/O.
+
+mod affinity;
+mod cliques;
+mod eigen;
+mod error;
+mod kmeans;
+mod pairstats;
+mod params;
+mod rigidity;
 mod segmentation;
+mod spectral;
+#[cfg(test)]
+mod tests;
+
+pub use error::Error;
+pub use params::{Affinity, Method, PARAM_DOCS, Params};
 pub use segmentation::*;
+
+use mocap_io::Trajectories;
+
+use crate::pairstats::{PairStats, pair_stats};
+use crate::rigidity::rms_rho;
+
+/// Stage name of segmentation artifacts.
+pub const STAGE: &str = "segment";
+
+/// Groups the capture's markers into rigid segments (see the crate docs).
+pub fn run(traj: &Trajectories, params: &Params) -> Result<Segmentation, Error> {
+    params.validate()?;
+    let (frames, markers) = (traj.frames(), traj.markers());
+    if frames == 0 || markers == 0 {
+        return Err(Error::EmptyCapture { frames, markers });
+    }
+    let labels = traj.labels();
+    let stats = pair_stats(traj);
+    let min_overlap = params.min_overlap_frames;
+
+    // Markers with too little data cannot be judged; they are reported, not guessed.
+    let needed = params
+        .min_visible_frames
+        .max((params.min_visible_fraction * frames as f64).ceil() as usize);
+    let mut unassigned: Vec<UnassignedMarker> = Vec::new();
+    let mut nodes: Vec<usize> = Vec::new();
+    for m in 0..markers {
+        if stats.visible[m] < needed {
+            unassigned.push(UnassignedMarker {
+                marker: m,
+                reason: format!(
+                    "visible in {} of {} frames (needs {})",
+                    stats.visible[m], frames, needed
+                ),
+            });
+        } else {
+            nodes.push(m);
+        }
+    }
+    let lonely: Vec<usize> = nodes
+        .iter()
+        .copied()
+        .filter(|&i| {
+            !nodes
+                .iter()
+                .any(|&j| stats.rho(i, j, min_overlap).is_some())
+        })
+        .collect();
+    for &m in &lonely {
+        unassigned.push(UnassignedMarker {
+            marker: m,
+            reason: format!(
+                "seen together with no other usable marker in {min_overlap} or more frames"
+            ),
+        });
+    }
+    nodes.retain(|m| !lonely.contains(m));
+
+    let noise_mm = rigidity::noise_level(&stats, &nodes, min_overlap);
+    let tolerance_mm = if params.tolerance_mm > 0.0 {
+        params.tolerance_mm
+    } else {
+        params
+            .tolerance_min_mm
+            .max(params.tolerance_factor * noise_mm)
+    };
+
+    let (mut clusters, eigenvalues, eigengap_segments) = match params.method {
+        Method::Spectral if !nodes.is_empty() => {
+            let a = affinity::affinity_matrix(&stats, &nodes, params);
+            let found = spectral::spectral_clusters(&a, nodes.len(), params)?;
+            let clusters: Vec<Vec<usize>> = found
+                .clusters
+                .iter()
+                .map(|c| c.iter().map(|&p| nodes[p]).collect())
+                .collect();
+            let clusters = if params.rigidity_check {
+                rigidity::refine(
+                    clusters,
+                    &stats,
+                    tolerance_mm,
+                    min_overlap,
+                    params.min_segment_markers,
+                )
+            } else {
+                clusters
+            };
+            (clusters, found.eigenvalues, found.chosen)
+        }
+        Method::Spectral => (Vec::new(), Vec::new(), 0),
+        Method::Cliques => (
+            cliques::rigid_cliques(&stats, &nodes, tolerance_mm, min_overlap),
+            Vec::new(),
+            0,
+        ),
+    };
+    rigidity::normalise(&mut clusters);
+
+    // Groups too small to be a segment: their markers are unassigned, with what we saw.
+    clusters.retain(|c| {
+        if c.len() >= params.min_segment_markers {
+            return true;
+        }
+        for &m in c {
+            unassigned.push(UnassignedMarker {
+                marker: m,
+                reason: small_group_reason(&stats, m, c.len(), params, labels),
+            });
+        }
+        false
+    });
+    unassigned.sort_by_key(|u| u.marker);
+
+    let segments: Vec<Segment> = clusters
+        .into_iter()
+        .enumerate()
+        .map(|(id, markers)| Segment { id, markers })
+        .collect();
+    let diagnostics = marker_diagnostics(&stats, &segments, params);
+    Ok(Segmentation {
+        segments,
+        unassigned,
+        markers: diagnostics,
+        noise_mm,
+        tolerance_mm,
+        eigenvalues,
+        eigengap_segments,
+    })
+}
+
+/// Why marker `m` ended in a group of `size` < `min_segment_markers`, naming its most rigid partner.
+fn small_group_reason(
+    stats: &PairStats,
+    m: usize,
+    size: usize,
+    params: &Params,
+    labels: &[String],
+) -> String {
+    let nearest = (0..stats.n)
+        .filter_map(|j| stats.rho(m, j, params.min_overlap_frames).map(|r| (r, j)))
+        .min_by(|a, b| a.0.total_cmp(&b.0).then(a.1.cmp(&b.1)));
+    let partner = match nearest {
+        Some((r, j)) => format!(
+            "; its steadiest distance is to {} (ρ = {:.2} mm)",
+            labels.get(j).map_or("?", String::as_str),
+            r
+        ),
+        None => String::new(),
+    };
+    format!(
+        "in a group of {size} marker(s), fewer than min_segment_markers = {}{partner}",
+        params.min_segment_markers
+    )
+}
+
+/// Per-marker segment, visibility, rigidity residual and sliding flag.
+fn marker_diagnostics(
+    stats: &PairStats,
+    segments: &[Segment],
+    params: &Params,
+) -> Vec<MarkerDiagnostics> {
+    let min_overlap = params.min_overlap_frames;
+    let mut out: Vec<MarkerDiagnostics> = (0..stats.n)
+        .map(|m| MarkerDiagnostics {
+            segment: None,
+            visible_frames: stats.visible[m],
+            rigidity_residual_mm: f64::NAN,
+            slides: false,
+        })
+        .collect();
+    for seg in segments {
+        for &m in &seg.markers {
+            let mates: Vec<usize> = seg.markers.iter().copied().filter(|&x| x != m).collect();
+            let residual = rms_rho(stats, m, &mates, min_overlap).unwrap_or(f64::NAN);
+            // The second paper's sliding diagnostic: this marker's distances to its mates
+            // vary clearly more than the mates' distances among themselves.
+            let mut sum = 0.0;
+            let mut count = 0usize;
+            for (a, &i) in mates.iter().enumerate() {
+                for &j in &mates[a + 1..] {
+                    if let Some(r) = stats.rho(i, j, min_overlap) {
+                        sum += r * r;
+                        count += 1;
+                    }
+                }
+            }
+            let slides = count > 0
+                && residual > params.slide_min_mm
+                && residual > params.slide_ratio * (sum / count as f64).sqrt();
+            if let Some(d) = out.get_mut(m) {
+                d.segment = Some(seg.id);
+                d.rigidity_residual_mm = residual;
+                d.slides = slides;
+            }
+        }
+    }
+    out
+}

@@ -14,6 +14,14 @@ pub struct Segmentation {
     pub unassigned: Vec<UnassignedMarker>,
     /// Per-marker diagnostics, indexed like the capture's labels.
     pub markers: Vec<MarkerDiagnostics>,
+    /// Noise level: median over markers of the smallest distance standard deviation ρ, mm.
+    pub noise_mm: f64,
+    /// Rigidity tolerance on ρ used by the rigidity check and the cliques, mm.
+    pub tolerance_mm: f64,
+    /// Top eigenvalues of D^-1/2 A D^-1/2, descending (spectral method; empty otherwise).
+    pub eigenvalues: Vec<f64>,
+    /// Cluster count spectral clustering chose (eigen-gap or forced), before the rigidity check; 0 for cliques.
+    pub eigengap_segments: usize,
 }
 
 /// A set of markers that move as one rigid body.

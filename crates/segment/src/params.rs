@@ -1,0 +1,238 @@
+//! Parameters of the segment stage, their defaults and documentation.
+
+use serde::{Deserialize, Serialize};
+
+use crate::Error;
+
+/// How markers are grouped into rigid segments.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(rename_all = "lowercase")]
+pub enum Method {
+    /// Normalised spectral clustering of the affinity matrix (Aguiar et al. 2006, Sect. 3).
+    #[default]
+    Spectral,
+    /// Greedy maximal rigid cliques under the distance tolerance (local-fitting paper, Sect. 3.1).
+    Cliques,
+}
+
+/// How the standard deviation ρ of a pair's distance becomes an affinity.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(rename_all = "lowercase")]
+pub enum Affinity {
+    /// Eq. 1 as printed: exp(-ρ / 2σ²), σ = (1/N²)·Σ_f dist (per pair; underflows on long captures).
+    Paper,
+    /// Self-tuning local scaling: exp(-ρ² / (s_i·s_j)), s_i = ρ to the k-th nearest marker, floored.
+    #[default]
+    Local,
+    /// One absolute scale: exp(-ρ² / (2·scale_mm²)).
+    Absolute,
+}
+
+/// Parameters of the segment stage (`segment.*`); see [`PARAM_DOCS`] for meanings and defaults.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(default, deny_unknown_fields)]
+pub struct Params {
+    /// Grouping method.
+    pub method: Method,
+    /// Affinity of the spectral method.
+    pub affinity: Affinity,
+    /// Local scaling: the neighbour rank k whose ρ sets a marker's scale.
+    pub local_k: usize,
+    /// Local scaling: floor on every marker's scale, mm.
+    pub min_scale_mm: f64,
+    /// Absolute affinity: the scale, mm.
+    pub scale_mm: f64,
+    /// Number of segments to find; 0 = from the largest eigen-gap.
+    pub segments: usize,
+    /// Largest segment count the eigen-gap may choose.
+    pub max_segments: usize,
+    /// k-means restarts (best inertia wins).
+    pub restarts: usize,
+    /// Seed of the k-means++ initialisation.
+    pub seed: u64,
+    /// A marker seen in fewer frames than this is unassigned.
+    pub min_visible_frames: usize,
+    /// A marker seen in less than this fraction of the frames is unassigned.
+    pub min_visible_fraction: f64,
+    /// A pair seen together in fewer frames than this has no affinity and no ρ.
+    pub min_overlap_frames: usize,
+    /// Groups with fewer markers than this are not segments; their markers are unassigned.
+    pub min_segment_markers: usize,
+    /// After spectral clustering: split non-rigid clusters, move misplaced markers, merge rigid neighbours.
+    pub rigidity_check: bool,
+    /// Rigidity tolerance on ρ, mm; 0 = automatic from the noise level.
+    pub tolerance_mm: f64,
+    /// Automatic tolerance = max(tolerance_min_mm, tolerance_factor × noise).
+    pub tolerance_factor: f64,
+    /// Smallest automatic tolerance, mm.
+    pub tolerance_min_mm: f64,
+    /// A marker slides when its RMS ρ to its mates exceeds this ratio × its mates' RMS ρ among themselves.
+    pub slide_ratio: f64,
+    /// ... and exceeds this, mm.
+    pub slide_min_mm: f64,
+}
+
+impl Default for Params {
+    fn default() -> Self {
+        Self {
+            method: Method::Spectral,
+            affinity: Affinity::Local,
+            local_k: 2,
+            min_scale_mm: 1.0,
+            scale_mm: 5.0,
+            segments: 0,
+            max_segments: 40,
+            restarts: 10,
+            seed: 0,
+            min_visible_frames: 10,
+            min_visible_fraction: 0.05,
+            min_overlap_frames: 10,
+            min_segment_markers: 2,
+            rigidity_check: true,
+            tolerance_mm: 0.0,
+            tolerance_factor: 5.0,
+            tolerance_min_mm: 2.0,
+            slide_ratio: 2.0,
+            slide_min_mm: 1.0,
+        }
+    }
+}
+
+/// Every parameter: (field name, "meaning, units, default").
+pub const PARAM_DOCS: &[(&str, &str)] = &[
+    (
+        "method",
+        "grouping method: \"spectral\" (Ng–Jordan–Weiss on the affinity) or \"cliques\" (greedy maximal rigid cliques under the tolerance); default \"spectral\"",
+    ),
+    (
+        "affinity",
+        "spectral affinity from the distance std ρ: \"local\" (exp(-ρ²/(s_i s_j)), s_i = ρ to the local_k-th nearest marker), \"paper\" (Eq. 1 as printed), \"absolute\" (exp(-ρ²/2scale_mm²)); default \"local\"",
+    ),
+    (
+        "local_k",
+        "local affinity: rank of the neighbour whose ρ is a marker's scale (clamped to the markers available); 2 keeps the scale inside a 3-marker segment (each marker has 2 mates); default 2",
+    ),
+    (
+        "min_scale_mm",
+        "local affinity: floor on each marker's scale so noiseless rigid data does not collapse, mm; default 1.0",
+    ),
+    ("scale_mm", "absolute affinity: the scale, mm; default 5.0"),
+    (
+        "segments",
+        "force this many spectral clusters; 0 = the largest eigen-gap decides; default 0",
+    ),
+    (
+        "max_segments",
+        "largest cluster count the eigen-gap may choose; default 40",
+    ),
+    (
+        "restarts",
+        "k-means restarts from seeded k-means++ (lowest inertia wins); default 10",
+    ),
+    ("seed", "seed of the k-means++ initialisation; default 0"),
+    (
+        "min_visible_frames",
+        "markers visible in fewer frames are unassigned, frames; default 10",
+    ),
+    (
+        "min_visible_fraction",
+        "markers visible in less than this fraction of all frames are unassigned; default 0.05",
+    ),
+    (
+        "min_overlap_frames",
+        "pairs seen together in fewer frames get no ρ and zero affinity, frames; default 10",
+    ),
+    (
+        "min_segment_markers",
+        "groups smaller than this are not segments and their markers are unassigned; default 2",
+    ),
+    (
+        "rigidity_check",
+        "after spectral clustering split clusters that are not rigid within the tolerance, move markers rigid with another cluster, merge clusters rigid with each other; default true (false = the paper)",
+    ),
+    (
+        "tolerance_mm",
+        "rigidity tolerance on ρ (distance std), mm; 0 = automatic: max(tolerance_min_mm, tolerance_factor × noise), noise = median over markers of the smallest ρ; default 0",
+    ),
+    (
+        "tolerance_factor",
+        "automatic tolerance as a multiple of the noise level; default 5.0",
+    ),
+    (
+        "tolerance_min_mm",
+        "smallest automatic tolerance, mm; default 2.0",
+    ),
+    (
+        "slide_ratio",
+        "a marker slides when its RMS ρ to its mates exceeds slide_ratio × the mates' RMS ρ among themselves; default 2.0",
+    ),
+    (
+        "slide_min_mm",
+        "... and also exceeds slide_min_mm (mm) so noise alone never counts as sliding; default 1.0",
+    ),
+];
+
+impl Params {
+    /// Checks ranges; a bad value is an error naming the parameter.
+    pub fn validate(&self) -> Result<(), Error> {
+        fn bad(name: &'static str, value: impl ToString, why: &'static str) -> Error {
+            Error::InvalidParam {
+                name,
+                value: value.to_string(),
+                why,
+            }
+        }
+        let positive = |name, v: f64| {
+            if v.is_finite() && v > 0.0 {
+                Ok(())
+            } else {
+                Err(bad(name, v, "must be a finite number > 0"))
+            }
+        };
+        let non_negative = |name, v: f64| {
+            if v.is_finite() && v >= 0.0 {
+                Ok(())
+            } else {
+                Err(bad(name, v, "must be a finite number ≥ 0"))
+            }
+        };
+        if self.local_k == 0 {
+            return Err(bad("local_k", self.local_k, "must be ≥ 1"));
+        }
+        positive("min_scale_mm", self.min_scale_mm)?;
+        positive("scale_mm", self.scale_mm)?;
+        if self.max_segments == 0 {
+            return Err(bad("max_segments", self.max_segments, "must be ≥ 1"));
+        }
+        if self.restarts == 0 {
+            return Err(bad("restarts", self.restarts, "must be ≥ 1"));
+        }
+        if !(0.0..=1.0).contains(&self.min_visible_fraction) {
+            return Err(bad(
+                "min_visible_fraction",
+                self.min_visible_fraction,
+                "must be between 0 and 1",
+            ));
+        }
+        if self.min_overlap_frames < 2 {
+            return Err(bad(
+                "min_overlap_frames",
+                self.min_overlap_frames,
+                "must be ≥ 2 (a standard deviation needs two frames)",
+            ));
+        }
+        if self.min_segment_markers == 0 {
+            return Err(bad(
+                "min_segment_markers",
+                self.min_segment_markers,
+                "must be ≥ 1",
+            ));
+        }
+        non_negative("tolerance_mm", self.tolerance_mm)?;
+        positive("tolerance_factor", self.tolerance_factor)?;
+        positive("tolerance_min_mm", self.tolerance_min_mm)?;
+        positive("slide_ratio", self.slide_ratio)?;
+        non_negative("slide_min_mm", self.slide_min_mm)?;
+        Ok(())
+    }
+}

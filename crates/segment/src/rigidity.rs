@@ -1,0 +1,241 @@
+//! Rigidity of marker groups under a tolerance on ρ: the noise level, and the repair of
+//! clusters that are not rigid (split), misplaced markers (move) and rigid neighbours (merge).
+
+use crate::pairstats::PairStats;
+
+/// A marker split off alone rejoins the group it is most rigid with when its RMS ρ to it is
+/// within this multiple of the tolerance: skin sliding of a few mm must not cost a segment
+/// its marker, while a lone marker on a body of its own (ρ of tens of mm) stays out.
+const REJOIN_FACTOR: f64 = 4.0;
+
+/// Most repair sweeps (move then merge); each sweep only ever improves rigidity, so a few do.
+const MAX_SWEEPS: usize = 10;
+
+/// The noise level in mm: the median over `nodes` of each marker's smallest ρ to another.
+///
+/// On a rigid body with noise the smallest ρ is a same-segment pair, so this measures the
+/// measurement noise (in ρ units), robustly to skin motion on a minority of markers.
+pub(crate) fn noise_level(stats: &PairStats, nodes: &[usize], min_overlap: usize) -> f64 {
+    let mut nearest: Vec<f64> = nodes
+        .iter()
+        .filter_map(|&i| {
+            nodes
+                .iter()
+                .filter_map(|&j| stats.rho(i, j, min_overlap))
+                .min_by(f64::total_cmp)
+        })
+        .collect();
+    if nearest.is_empty() {
+        return 0.0;
+    }
+    nearest.sort_by(f64::total_cmp);
+    let mid = nearest.len() / 2;
+    if nearest.len() % 2 == 1 {
+        nearest[mid]
+    } else {
+        0.5 * (nearest[mid - 1] + nearest[mid])
+    }
+}
+
+/// RMS of ρ from marker `i` to the markers of `group` other than itself, mm; `None` when
+/// no pair was seen together long enough.
+pub(crate) fn rms_rho(
+    stats: &PairStats,
+    i: usize,
+    group: &[usize],
+    min_overlap: usize,
+) -> Option<f64> {
+    let (mut sum, mut count) = (0.0, 0usize);
+    for &j in group {
+        if let Some(r) = stats.rho(i, j, min_overlap) {
+            sum += r * r;
+            count += 1;
+        }
+    }
+    (count > 0).then(|| (sum / count as f64).sqrt())
+}
+
+/// Makes every cluster rigid within `tol` (mm): splits, moves and merges, deterministically.
+pub(crate) fn refine(
+    clusters: Vec<Vec<usize>>,
+    stats: &PairStats,
+    tol: f64,
+    min_overlap: usize,
+    min_group: usize,
+) -> Vec<Vec<usize>> {
+    let mut clusters: Vec<Vec<usize>> = clusters
+        .iter()
+        .flat_map(|c| split(c, stats, tol, min_overlap, min_group))
+        .collect();
+    for _ in 0..MAX_SWEEPS {
+        let moved = move_markers(&mut clusters, stats, tol, min_overlap);
+        let merged = merge_rigid(&mut clusters, stats, tol, min_overlap);
+        if !moved && !merged {
+            break;
+        }
+    }
+    normalise(&mut clusters);
+    clusters
+}
+
+/// Sorts markers inside clusters and clusters by their smallest marker; drops empty ones.
+pub(crate) fn normalise(clusters: &mut Vec<Vec<usize>>) {
+    clusters.retain(|c| !c.is_empty());
+    clusters.iter_mut().for_each(|c| c.sort_unstable());
+    clusters.sort_by_key(|c| c[0]);
+}
+
+/// Average-linkage agglomeration inside one cluster, stopping before any merge whose mean ρ
+/// between the two groups exceeds `tol`. A rigid cluster comes back whole; thigh + shank
+/// comes back as two. Mean (not max) linkage keeps a segment whole when only one noisy
+/// pair exceeds the tolerance. Groups smaller than `min_group` (a sliding marker) rejoin
+/// the group they are most rigid with if within [`REJOIN_FACTOR`] × `tol`; the move step
+/// handles markers that belong to another cluster.
+pub(crate) fn split(
+    cluster: &[usize],
+    stats: &PairStats,
+    tol: f64,
+    min_overlap: usize,
+    min_group: usize,
+) -> Vec<Vec<usize>> {
+    let mut groups: Vec<Vec<usize>> = cluster.iter().map(|&m| vec![m]).collect();
+    loop {
+        let mut best: Option<(f64, usize, usize)> = None;
+        for a in 0..groups.len() {
+            for b in a + 1..groups.len() {
+                let Some(link) = mean_link(&groups[a], &groups[b], stats, min_overlap) else {
+                    continue;
+                };
+                if link <= tol && best.is_none_or(|(l, _, _)| link < l) {
+                    best = Some((link, a, b));
+                }
+            }
+        }
+        let Some((_, a, b)) = best else { break };
+        let taken = groups.remove(b);
+        groups[a].extend(taken);
+    }
+    // Rejoin small groups, smallest marker first, to the big group they are most rigid with.
+    groups.sort_by_key(|g| g.iter().min().copied());
+    let mut g = 0;
+    while g < groups.len() {
+        if groups[g].len() >= min_group {
+            g += 1;
+            continue;
+        }
+        let small = &groups[g];
+        let best = groups
+            .iter()
+            .enumerate()
+            .filter(|(h, other)| *h != g && other.len() >= min_group)
+            .filter_map(|(h, other)| {
+                let (mut sum, mut count) = (0.0, 0usize);
+                for &i in small {
+                    if let Some(r) = rms_rho(stats, i, other, min_overlap) {
+                        sum += r * r;
+                        count += 1;
+                    }
+                }
+                (count > 0).then(|| ((sum / count as f64).sqrt(), h))
+            })
+            .min_by(|a, b| a.0.total_cmp(&b.0).then(a.1.cmp(&b.1)));
+        match best {
+            Some((r, h)) if r <= REJOIN_FACTOR * tol => {
+                let taken = groups.remove(g);
+                let h = if h > g { h - 1 } else { h };
+                groups[h].extend(taken);
+                g = 0;
+            }
+            _ => g += 1,
+        }
+    }
+    groups
+}
+
+/// Mean ρ over the measurable pairs between two groups, mm.
+fn mean_link(a: &[usize], b: &[usize], stats: &PairStats, min_overlap: usize) -> Option<f64> {
+    let (mut sum, mut count) = (0.0, 0usize);
+    for &i in a {
+        for &j in b {
+            if let Some(r) = stats.rho(i, j, min_overlap) {
+                sum += r;
+                count += 1;
+            }
+        }
+    }
+    (count > 0).then(|| sum / count as f64)
+}
+
+/// Moves each marker whose RMS ρ to its own cluster exceeds `tol` (or who is alone) into the
+/// cluster it is most rigid with, when that one is within `tol`. Returns whether any moved.
+pub(crate) fn move_markers(
+    clusters: &mut [Vec<usize>],
+    stats: &PairStats,
+    tol: f64,
+    min_overlap: usize,
+) -> bool {
+    let mut markers: Vec<usize> = clusters.iter().flatten().copied().collect();
+    markers.sort_unstable();
+    let mut any = false;
+    for m in markers {
+        let Some(own) = clusters.iter().position(|c| c.contains(&m)) else {
+            continue;
+        };
+        let own_rms = rms_rho(stats, m, &clusters[own], min_overlap).unwrap_or(f64::INFINITY);
+        if own_rms <= tol {
+            continue;
+        }
+        let best = clusters
+            .iter()
+            .enumerate()
+            .filter(|(c, _)| *c != own)
+            .filter_map(|(c, g)| rms_rho(stats, m, g, min_overlap).map(|r| (r, c)))
+            .min_by(|a, b| a.0.total_cmp(&b.0).then(a.1.cmp(&b.1)));
+        if let Some((r, target)) = best
+            && r <= tol
+            && r < own_rms
+        {
+            clusters[own].retain(|&x| x != m);
+            clusters[target].push(m);
+            any = true;
+        }
+    }
+    any
+}
+
+/// Merges pairs of clusters whose every measurable cross pair has ρ ≤ `tol` (they move as
+/// one body within the tolerance), most rigid pair first. Returns whether any merged.
+fn merge_rigid(
+    clusters: &mut Vec<Vec<usize>>,
+    stats: &PairStats,
+    tol: f64,
+    min_overlap: usize,
+) -> bool {
+    let mut any = false;
+    loop {
+        clusters.retain(|c| !c.is_empty());
+        let mut best: Option<(f64, usize, usize)> = None;
+        for a in 0..clusters.len() {
+            for b in a + 1..clusters.len() {
+                let mut worst: Option<f64> = None;
+                for &i in &clusters[a] {
+                    for &j in &clusters[b] {
+                        if let Some(r) = stats.rho(i, j, min_overlap) {
+                            worst = Some(worst.map_or(r, |w: f64| w.max(r)));
+                        }
+                    }
+                }
+                if let Some(w) = worst
+                    && w <= tol
+                    && best.is_none_or(|(bw, _, _)| w < bw)
+                {
+                    best = Some((w, a, b));
+                }
+            }
+        }
+        let Some((_, a, b)) = best else { return any };
+        let taken = clusters.remove(b);
+        clusters[a].extend(taken);
+        any = true;
+    }
+}
