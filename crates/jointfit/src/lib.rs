@@ -1,3 +1,100 @@
-//! jointfit (being written).
+//! jointfit: per-frame segment poses and a joint fit for every segment pair.
+//!
+//! Takes the capture's [`mocap_io::Trajectories`] and the segment stage's
+//! [`segment::Segmentation`] (only each segment's marker indices are read) and gives
+//! [`PairFits`]: every segment's rigid pose per frame (Horn's quaternion method on the
+//! visible markers, ≥ 3, against a mean reference shape), and for every pair `a < b` a
+//! joint centre fixed in both segments' local frames, its position per frame, a cost for
+//! the topology stage, the joint kind (ball / hinge / rigid) with its evidence, and the
+//! hinge axis. Methods (`Params::method`): `score` (symmetrical centre of rotation with
+//! SARA hinge axes, closed form; default) and `aguiar` (the paper's Eq. 2 by L-BFGS).
+//!
+//! It does not choose which pairs are joints (topo does, from the costs), does not
+//! place hinge centres using neighbouring joints (bonefit may), and does not yet pose
+//! segments carried by two markers: their poses are missing (NaN).
+
+mod aguiar;
+mod error;
+mod fit;
+mod horn;
+mod motion;
 mod pairfits;
+mod params;
+mod poses;
+mod score;
+mod small;
+
+pub use error::Error;
+pub use horn::{RigidFit, absolute_orientation};
 pub use pairfits::*;
+pub use params::{Method, PARAM_DOCS, Params};
+
+use mocap_io::Trajectories;
+use rayon::prelude::*;
+
+/// Stage name, as the runner and cache know it.
+pub const STAGE: &str = "jointfit";
+
+/// Runs the stage: poses of every segment, then every pair's joint fit (in parallel;
+/// each pair is computed serially, so the output does not depend on the thread count).
+pub fn run(
+    traj: &Trajectories,
+    seg: &segment::Segmentation,
+    params: &Params,
+) -> Result<PairFits, Error> {
+    let mut segments = Vec::with_capacity(seg.segments.len());
+    for (position, s) in seg.segments.iter().enumerate() {
+        if s.id != position {
+            return Err(Error::SegmentId { position, id: s.id });
+        }
+        segments.push(s.markers.clone());
+    }
+    run_on_segments(traj, &segments, params)
+}
+
+/// [`run`] on bare marker lists: `segments[id]` = marker indices of segment `id`.
+pub(crate) fn run_on_segments(
+    traj: &Trajectories,
+    segments: &[Vec<usize>],
+    params: &Params,
+) -> Result<PairFits, Error> {
+    params.validate()?;
+    for (segment, markers) in segments.iter().enumerate() {
+        if let Some(&marker) = markers.iter().find(|&&m| m >= traj.markers()) {
+            return Err(Error::MarkerOutOfRange {
+                segment,
+                marker,
+                markers: traj.markers(),
+            });
+        }
+    }
+    let poses = poses::all_segment_poses(traj, segments, params.min_spread_mm);
+    let tracks: Vec<Vec<Option<poses::Pose>>> = poses.par_iter().map(poses::pose_track).collect();
+    let views: Vec<fit::SegmentView<'_>> = segments
+        .iter()
+        .zip(&poses)
+        .zip(&tracks)
+        .map(|((markers, poses), track)| fit::SegmentView {
+            markers,
+            poses,
+            track,
+        })
+        .collect();
+    let pairs: Vec<(usize, usize)> = (0..views.len())
+        .flat_map(|a| ((a + 1)..views.len()).map(move |b| (a, b)))
+        .collect();
+    let fits = pairs
+        .par_iter()
+        .map(|&(a, b)| fit::fit_pair(traj, a, b, &views[a], &views[b], params))
+        .collect();
+    Ok(PairFits {
+        frames: traj.frames(),
+        poses,
+        pairs: fits,
+    })
+}
+
+#[cfg(test)]
+mod testkit;
+#[cfg(test)]
+mod tests;

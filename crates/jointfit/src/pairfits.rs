@@ -77,10 +77,20 @@ pub struct PairFit {
     pub kind: JointKind,
     /// Hinge axis in `a`'s local frame (unit vector), for hinges.
     pub axis_in_a: Option<[f64; 3]>,
+    /// Hinge axis in `b`'s local frame (unit vector), for hinges: the same line as `axis_in_a`.
+    pub axis_in_b: Option<[f64; 3]>,
     /// RMS over frames of the distance between the centre as `a` and as `b` carry it (mm).
     pub residual_rms_mm: f64,
     /// Frames in which both segments have a pose.
     pub frames_used: usize,
+    /// Range of motion: RMS angle of the relative rotation (b-local → a-local) from its mean
+    /// over the frames used (degrees); NaN when not identifiable.
+    pub rotation_rms_deg: f64,
+    /// Largest angle of the relative rotation from its mean (degrees); NaN when not identifiable.
+    pub rotation_max_deg: f64,
+    /// How much each of the three principal directions of the relative rotation tilts
+    /// (approximately RMS, degrees), ascending: a hinge has one near 0, a rigid pair all three.
+    pub wobble_deg: [f64; 3],
     /// Human-readable evidence for `kind` (conditioning, range of motion).
     pub evidence: String,
 }

@@ -1,0 +1,185 @@
+//! One segment pair: kind from the relative motion, centre by the chosen method, cost,
+//! residual and per-frame positions.
+
+use glam::DVec3;
+use mocap_io::Trajectories;
+
+use crate::aguiar::{self, Cloud, EqTwo};
+use crate::motion::relative_motion;
+use crate::pairfits::{JointKind, PairFit, SegmentPoses};
+use crate::params::{Method, Params};
+use crate::poses::Pose;
+use crate::score;
+
+/// What a pair fit reads about one segment.
+pub(crate) struct SegmentView<'a> {
+    /// Marker indices into the capture.
+    pub markers: &'a [usize],
+    /// Stored poses (reference shape).
+    pub poses: &'a SegmentPoses,
+    /// Poses per frame.
+    pub track: &'a [Option<Pose>],
+}
+
+/// Fits the joint between segments `a < b`.
+pub(crate) fn fit_pair(
+    traj: &Trajectories,
+    a: usize,
+    b: usize,
+    sa: &SegmentView<'_>,
+    sb: &SegmentView<'_>,
+    params: &Params,
+) -> PairFit {
+    let frames = traj.frames();
+    let (pa, pb) = (sa.track, sb.track);
+    let co: Vec<usize> = (0..frames)
+        .filter(|&f| pa[f].is_some() && pb[f].is_some())
+        .collect();
+    let nan3 = [f64::NAN; 3];
+    let method = params.method.name().to_string();
+    if co.len() < params.min_frames {
+        return PairFit {
+            a,
+            b,
+            method,
+            cost: f64::INFINITY,
+            centre_in_a: nan3,
+            centre_in_b: nan3,
+            positions: vec![nan3; frames],
+            kind: JointKind::Ball,
+            axis_in_a: None,
+            axis_in_b: None,
+            residual_rms_mm: f64::NAN,
+            frames_used: co.len(),
+            rotation_rms_deg: f64::NAN,
+            rotation_max_deg: f64::NAN,
+            wobble_deg: nan3,
+            evidence: format!(
+                "not identifiable: both segments have a pose in only {} frames (min_frames = {})",
+                co.len(),
+                params.min_frames
+            ),
+        };
+    }
+    let motion = relative_motion(pa, pb, &co);
+    let (kind, mut evidence) = motion.classify(params, co.len());
+
+    // Where the data leave the centre undetermined (a hinge's axis, a rigid pair), put it
+    // nearest the midpoint of the two segments' origins (their reference centroids), seen
+    // from each segment. Topology-aware placement (nearest the adjacent joints) is later.
+    let n = co.len() as f64;
+    let (mut mid_a, mut mid_b) = (DVec3::ZERO, DVec3::ZERO);
+    for &f in &co {
+        if let (Some(x), Some(y)) = (&pa[f], &pb[f]) {
+            let mid = 0.5 * (x.trans + y.trans);
+            mid_a += x.inverse_apply(mid);
+            mid_b += y.inverse_apply(mid);
+        }
+    }
+    let target = (mid_a / n, mid_b / n);
+
+    let (c_a, c_b, cost) = match params.method {
+        Method::Score => {
+            let drop = match kind {
+                JointKind::Rigid => 3,
+                JointKind::Hinge => 1,
+                _ => 0,
+            };
+            let sol = score::solve(pa, pb, &co, drop, target);
+            let [l0, .., l5] = sol.eigenvalues;
+            evidence.push_str(&format!(
+                "; SCoRE normal-matrix eigenvalues {:.2e}..{:.2e} (condition {:.1e}), {} direction(s) set by placement",
+                l5,
+                l0,
+                l0 / l5.max(f64::MIN_POSITIVE),
+                drop
+            ));
+            let rms = residual_rms(pa, pb, &co, sol.c_a, sol.c_b);
+            (sol.c_a, sol.c_b, rms)
+        }
+        Method::Aguiar => {
+            let fixed: Vec<DVec3> = sa
+                .poses
+                .reference
+                .iter()
+                .map(|r| DVec3::from_array(*r))
+                .filter(|r| r.is_finite())
+                .collect();
+            let clouds: Vec<Cloud> = sb
+                .markers
+                .iter()
+                .filter_map(|&m| {
+                    let pts = (0..frames)
+                        .filter_map(|f| {
+                            let pose = pa[f].as_ref()?;
+                            let p = traj.get(f, m)?;
+                            Some(pose.inverse_apply(DVec3::from_array(p)))
+                        })
+                        .collect();
+                    Cloud::new(pts)
+                })
+                .collect();
+            let start = aguiar::sphere_centre(&clouds, target.0);
+            let problem = EqTwo {
+                fixed: &fixed,
+                clouds: &clouds,
+                alpha: params.alpha,
+            };
+            let min = aguiar::minimise(&problem, start, params.max_iters);
+            evidence.push_str(&format!("; {}", min.note));
+            // c_b: the least-squares fixed point in b of the centre a carries.
+            let mut c_b = DVec3::ZERO;
+            for &f in &co {
+                if let (Some(x), Some(y)) = (&pa[f], &pb[f]) {
+                    c_b += y.inverse_apply(x.apply(min.centre));
+                }
+            }
+            (min.centre, c_b / n, min.cost)
+        }
+    };
+    let residual = residual_rms(pa, pb, &co, c_a, c_b);
+    let positions = (0..frames)
+        .map(|f| match (&pa[f], &pb[f]) {
+            (Some(x), Some(y)) => (0.5 * (x.apply(c_a) + y.apply(c_b))).to_array(),
+            (Some(x), None) => x.apply(c_a).to_array(),
+            (None, Some(y)) => y.apply(c_b).to_array(),
+            (None, None) => nan3,
+        })
+        .collect();
+    let hinge = kind == JointKind::Hinge;
+    PairFit {
+        a,
+        b,
+        method,
+        cost,
+        centre_in_a: c_a.to_array(),
+        centre_in_b: c_b.to_array(),
+        positions,
+        kind,
+        axis_in_a: hinge.then(|| motion.axis_in_a.to_array()),
+        axis_in_b: hinge.then(|| motion.axis_in_b.to_array()),
+        residual_rms_mm: residual,
+        frames_used: co.len(),
+        rotation_rms_deg: motion.rms_deg,
+        rotation_max_deg: motion.max_deg,
+        wobble_deg: motion.wobble_deg,
+        evidence,
+    }
+}
+
+/// RMS over `frames` of |R_a c_a + t_a − (R_b c_b + t_b)| (mm).
+fn residual_rms(
+    pa: &[Option<Pose>],
+    pb: &[Option<Pose>],
+    frames: &[usize],
+    c_a: DVec3,
+    c_b: DVec3,
+) -> f64 {
+    let mut sq = 0.0;
+    for &f in frames {
+        if let (Some(x), Some(y)) = (&pa[f], &pb[f]) {
+            sq += (x.apply(c_a) - y.apply(c_b)).length_squared();
+        }
+    }
+    (sq / frames.len().max(1) as f64).sqrt()
+}

@@ -1,0 +1,286 @@
+//! Per-frame rigid poses of every segment against a reference shape.
+//!
+//! Reference shape: the marker positions in the first frame where most of the segment's
+//! markers are visible, then replaced by the mean shape in the local frame (every frame
+//! aligned to that first reference by Horn's method, each marker averaged over the frames
+//! where it is visible), so markers hidden in the reference frame still get a reference
+//! position and one frame's noise does not define the body. Local frame: origin at the
+//! reference centroid, axes = global axes at the reference frame.
+
+use glam::{DMat3, DQuat, DVec3};
+use mocap_io::Trajectories;
+use rayon::prelude::*;
+
+use crate::horn::{RigidFit, absolute_orientation};
+use crate::pairfits::SegmentPoses;
+use crate::small::sym_eigen;
+
+/// A segment's pose at one frame as the pair fits use it: local → global.
+#[derive(Clone, Copy, Debug)]
+pub(crate) struct Pose {
+    /// Rotation matrix, local → global.
+    pub rot: DMat3,
+    /// Translation (mm), global.
+    pub trans: DVec3,
+}
+
+impl Pose {
+    /// Global position of a local point.
+    #[inline]
+    pub fn apply(&self, p: DVec3) -> DVec3 {
+        self.rot * p + self.trans
+    }
+    /// Local position of a global point.
+    #[inline]
+    pub fn inverse_apply(&self, p: DVec3) -> DVec3 {
+        self.rot.transpose() * (p - self.trans)
+    }
+}
+
+/// Poses of every segment, in parallel over segments (each segment is computed serially,
+/// so results do not depend on the thread count).
+pub(crate) fn all_segment_poses(
+    traj: &Trajectories,
+    segments: &[Vec<usize>],
+    min_spread_mm: f64,
+) -> Vec<SegmentPoses> {
+    segments
+        .par_iter()
+        .enumerate()
+        .map(|(id, markers)| segment_poses(traj, id, markers, min_spread_mm))
+        .collect()
+}
+
+/// Poses of one segment (`markers` are indices into the capture, already range-checked).
+pub(crate) fn segment_poses(
+    traj: &Trajectories,
+    id: usize,
+    markers: &[usize],
+    min_spread_mm: f64,
+) -> SegmentPoses {
+    let frames = traj.frames();
+    let nan3 = [f64::NAN; 3];
+    let visible = |f: usize| {
+        markers
+            .iter()
+            .filter(|&&m| traj.get(f, m).is_some())
+            .count()
+    };
+    // First frame with the most visible markers.
+    let mut ref_frame = None;
+    let mut best = 0;
+    for f in 0..frames {
+        let v = visible(f);
+        if v > best {
+            best = v;
+            ref_frame = Some(f);
+            if v == markers.len() {
+                break;
+            }
+        }
+    }
+    let mut reference: Vec<DVec3> = match ref_frame {
+        Some(f) => markers
+            .iter()
+            .map(|&m| traj.get(f, m).map_or(DVec3::NAN, DVec3::from_array))
+            .collect(),
+        None => vec![DVec3::NAN; markers.len()],
+    };
+    recentre(&mut reference);
+
+    let mut buf = Vec::with_capacity(markers.len());
+    let mut fits: Vec<Option<RigidFit>> = vec![None; frames];
+    if best >= 3 {
+        // One round of align-and-average, then the final alignment against the mean shape.
+        for (f, fit) in fits.iter_mut().enumerate() {
+            *fit = fit_frame(traj, f, markers, &reference, &mut buf, min_spread_mm);
+        }
+        let mut sum = vec![DVec3::ZERO; markers.len()];
+        let mut count = vec![0usize; markers.len()];
+        for (f, fit) in fits.iter().enumerate() {
+            let Some(fit) = fit else { continue };
+            let inv = fit.rotation.inverse();
+            for (k, &m) in markers.iter().enumerate() {
+                if let Some(p) = traj.get(f, m) {
+                    sum[k] += inv * (DVec3::from_array(p) - fit.translation);
+                    count[k] += 1;
+                }
+            }
+        }
+        reference = sum
+            .iter()
+            .zip(&count)
+            .map(|(s, &c)| if c > 0 { *s / c as f64 } else { DVec3::NAN })
+            .collect();
+        recentre(&mut reference);
+        for (f, fit) in fits.iter_mut().enumerate() {
+            *fit = fit_frame(traj, f, markers, &reference, &mut buf, min_spread_mm);
+        }
+    }
+    SegmentPoses {
+        segment: id,
+        reference: reference
+            .iter()
+            .map(|r| if r.is_finite() { r.to_array() } else { nan3 })
+            .collect(),
+        rotations: fits
+            .iter()
+            .map(|f| f.map_or([f64::NAN; 4], |f| f.rotation.to_array()))
+            .collect(),
+        translations: fits
+            .iter()
+            .map(|f| f.map_or(nan3, |f| f.translation.to_array()))
+            .collect(),
+        rms_mm: fits
+            .iter()
+            .map(|f| f.map_or(f64::NAN, |f| f.rms_mm))
+            .collect(),
+    }
+}
+
+/// Moves the origin to the centroid of the finite reference positions.
+fn recentre(reference: &mut [DVec3]) {
+    let (sum, n) = reference
+        .iter()
+        .filter(|r| r.is_finite())
+        .fold((DVec3::ZERO, 0usize), |(s, n), r| (s + *r, n + 1));
+    if n > 0 {
+        let c = sum / n as f64;
+        for r in reference.iter_mut().filter(|r| r.is_finite()) {
+            *r -= c;
+        }
+    }
+}
+
+/// Horn fit of one frame on the markers visible there and present in the reference.
+fn fit_frame(
+    traj: &Trajectories,
+    frame: usize,
+    markers: &[usize],
+    reference: &[DVec3],
+    buf: &mut Vec<(DVec3, DVec3)>,
+    min_spread_mm: f64,
+) -> Option<RigidFit> {
+    buf.clear();
+    for (&m, r) in markers.iter().zip(reference) {
+        if let Some(p) = traj.get(frame, m)
+            && r.is_finite()
+        {
+            buf.push((*r, DVec3::from_array(p)));
+        }
+    }
+    if buf.len() < 3 || spread_mm(buf) < min_spread_mm {
+        return None;
+    }
+    absolute_orientation(buf)
+}
+
+/// RMS extent (mm) of the reference points across their second principal direction.
+fn spread_mm(pairs: &[(DVec3, DVec3)]) -> f64 {
+    let n = pairs.len() as f64;
+    let c = pairs.iter().map(|p| p.0).sum::<DVec3>() / n;
+    let mut cov = [[0.0; 3]; 3];
+    for (r, _) in pairs {
+        let d = (*r - c).to_array();
+        for i in 0..3 {
+            for j in 0..3 {
+                cov[i][j] += d[i] * d[j] / n;
+            }
+        }
+    }
+    let (vals, _) = sym_eigen(cov);
+    vals[1].max(0.0).sqrt()
+}
+
+/// The stored poses as the pair fits use them; `None` where the pose is unknown.
+pub(crate) fn pose_track(poses: &SegmentPoses) -> Vec<Option<Pose>> {
+    poses
+        .rotations
+        .iter()
+        .zip(&poses.translations)
+        .map(|(q, t)| {
+            let q = DQuat::from_array(*q);
+            let t = DVec3::from_array(*t);
+            (q.is_finite() && t.is_finite()).then(|| Pose {
+                rot: DMat3::from_quat(q),
+                trans: t,
+            })
+        })
+        .collect()
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::horn::tests::TestRng;
+
+    /// One rigid body of 4 markers, random poses, a gap pattern; poses must reproduce it.
+    #[test]
+    fn poses_reproduce_markers_with_gaps() {
+        let mut rng = TestRng(11);
+        let local = [
+            DVec3::new(60.0, 0.0, 0.0),
+            DVec3::new(-30.0, 50.0, 0.0),
+            DVec3::new(-30.0, -50.0, 10.0),
+            DVec3::new(0.0, 0.0, 80.0),
+        ];
+        let frames = 200;
+        let mut positions = Vec::new();
+        let mut truth = Vec::new();
+        for f in 0..frames {
+            let q = rng.rotation();
+            let t = rng.vec3(500.0);
+            truth.push((q, t));
+            for (k, l) in local.iter().enumerate() {
+                // Marker 0 missing in the first 50 frames; marker 3 every 3rd frame;
+                // frames 100..110 keep only 2 markers.
+                let gone = (k == 0 && f < 50)
+                    || (k == 3 && f % 3 == 0)
+                    || ((100..110).contains(&f) && k >= 2);
+                positions.push(if gone {
+                    mocap_io::MISSING
+                } else {
+                    (q * *l + t + rng.vec3(0.1)).to_array()
+                });
+            }
+        }
+        let labels = (0..4).map(|i| format!("M{i}")).collect();
+        let traj = Trajectories::new(labels, 100.0, 1, frames, positions).unwrap();
+        let sp = segment_poses(&traj, 0, &[0, 1, 2, 3], 2.0);
+        let track = pose_track(&sp);
+        assert!(sp.reference.iter().all(|r| r[0].is_finite()));
+        let mut known = 0;
+        for (f, pose) in track.iter().enumerate() {
+            if (100..110).contains(&f) || (f < 50 && f % 3 == 0) {
+                assert!(pose.is_none(), "frame {f} has only 2 markers");
+                continue;
+            }
+            let pose = pose.as_ref().unwrap();
+            known += 1;
+            // Local frame differs from `local` by a fixed rigid motion: compare shapes
+            // through distances of the mapped reference to the true markers.
+            let (q, t) = truth[f];
+            for (k, r) in sp.reference.iter().enumerate() {
+                let g = pose.apply(DVec3::from_array(*r));
+                let e = (g - (q * local[k] + t)).length();
+                assert!(e < 0.5, "frame {f} marker {k}: {e} mm");
+            }
+            assert!(sp.rms_mm[f] < 0.3);
+        }
+        assert_eq!(known, frames - 10 - 17);
+    }
+
+    #[test]
+    fn collinear_markers_give_no_pose() {
+        let positions = (0..40)
+            .flat_map(|f| {
+                let x = f as f64;
+                [[x, 0.0, 0.0], [x + 50.0, 0.0, 0.0], [x + 100.0, 0.0, 0.5]]
+            })
+            .collect();
+        let labels = (0..3).map(|i| format!("M{i}")).collect();
+        let traj = Trajectories::new(labels, 100.0, 1, 40, positions).unwrap();
+        let sp = segment_poses(&traj, 0, &[0, 1, 2], 2.0);
+        assert!(sp.rotations.iter().all(|q| q[0].is_nan()));
+    }
+}
