@@ -271,8 +271,9 @@ impl Layout {
 
         // Not the header block, not the parameter section's first block, inside the file.
         // (Block counts in the parameter section are too often wrong to exclude more.)
-        let valid_start =
-            |b: usize| b >= 2 && b != usize::from(parameter_block) && (b - 1) * BLOCK < bytes.len();
+        let valid_start = |b: usize| {
+            b >= 2 && b != usize::from(parameter_block) && (b - 1) * BLOCK <= bytes.len()
+        };
         let header_start = usize::from(header.data_start);
         let data_start = match params.number("POINT:DATA_START").map(|v| v as usize) {
             Some(p) if valid_start(p) => {
@@ -569,4 +570,154 @@ fn typical_coordinate(positions: &[[f64; 3]]) -> f64 {
     let mid = extents.len() / 2;
     let (_, median, _) = extents.select_nth_unstable_by(mid, f64::total_cmp);
     *median
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::MISSING;
+
+    pub(super) fn make(markers: usize, frames: usize, first_frame: i64) -> Trajectories {
+        let labels = (0..markers).map(|m| format!("M{m:03}")).collect();
+        let mut positions = Vec::with_capacity(markers * frames);
+        for f in 0..frames {
+            for m in 0..markers {
+                if (f + m) % 7 == 3 {
+                    positions.push(MISSING);
+                } else {
+                    let t = f as f64 * 0.37 + m as f64;
+                    positions.push([
+                        t.sin() * 812.25,
+                        t.cos() * -433.125,
+                        1000.0 + m as f64 * 3.3,
+                    ]);
+                }
+            }
+        }
+        Trajectories::new(labels, 120.0, first_frame, frames, positions).unwrap()
+    }
+
+    fn assert_round_trip(t: &Trajectories) -> Capture {
+        let bytes = write(t).unwrap();
+        assert_eq!(bytes.len() % BLOCK, 0);
+        let c = parse(&bytes, &ReadOptions::default()).unwrap();
+        let r = &c.trajectories;
+        assert_eq!(r.labels(), t.labels());
+        assert_eq!(r.frames(), t.frames());
+        assert_eq!(r.first_frame(), t.first_frame());
+        assert_eq!(r.frame_rate(), t.frame_rate());
+        assert_eq!(r.missing_samples(), t.missing_samples());
+        for (a, b) in r.positions().iter().zip(t.positions()) {
+            assert_eq!(crate::is_present(*a), crate::is_present(*b));
+            for k in 0..3 {
+                if b[k].is_finite() {
+                    assert!((a[k] - b[k]).abs() <= b[k].abs() * 1e-7, "{a:?} vs {b:?}");
+                }
+            }
+        }
+        assert!(c.info.warnings.is_empty(), "{:?}", c.info.warnings);
+        assert_eq!(c.info.declared_units.as_deref(), Some("mm"));
+        assert_eq!(c.info.processor.as_deref(), Some("intel"));
+        assert_eq!(c.info.storage.as_deref(), Some("float"));
+        c
+    }
+
+    #[test]
+    fn written_files_read_back_equal_within_f32() {
+        assert_round_trip(&make(12, 50, 1));
+        assert_round_trip(&make(3, 7, 1234));
+    }
+
+    #[test]
+    fn more_than_255_labels_continue_in_labels2() {
+        let t = make(600, 3, 1);
+        let bytes = write(&t).unwrap();
+        assert_round_trip(&t);
+        let header = Header::read(&bytes, Processor::Intel).unwrap();
+        let params = Params::walk(
+            &bytes,
+            512,
+            255,
+            usize::from(header.data_start - 1) * BLOCK,
+            Processor::Intel,
+        );
+        assert_eq!(params.strings("POINT:LABELS").unwrap().len(), 255);
+        assert_eq!(params.strings("POINT:LABELS2").unwrap().len(), 255);
+        assert_eq!(params.strings("POINT:LABELS3").unwrap().len(), 90);
+    }
+
+    #[test]
+    fn empty_captures_round_trip() {
+        assert_round_trip(&make(5, 0, 1));
+        // No markers and no analog: frames store nothing, so none are claimed back.
+        let bytes = write(&make(0, 4, 1)).unwrap();
+        let c = parse(&bytes, &ReadOptions::default()).unwrap();
+        assert_eq!((c.trajectories.markers(), c.trajectories.frames()), (0, 0));
+    }
+
+    #[test]
+    fn writer_refuses_what_c3d_cannot_hold() {
+        assert!(write(&make(2, 2, 0)).is_err());
+        assert!(write(&make(1, 70_000, 1)).is_err());
+        let long = Trajectories::new(vec!["x".repeat(300)], 100.0, 1, 0, vec![]).unwrap();
+        assert!(write(&long).is_err());
+    }
+
+    #[test]
+    fn integer_big_endian_and_vax_samples_decode_alike() {
+        // One sample (10, -20, 30) with residual 5, and one flagged sample, per codec.
+        let ints: [i16; 8] = [10, -20, 30, 5, 1, 2, 3, -1];
+        let le: Vec<u8> = ints.iter().flat_map(|v| v.to_le_bytes()).collect();
+        let be: Vec<u8> = ints.iter().flat_map(|v| v.to_be_bytes()).collect();
+        let floats: Vec<f32> = ints.iter().map(|&v| f32::from(v)).collect();
+        let vax: Vec<u8> = floats.iter().flat_map(|&v| header::to_vax(v)).collect();
+        let fbe: Vec<u8> = floats.iter().flat_map(|v| v.to_be_bytes()).collect();
+        let mut out = Vec::new();
+        let want = [[5.0, -10.0, 15.0], MISSING];
+        for (bytes, codec) in [(&le, 0), (&be, 1), (&vax, 2), (&fbe, 3)] {
+            out.clear();
+            let counts = match codec {
+                0 => data::decode::<IntLe>(bytes, 16, 1, 2, 0.5, false, &mut out),
+                1 => data::decode::<IntBe>(bytes, 16, 1, 2, 0.5, false, &mut out),
+                2 => data::decode::<FloatVax>(bytes, 32, 1, 2, 0.5, false, &mut out),
+                _ => data::decode::<FloatBe>(bytes, 32, 1, 2, 0.5, false, &mut out),
+            };
+            assert_eq!(out[0], want[0], "codec {codec}");
+            assert!(!crate::is_present(out[1]), "codec {codec}");
+            assert_eq!((counts.present, counts.flagged), (1, 1));
+        }
+    }
+
+    #[test]
+    fn units_convert_to_millimetres() {
+        assert_eq!(unit_factor("mete"), Some(1000.0));
+        assert_eq!(unit_factor("cm"), Some(10.0));
+        assert_eq!(unit_factor("MM"), Some(1.0));
+        assert_eq!(unit_factor("furlong"), None);
+    }
+}
+
+#[cfg(test)]
+mod python_export {
+    /// Writes sample files for tests/c3d_python_check.py, which reads them with ezc3d and
+    /// py-c3d: `cargo test -p mocap-io --lib python_export -- --ignored`, then run the script.
+    #[test]
+    #[ignore]
+    fn write_files_for_python() {
+        let dir = std::env::temp_dir().join("ossify-c3d-python-check");
+        std::fs::create_dir_all(&dir).unwrap();
+        for (name, markers, frames, first) in [
+            ("small", 12, 50, 1),
+            ("labels600", 600, 5, 7),
+            ("empty", 4, 0, 1),
+        ] {
+            let t = super::tests::make(markers, frames, first);
+            std::fs::write(dir.join(format!("{name}.c3d")), super::write(&t).unwrap()).unwrap();
+            let mut csv = String::new();
+            for p in t.positions() {
+                csv.push_str(&format!("{},{},{}\n", p[0], p[1], p[2]));
+            }
+            std::fs::write(dir.join(format!("{name}.txt")), csv).unwrap();
+        }
+    }
 }
