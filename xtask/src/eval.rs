@@ -1,0 +1,477 @@
+//! `cargo xtask eval`: the pipeline over a fixed synthetic suite, scored against the truth.
+//!
+//! Suite: every synth subject × {clean, hard} × seeds (default 1001, 1002: not the seeds
+//! the fixtures and the stage tests use, so nobody tunes on them). Each trial is
+//! generated in memory, run through segment → export in-process (no cache, no files),
+//! and export's `skeleton.json` bytes are scored by `synth::score` exactly as a user's
+//! file would be. `--compare STAGE.PARAM=V1,V2` runs the suite once per value and prints
+//! the methods side by side.
+
+use std::time::Instant;
+
+use anyhow::{Context as _, Result, anyhow, bail};
+use mocap_io::{Capture, CaptureInfo, Format};
+use rayon::prelude::*;
+use serde::Serialize;
+use serde_json::json;
+use synth::{Preset, Subject, SynthConfig};
+
+use crate::pipeline::{self, Params};
+use crate::set_param;
+
+/// Arguments of `eval`.
+#[derive(clap::Args)]
+pub struct Args {
+    /// Frames per trial.
+    #[arg(long, default_value_t = 480)]
+    pub frames: usize,
+    /// Generator seeds, comma-separated (never the fixtures' seeds).
+    #[arg(long, value_delimiter = ',', default_values_t = [1001u64, 1002])]
+    pub seeds: Vec<u64>,
+    /// Subjects, comma-separated [default: all].
+    #[arg(long, value_delimiter = ',')]
+    pub subjects: Vec<String>,
+    /// Presets, comma-separated.
+    #[arg(long, value_delimiter = ',', default_values_t = ["clean".to_string(), "hard".to_string()])]
+    pub presets: Vec<String>,
+    /// Set a stage parameter for every trial (STAGE.PARAM=VALUE). Repeatable.
+    #[arg(long = "set", value_name = "STAGE.PARAM=VALUE")]
+    pub set: Vec<String>,
+    /// Run the suite once per value and compare side by side, e.g. jointfit.method=aguiar,score.
+    #[arg(long, value_name = "STAGE.PARAM=V1,V2,...")]
+    pub compare: Option<String>,
+    /// Trials run in parallel on this many threads (1 gives the steadiest timings) [default: all cores].
+    #[arg(long)]
+    pub jobs: Option<usize>,
+    /// Print one JSON object on stdout instead of tables.
+    #[arg(long)]
+    pub json: bool,
+}
+
+/// One trial of the suite.
+#[derive(Clone, Debug)]
+pub struct TrialSpec {
+    /// Generator config.
+    pub config: SynthConfig,
+}
+
+/// What one trial gave.
+#[derive(Clone, Debug, Serialize)]
+pub struct TrialResult {
+    /// `<subject>-<preset>-s<seed>`.
+    pub trial: String,
+    /// Subject name.
+    pub subject: String,
+    /// Preset name.
+    pub preset: String,
+    /// Segments found.
+    pub segments: usize,
+    /// Segments in the truth.
+    pub true_segments: usize,
+    /// Segmentation agreement with the truth (adjusted Rand index, 1 = equal).
+    pub adjusted_rand: f64,
+    /// Tree equal to the truth.
+    pub topology_exact: bool,
+    /// Fraction of found joints that are true joints.
+    pub precision: f64,
+    /// Fraction of true joints that were found.
+    pub recall: f64,
+    /// Mean joint-centre error over matched joints and known frames (mm).
+    pub mean_error_mm: f64,
+    /// Worst per-joint mean error (mm).
+    pub worst_error_mm: f64,
+    /// `mean_error_mm` as % of the subject's height.
+    pub mean_error_pct: f64,
+    /// `worst_error_mm` as % of the subject's height.
+    pub worst_error_pct: f64,
+    /// Fraction of (matched joint, frame) positions known in skeleton.json.
+    pub known_fraction: f64,
+    /// Fraction of matched joints whose kind (hinge or not) is right.
+    pub kind_accuracy: f64,
+    /// Pipeline wall time, segment → export (s).
+    pub seconds: f64,
+    /// The error, when the pipeline failed on this trial.
+    pub error: Option<String>,
+}
+
+/// The suite the arguments describe, in print order.
+pub fn suite(args: &Args) -> Result<Vec<TrialSpec>> {
+    let subjects: Vec<Subject> = if args.subjects.is_empty() {
+        Subject::ALL.to_vec()
+    } else {
+        args.subjects
+            .iter()
+            .map(|s| s.parse::<Subject>().map_err(anyhow::Error::from))
+            .collect::<Result<_>>()?
+    };
+    let presets: Vec<Preset> = args
+        .presets
+        .iter()
+        .map(|s| s.parse::<Preset>().map_err(anyhow::Error::from))
+        .collect::<Result<_>>()?;
+    let mut specs = Vec::new();
+    for subject in &subjects {
+        for preset in &presets {
+            for seed in &args.seeds {
+                let config = SynthConfig {
+                    subject: *subject,
+                    preset: *preset,
+                    frames: args.frames,
+                    seed: *seed,
+                    ..SynthConfig::default()
+                };
+                config.validate()?;
+                specs.push(TrialSpec { config });
+            }
+        }
+    }
+    Ok(specs)
+}
+
+/// Generates, runs and scores one trial. Any failure (generator, pipeline, an unreadable
+/// skeleton.json) is recorded in the result, so one bad trial does not hide the others.
+pub fn run_trial(spec: &TrialSpec, params: &Params) -> TrialResult {
+    let config = &spec.config;
+    let mut result = TrialResult {
+        trial: config.trial_name(),
+        subject: config.subject.name().into(),
+        preset: config.preset.name().into(),
+        segments: 0,
+        true_segments: 0,
+        adjusted_rand: f64::NAN,
+        topology_exact: false,
+        precision: f64::NAN,
+        recall: f64::NAN,
+        mean_error_mm: f64::NAN,
+        worst_error_mm: f64::NAN,
+        mean_error_pct: f64::NAN,
+        worst_error_pct: f64::NAN,
+        known_fraction: 0.0,
+        kind_accuracy: f64::NAN,
+        seconds: 0.0,
+        error: None,
+    };
+    if let Err(e) = evaluate(config, params, &mut result) {
+        result.error = Some(format!("{e:#}"));
+    }
+    result
+}
+
+fn evaluate(config: &SynthConfig, params: &Params, result: &mut TrialResult) -> Result<()> {
+    let trial = synth::generate(config).context("generating the trial")?;
+    result.true_segments = trial.truth.segments.len();
+    let capture = Capture {
+        format: Format::C3d,
+        trajectories: trial.trajectories,
+        info: CaptureInfo::default(),
+    };
+    let start = Instant::now();
+    let ran = pipeline::run_in_memory(capture, params);
+    result.seconds = start.elapsed().as_secs_f64();
+    let (products, _) = ran?;
+    result.segments = products
+        .segmentation
+        .as_ref()
+        .map_or(0, |s| s.segments.len());
+    let json_bytes = products
+        .outputs
+        .as_ref()
+        .and_then(|o| o.files.get("skeleton.json"))
+        .ok_or_else(|| anyhow!("export wrote no skeleton.json"))?;
+    let estimate: synth::score::Estimate = serde_json::from_slice(json_bytes)
+        .context("skeleton.json does not parse as an Estimate")?;
+    let score = synth::score::score(&trial.truth, &estimate);
+    fill_from_score(result, &score);
+    Ok(())
+}
+
+/// Copies the scorer's figures into a result.
+fn fill_from_score(result: &mut TrialResult, score: &synth::score::Score) {
+    let nan = |x: Option<f64>| x.unwrap_or(f64::NAN);
+    result.adjusted_rand = score.ari;
+    result.topology_exact = score.topology_exact;
+    result.precision = score.topology_precision;
+    result.recall = score.topology_recall;
+    result.mean_error_mm = nan(score.joint_error_mean_mm);
+    result.worst_error_mm = nan(score.joint_error_worst_mm);
+    result.mean_error_pct = nan(score.joint_error_mean_pct);
+    result.worst_error_pct = nan(score.joint_error_worst_pct);
+    result.known_fraction = score.known_fraction;
+    result.kind_accuracy = nan(score.kind_accuracy);
+}
+
+/// Runs the suite with one parameter set; results in suite order.
+pub fn run_suite(specs: &[TrialSpec], params: &Params) -> Vec<TrialResult> {
+    // Trials are independent: run them in parallel, collect, then print in order.
+    specs
+        .par_iter()
+        .map(|spec| run_trial(spec, params))
+        .collect()
+}
+
+/// One parameter set of a comparison.
+struct Variant {
+    label: String,
+    params: Params,
+}
+
+fn variants(args: &Args) -> Result<Vec<Variant>> {
+    let base = Params::from_assignments(&args.set)?;
+    let Some(compare) = &args.compare else {
+        return Ok(vec![Variant {
+            label: "default".into(),
+            params: base,
+        }]);
+    };
+    let (lhs, values) = compare
+        .split_once('=')
+        .ok_or_else(|| anyhow!("--compare {compare}: expected STAGE.PARAM=V1,V2,..."))?;
+    let values: Vec<&str> = values
+        .split(',')
+        .map(str::trim)
+        .filter(|v| !v.is_empty())
+        .collect();
+    if values.is_empty() {
+        bail!("--compare {compare}: no values");
+    }
+    values
+        .into_iter()
+        .map(|v| {
+            let mut params = base.clone();
+            params.set(&set_param::parse_assignment(&format!("{lhs}={v}"))?)?;
+            Ok(Variant {
+                label: format!("{lhs}={v}"),
+                params,
+            })
+        })
+        .collect()
+}
+
+/// Runs `eval`.
+pub fn main(args: &Args) -> Result<()> {
+    let specs = suite(args)?;
+    let variants = variants(args)?;
+    let pool = rayon::ThreadPoolBuilder::new()
+        .num_threads(args.jobs.unwrap_or(0))
+        .build()
+        .context("cannot start the thread pool")?;
+    let mut all = Vec::new();
+    for v in &variants {
+        let start = Instant::now();
+        eprintln!("eval {}: {} trials...", v.label, specs.len());
+        let results = pool.install(|| run_suite(&specs, &v.params));
+        all.push((v.label.clone(), results, start.elapsed().as_secs_f64()));
+    }
+    if args.json {
+        let out: Vec<_> = all
+            .iter()
+            .map(|(label, results, secs)| {
+                json!({"variant": label, "trials": results, "summary": summary_json(results), "seconds": secs})
+            })
+            .collect();
+        println!(
+            "{}",
+            serde_json::to_string_pretty(&json!({ "variants": out }))?
+        );
+        return Ok(());
+    }
+    if all.len() == 1 {
+        let (label, results, secs) = &all[0];
+        print_table(results);
+        println!("{}", summary_line(label, results, *secs));
+    } else {
+        print_comparison(&all);
+    }
+    Ok(())
+}
+
+fn fmt_f(x: f64, digits: usize) -> String {
+    if x.is_finite() {
+        format!("{x:.digits$}")
+    } else {
+        "-".into()
+    }
+}
+
+fn print_table(results: &[TrialResult]) {
+    println!(
+        "{:<22} {:>7} {:>5} {:>5} {:>5} {:>5} {:>8} {:>8} {:>6} {:>6} {:>6} {:>5} {:>7}",
+        "trial",
+        "seg",
+        "ARI",
+        "topo",
+        "prec",
+        "rec",
+        "mean mm",
+        "worst mm",
+        "mean%",
+        "worst%",
+        "known%",
+        "kind",
+        "s"
+    );
+    for r in results {
+        if let Some(e) = &r.error {
+            println!("{:<22} FAILED: {e}", r.trial);
+            continue;
+        }
+        println!(
+            "{:<22} {:>7} {:>5} {:>5} {:>5} {:>5} {:>8} {:>8} {:>6} {:>6} {:>6} {:>5} {:>7}",
+            r.trial,
+            format!("{}/{}", r.segments, r.true_segments),
+            fmt_f(r.adjusted_rand, 2),
+            if r.topology_exact { "yes" } else { "NO" },
+            fmt_f(r.precision, 2),
+            fmt_f(r.recall, 2),
+            fmt_f(r.mean_error_mm, 1),
+            fmt_f(r.worst_error_mm, 1),
+            fmt_f(r.mean_error_pct, 2),
+            fmt_f(r.worst_error_pct, 2),
+            fmt_f(r.known_fraction * 100.0, 1),
+            fmt_f(r.kind_accuracy, 2),
+            fmt_f(r.seconds, 2),
+        );
+    }
+}
+
+/// Aggregates over a preset (or all trials).
+#[derive(Serialize)]
+struct Aggregate {
+    trials: usize,
+    failed: usize,
+    topology_exact: usize,
+    mean_error_pct: f64,
+    worst_error_pct: f64,
+    mean_known_fraction: f64,
+    seconds: f64,
+}
+
+fn aggregate<'a>(results: impl Iterator<Item = &'a TrialResult>) -> Aggregate {
+    let mut a = Aggregate {
+        trials: 0,
+        failed: 0,
+        topology_exact: 0,
+        mean_error_pct: 0.0,
+        // NaN until a trial is scored: f64::max ignores NaN.
+        worst_error_pct: f64::NAN,
+        mean_known_fraction: 0.0,
+        seconds: 0.0,
+    };
+    let mut scored = 0usize;
+    for r in results {
+        a.trials += 1;
+        a.seconds += r.seconds;
+        if r.error.is_some() {
+            a.failed += 1;
+            continue;
+        }
+        a.topology_exact += usize::from(r.topology_exact);
+        a.mean_known_fraction += r.known_fraction;
+        if r.mean_error_pct.is_finite() {
+            a.mean_error_pct += r.mean_error_pct;
+            scored += 1;
+        }
+        a.worst_error_pct = a.worst_error_pct.max(r.worst_error_pct);
+    }
+    let ok = a.trials - a.failed;
+    a.mean_error_pct = if scored > 0 {
+        a.mean_error_pct / scored as f64
+    } else {
+        f64::NAN
+    };
+    a.mean_known_fraction = if ok > 0 {
+        a.mean_known_fraction / ok as f64
+    } else {
+        f64::NAN
+    };
+    a
+}
+
+fn presets_of(results: &[TrialResult]) -> Vec<String> {
+    let mut presets: Vec<String> = Vec::new();
+    for r in results {
+        if !presets.contains(&r.preset) {
+            presets.push(r.preset.clone());
+        }
+    }
+    presets
+}
+
+fn summary_json(results: &[TrialResult]) -> serde_json::Value {
+    let mut map = serde_json::Map::new();
+    map.insert("all".into(), json!(aggregate(results.iter())));
+    for p in presets_of(results) {
+        map.insert(
+            p.clone(),
+            json!(aggregate(results.iter().filter(|r| r.preset == p))),
+        );
+    }
+    serde_json::Value::Object(map)
+}
+
+fn summary_line(label: &str, results: &[TrialResult], wall: f64) -> String {
+    let mut parts = Vec::new();
+    for p in presets_of(results) {
+        let a = aggregate(results.iter().filter(|r| r.preset == p));
+        parts.push(format!(
+            "{p}: topology {}/{}, mean {}% (worst {}%) of height, known {}%{}",
+            a.topology_exact,
+            a.trials,
+            fmt_f(a.mean_error_pct, 2),
+            fmt_f(a.worst_error_pct, 2),
+            fmt_f(a.mean_known_fraction * 100.0, 1),
+            if a.failed > 0 {
+                format!(", {} FAILED", a.failed)
+            } else {
+                String::new()
+            }
+        ));
+    }
+    format!("summary [{label}] {}; {wall:.1} s wall", parts.join("; "))
+}
+
+fn print_comparison(all: &[(String, Vec<TrialResult>, f64)]) {
+    let mut header = format!("{:<22}", "trial");
+    for (label, _, _) in all {
+        header.push_str(&format!(" | {:^30}", truncate(label, 30)));
+    }
+    println!("{header}");
+    let mut sub = format!("{:<22}", "");
+    for _ in all {
+        sub.push_str(&format!(
+            " | {:>4} {:>7} {:>7} {:>5} {:>4}",
+            "topo", "mean%", "worst%", "known", "s"
+        ));
+    }
+    println!("{sub}");
+    let n = all.first().map_or(0, |(_, r, _)| r.len());
+    for i in 0..n {
+        let mut line = format!("{:<22}", all[0].1[i].trial);
+        for (_, results, _) in all {
+            let r = &results[i];
+            if r.error.is_some() {
+                line.push_str(&format!(" | {:^30}", "FAILED"));
+            } else {
+                line.push_str(&format!(
+                    " | {:>4} {:>7} {:>7} {:>5} {:>4}",
+                    if r.topology_exact { "yes" } else { "NO" },
+                    fmt_f(r.mean_error_pct, 2),
+                    fmt_f(r.worst_error_pct, 2),
+                    fmt_f(r.known_fraction * 100.0, 1),
+                    fmt_f(r.seconds, 1)
+                ));
+            }
+        }
+        println!("{line}");
+    }
+    for (label, results, wall) in all {
+        println!("{}", summary_line(label, results, *wall));
+        for r in results.iter().filter(|r| r.error.is_some()) {
+            println!("  {} FAILED: {}", r.trial, r.error.as_deref().unwrap_or(""));
+        }
+    }
+}
+
+fn truncate(s: &str, n: usize) -> String {
+    s.chars().take(n).collect()
+}

@@ -1,0 +1,345 @@
+//! `cargo xtask inspect FILE [--json]`: what a capture or an artifact holds.
+
+use std::fmt::Write as _;
+use std::path::{Path, PathBuf};
+
+use anyhow::{Context as _, Result};
+use mocap_io::artifact::{self, ArtifactHeader};
+use mocap_io::{Capture, ReadOptions};
+use serde_json::{Value as Json, json};
+
+use crate::pipeline::{self, StageId};
+
+/// Arguments of `inspect`.
+#[derive(clap::Args)]
+pub struct Args {
+    /// A capture (.c3d, .trc, .csv) or an artifact (.cbor, or any file opening with the
+    /// CBOR self-describe tag d9 d9 f7).
+    pub file: PathBuf,
+    /// Print one JSON object on stdout instead of a readable summary.
+    #[arg(long)]
+    pub json: bool,
+}
+
+/// Runs `inspect`.
+pub fn main(args: &Args) -> Result<()> {
+    let report = inspect(&args.file)?;
+    if args.json {
+        println!("{}", serde_json::to_string_pretty(&report.json)?);
+    } else {
+        print!("{}", report.text);
+    }
+    Ok(())
+}
+
+/// A file's summary, as JSON and as text.
+pub struct Report {
+    /// The `--json` object.
+    pub json: Json,
+    /// The readable summary.
+    pub text: String,
+}
+
+/// Inspects a capture or an artifact.
+pub fn inspect(path: &Path) -> Result<Report> {
+    if is_artifact(path)? {
+        inspect_artifact(path)
+    } else {
+        let capture = mocap_io::read_capture(path, &ReadOptions::default())?;
+        Ok(capture_report(&capture))
+    }
+}
+
+fn is_artifact(path: &Path) -> Result<bool> {
+    if path
+        .extension()
+        .is_some_and(|e| e.eq_ignore_ascii_case("cbor"))
+    {
+        return Ok(true);
+    }
+    let mut head = [0u8; 3];
+    let mut file =
+        std::fs::File::open(path).with_context(|| format!("{}: cannot open", path.display()))?;
+    let n = std::io::Read::read(&mut file, &mut head)
+        .with_context(|| format!("{}: cannot read", path.display()))?;
+    Ok(n == 3 && head == artifact::MAGIC)
+}
+
+/// The summary of a capture as read (positions in mm).
+pub fn capture_report(capture: &Capture) -> Report {
+    let t = &capture.trajectories;
+    let frames = t.frames();
+    let middle = frames / 2;
+    let middle_frame: Json = if frames == 0 {
+        Json::Null
+    } else {
+        // One entry per marker, in label order (like `labels`).
+        Json::Array(
+            (0..t.markers())
+                .map(|m| t.get(middle, m).map_or(Json::Null, |p| json!(p)))
+                .collect(),
+        )
+    };
+    let json = json!({
+        "kind": "capture",
+        "format": capture.format.name(),
+        "markers": t.markers(),
+        "labels": t.labels(),
+        "first_frame": t.first_frame(),
+        "frames": frames,
+        "frame_rate": t.frame_rate(),
+        "duration_seconds": t.duration_seconds(),
+        "units": capture.info.declared_units,
+        "processor": capture.info.processor,
+        "storage": capture.info.storage,
+        "point_scale": capture.info.point_scale,
+        "missing_samples": t.missing_samples(),
+        "middle_frame": middle_frame,
+        "warnings": capture.info.warnings,
+    });
+
+    let mut text = String::new();
+    let total = frames * t.markers();
+    let _ = writeln!(text, "format        {}", capture.format.name());
+    if let (Some(p), Some(s)) = (&capture.info.processor, &capture.info.storage) {
+        let _ = writeln!(text, "encoding      {p}, {s}");
+    }
+    let _ = writeln!(
+        text,
+        "units         {} (positions below in mm)",
+        capture
+            .info
+            .declared_units
+            .as_deref()
+            .unwrap_or("not declared")
+    );
+    let _ = writeln!(text, "markers       {}", t.markers());
+    let _ = writeln!(
+        text,
+        "frames        {frames} (first {}), {} Hz, {:.2} s",
+        t.first_frame(),
+        t.frame_rate(),
+        t.duration_seconds()
+    );
+    let _ = writeln!(
+        text,
+        "missing       {} of {total} samples ({:.1} %)",
+        t.missing_samples(),
+        percent(t.missing_samples(), total)
+    );
+    if frames > 0 {
+        let _ = writeln!(text, "frame index {middle} (middle):");
+        for (m, label) in t.labels().iter().enumerate() {
+            match t.get(middle, m) {
+                Some([x, y, z]) => {
+                    let _ = writeln!(text, "  {label:<12} {x:>10.2} {y:>10.2} {z:>10.2}");
+                }
+                None => {
+                    let _ = writeln!(text, "  {label:<12} missing");
+                }
+            }
+        }
+    }
+    for w in &capture.info.warnings {
+        let _ = writeln!(text, "warning: {w}");
+    }
+    Report { json, text }
+}
+
+fn percent(part: usize, whole: usize) -> f64 {
+    if whole == 0 {
+        0.0
+    } else {
+        100.0 * part as f64 / whole as f64
+    }
+}
+
+fn inspect_artifact(path: &Path) -> Result<Report> {
+    let bytes = std::fs::read(path).with_context(|| format!("{}: cannot read", path.display()))?;
+    let (header, payload): (ArtifactHeader, ciborium::Value) = artifact::decode(&bytes, path)?;
+    let keys = payload_keys(&payload);
+    // A known stage's payload is decoded with its own type for a domain summary; a payload
+    // that does not decode (older schema, damage) is reported, not fatal.
+    let domain = match StageId::from_name(&header.stage) {
+        Ok(stage) => match pipeline::decode_payload(stage, &bytes, path) {
+            Ok((_, payload)) => payload.summary(),
+            Err(e) => json!({ "error": format!("{e:#}") }),
+        },
+        Err(_) => Json::Null,
+    };
+    let params_json = cbor_to_json(&header.params);
+    let json = json!({
+        "kind": "artifact",
+        "bytes": bytes.len(),
+        "blake3": artifact::content_hash(&bytes),
+        "header": {
+            "stage": header.stage,
+            "schema_version": header.schema_version,
+            "tool_version": header.tool_version,
+            "params": params_json,
+            "inputs": header.inputs.iter().map(|i| json!({"role": i.role, "blake3": i.blake3})).collect::<Vec<_>>(),
+        },
+        "payload": keys,
+        "summary": domain,
+    });
+
+    let mut text = String::new();
+    let _ = writeln!(
+        text,
+        "artifact      {} ({} bytes)",
+        path.display(),
+        bytes.len()
+    );
+    let _ = writeln!(text, "blake3        {}", artifact::content_hash(&bytes));
+    let _ = writeln!(
+        text,
+        "stage         {} (schema v{})",
+        header.stage, header.schema_version
+    );
+    let _ = writeln!(text, "tool version  {}", header.tool_version);
+    let _ = writeln!(text, "params        {}", json["header"]["params"]);
+    for input in &header.inputs {
+        let _ = writeln!(text, "input         {:<10} {}", input.role, input.blake3);
+    }
+    let _ = writeln!(text, "payload:");
+    if let Json::Array(entries) = &keys {
+        for e in entries {
+            let _ = writeln!(
+                text,
+                "  {:<22} {:<6} {:>8} items {:>10} bytes",
+                e["key"].as_str().unwrap_or("?"),
+                e["type"].as_str().unwrap_or("?"),
+                e["items"],
+                e["bytes"]
+            );
+        }
+    }
+    if let Json::Object(map) = &domain {
+        let _ = writeln!(text, "summary:");
+        for (k, v) in map {
+            let _ = writeln!(text, "  {k:<22} {v}");
+        }
+    }
+    Ok(Report { json, text })
+}
+
+/// Top-level keys of a payload with their CBOR type, item count and encoded size.
+fn payload_keys(payload: &ciborium::Value) -> Json {
+    match payload {
+        ciborium::Value::Map(entries) => Json::Array(
+            entries
+                .iter()
+                .map(|(k, v)| {
+                    let key = match k {
+                        ciborium::Value::Text(s) => s.clone(),
+                        other => format!("{other:?}"),
+                    };
+                    let (kind, items) = describe(v);
+                    json!({"key": key, "type": kind, "items": items, "bytes": encoded_len(v)})
+                })
+                .collect(),
+        ),
+        other => {
+            let (kind, items) = describe(other);
+            json!([{"key": "", "type": kind, "items": items, "bytes": encoded_len(other)}])
+        }
+    }
+}
+
+fn describe(v: &ciborium::Value) -> (&'static str, usize) {
+    use ciborium::Value as V;
+    match v {
+        V::Map(m) => ("map", m.len()),
+        V::Array(a) => ("array", a.len()),
+        V::Bytes(b) => ("bytes", b.len()),
+        V::Text(t) => ("text", t.len()),
+        V::Integer(_) => ("int", 1),
+        V::Float(_) => ("float", 1),
+        V::Bool(_) => ("bool", 1),
+        V::Null => ("null", 0),
+        V::Tag(_, inner) => describe(inner),
+        _ => ("other", 1),
+    }
+}
+
+fn encoded_len(v: &ciborium::Value) -> usize {
+    let mut out = Vec::new();
+    match ciborium::into_writer(v, &mut out) {
+        Ok(()) => out.len(),
+        Err(_) => 0,
+    }
+}
+
+/// A CBOR value as JSON for printing (byte strings as their length).
+pub fn cbor_to_json(v: &ciborium::Value) -> Json {
+    use ciborium::Value as V;
+    match v {
+        V::Integer(i) => {
+            let i: i128 = (*i).into();
+            i64::try_from(i).map_or_else(|_| json!(i.to_string()), |i| json!(i))
+        }
+        V::Float(f) => json!(f),
+        V::Bool(b) => json!(b),
+        V::Null => Json::Null,
+        V::Text(s) => json!(s),
+        V::Bytes(b) => json!(format!("<{} bytes>", b.len())),
+        V::Array(a) => Json::Array(a.iter().map(cbor_to_json).collect()),
+        V::Map(m) => Json::Object(
+            m.iter()
+                .map(|(k, v)| {
+                    let key = match k {
+                        V::Text(s) => s.clone(),
+                        other => cbor_to_json(other).to_string(),
+                    };
+                    (key, cbor_to_json(v))
+                })
+                .collect(),
+        ),
+        V::Tag(_, inner) => cbor_to_json(inner),
+        _ => Json::Null,
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use mocap_io::{CaptureInfo, Format, Trajectories};
+
+    #[test]
+    fn capture_json_has_the_contract_fields() {
+        let t = Trajectories::new(
+            vec!["A".into(), "B".into()],
+            100.0,
+            1,
+            3,
+            vec![
+                [0.0, 0.0, 1.0],
+                [1.0, 1.0, 1.0],
+                [2.0, 0.0, 1.0],
+                [f64::NAN; 3],
+                [4.0, 0.0, 1.0],
+                [5.0, 5.0, 5.0],
+            ],
+        )
+        .unwrap();
+        let capture = Capture {
+            format: Format::Trc,
+            trajectories: t,
+            info: CaptureInfo {
+                declared_units: Some("m".into()),
+                warnings: vec!["w".into()],
+                ..CaptureInfo::default()
+            },
+        };
+        let r = capture_report(&capture);
+        assert_eq!(r.json["format"], "trc");
+        assert_eq!(r.json["markers"], 2);
+        assert_eq!(r.json["frames"], 3);
+        assert_eq!(r.json["first_frame"], 1);
+        assert_eq!(r.json["units"], "m");
+        assert_eq!(r.json["missing_samples"], 1);
+        assert_eq!(r.json["middle_frame"], json!([[2.0, 0.0, 1.0], null]));
+        assert_eq!(r.json["warnings"], json!(["w"]));
+        assert!(r.text.contains("missing"));
+    }
+}

@@ -1,0 +1,630 @@
+//! The stage graph: which stage reads which artifacts, how each is computed (in-process,
+//! by calling the stage crate), encoded, decoded, keyed and reused from the cache.
+//!
+//! ```text
+//! capture file ─► mocap-io ─► segment ─► jointfit ─► topo ─► bonefit ─► export
+//!                    │           │          │          │        ▲  ▲       ▲
+//!                    └───────────┴──────────┴──────────┴────────┘  │       │
+//!                    (bonefit reads capture, segment, jointfit, topo; export reads all)
+//! ```
+//!
+//! Artifact inputs are identified by role = the upstream stage's name, and hashed by the
+//! blake3 of the upstream artifact's bytes; mocap-io's one input is the capture file
+//! (role "capture", the blake3 of the file's bytes).
+
+use std::path::Path;
+use std::time::Instant;
+
+use anyhow::{Context as _, Result, anyhow, bail};
+use bonefit::Skeleton;
+use jointfit::PairFits;
+use mocap_io::artifact::{self, ArtifactHeader, InputHash};
+use mocap_io::{Capture, ReadOptions};
+use segment::Segmentation;
+use serde::Serialize;
+use serde_json::{Value as Json, json};
+use topo::Topology;
+
+use crate::cache::{self, Cache};
+use crate::progress::Progress;
+use crate::set_param::{self, Assignment};
+
+/// Version of ossify written into artifact headers.
+pub const TOOL_VERSION: &str = env!("CARGO_PKG_VERSION");
+
+/// Role name of mocap-io's input, the capture file.
+pub const CAPTURE_ROLE: &str = "capture";
+
+/// Meanings of mocap-io's parameters ([`ReadOptions`]), which mocap-io documents on the type.
+pub const READ_PARAM_DOCS: &[(&str, &str)] = &[(
+    "keep_invalid_residuals",
+    "C3D: keep samples with a negative residual when a file flags every sample invalid \
+     although its coordinates vary (SIMI writes such files); default false: read them as \
+     missing, with a warning",
+)];
+
+/// One stage of the pipeline, in pipeline order.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, PartialOrd, Ord, Hash)]
+pub enum StageId {
+    /// Capture file → [`Capture`].
+    MocapIo,
+    /// → [`Segmentation`].
+    Segment,
+    /// → [`PairFits`].
+    Jointfit,
+    /// → [`Topology`].
+    Topo,
+    /// → [`Skeleton`].
+    Bonefit,
+    /// → [`export::Outputs`].
+    Export,
+}
+
+impl StageId {
+    /// Every stage, upstream first.
+    pub const ALL: [StageId; 6] = [
+        StageId::MocapIo,
+        StageId::Segment,
+        StageId::Jointfit,
+        StageId::Topo,
+        StageId::Bonefit,
+        StageId::Export,
+    ];
+
+    /// The stage's name (its crate's `STAGE`).
+    pub fn name(self) -> &'static str {
+        match self {
+            StageId::MocapIo => mocap_io::STAGE,
+            StageId::Segment => segment::STAGE,
+            StageId::Jointfit => jointfit::STAGE,
+            StageId::Topo => topo::STAGE,
+            StageId::Bonefit => bonefit::STAGE,
+            StageId::Export => export::STAGE,
+        }
+    }
+
+    /// The schema version of the stage's artifact.
+    pub fn schema_version(self) -> u32 {
+        match self {
+            StageId::MocapIo => mocap_io::SCHEMA_VERSION,
+            StageId::Segment => segment::SCHEMA_VERSION,
+            StageId::Jointfit => jointfit::SCHEMA_VERSION,
+            StageId::Topo => topo::SCHEMA_VERSION,
+            StageId::Bonefit => bonefit::SCHEMA_VERSION,
+            StageId::Export => export::SCHEMA_VERSION,
+        }
+    }
+
+    /// The artifacts the stage reads (mocap-io reads the capture file instead).
+    pub fn inputs(self) -> &'static [StageId] {
+        use StageId::*;
+        match self {
+            MocapIo => &[],
+            Segment => &[MocapIo],
+            Jointfit => &[MocapIo, Segment],
+            Topo => &[Segment, Jointfit],
+            Bonefit => &[MocapIo, Segment, Jointfit, Topo],
+            Export => &[MocapIo, Segment, Jointfit, Topo, Bonefit],
+        }
+    }
+
+    /// The stage's `PARAM_DOCS`.
+    pub fn param_docs(self) -> &'static [(&'static str, &'static str)] {
+        match self {
+            StageId::MocapIo => READ_PARAM_DOCS,
+            StageId::Segment => segment::PARAM_DOCS,
+            StageId::Jointfit => jointfit::PARAM_DOCS,
+            StageId::Topo => topo::PARAM_DOCS,
+            StageId::Bonefit => bonefit::PARAM_DOCS,
+            StageId::Export => export::PARAM_DOCS,
+        }
+    }
+
+    /// The stage of a name; the error lists the valid names.
+    pub fn from_name(name: &str) -> Result<StageId> {
+        StageId::ALL
+            .into_iter()
+            .find(|s| s.name() == name)
+            .ok_or_else(|| {
+                let names: Vec<_> = StageId::ALL.iter().map(|s| s.name()).collect();
+                anyhow!("unknown stage '{name}'; stages: {}", names.join(", "))
+            })
+    }
+}
+
+/// Cache bucket names of the current stages (`<stage>-v<schema>`), for pruning.
+pub fn buckets() -> Vec<String> {
+    StageId::ALL
+        .iter()
+        .map(|s| Cache::bucket_name(s.name(), s.schema_version()))
+        .collect()
+}
+
+/// The parameters of every stage.
+#[derive(Clone, Debug, Default)]
+pub struct Params {
+    /// mocap-io: how captures are read.
+    pub mocap_io: ReadOptions,
+    /// segment stage.
+    pub segment: segment::Params,
+    /// jointfit stage.
+    pub jointfit: jointfit::Params,
+    /// topo stage.
+    pub topo: topo::Params,
+    /// bonefit stage.
+    pub bonefit: bonefit::Params,
+    /// export stage.
+    pub export: export::Params,
+}
+
+impl Params {
+    /// Defaults with `STAGE.PARAM=VALUE` assignments applied in order.
+    pub fn from_assignments(assignments: &[String]) -> Result<Params> {
+        let mut params = Params::default();
+        for text in assignments {
+            params.set(&set_param::parse_assignment(text)?)?;
+        }
+        Ok(params)
+    }
+
+    /// Applies one assignment.
+    pub fn set(&mut self, a: &Assignment) -> Result<()> {
+        let stage = StageId::from_name(&a.stage).with_context(|| format!("--set {}", a.text))?;
+        let docs = stage.param_docs();
+        match stage {
+            StageId::MocapIo => self.mocap_io = set_param::apply(&self.mocap_io, a, docs)?,
+            StageId::Segment => self.segment = set_param::apply(&self.segment, a, docs)?,
+            StageId::Jointfit => self.jointfit = set_param::apply(&self.jointfit, a, docs)?,
+            StageId::Topo => self.topo = set_param::apply(&self.topo, a, docs)?,
+            StageId::Bonefit => self.bonefit = set_param::apply(&self.bonefit, a, docs)?,
+            StageId::Export => self.export = set_param::apply(&self.export, a, docs)?,
+        }
+        Ok(())
+    }
+
+    /// A stage's parameters as canonical CBOR (what goes into headers and keys).
+    pub fn canonical(&self, stage: StageId) -> Result<ciborium::Value> {
+        match stage {
+            StageId::MocapIo => cache::canonical_value(&self.mocap_io),
+            StageId::Segment => cache::canonical_value(&self.segment),
+            StageId::Jointfit => cache::canonical_value(&self.jointfit),
+            StageId::Topo => cache::canonical_value(&self.topo),
+            StageId::Bonefit => cache::canonical_value(&self.bonefit),
+            StageId::Export => cache::canonical_value(&self.export),
+        }
+    }
+
+    /// A stage's parameters as JSON (for `params` and messages).
+    pub fn json(&self, stage: StageId) -> Result<Json> {
+        let v = match stage {
+            StageId::MocapIo => serde_json::to_value(&self.mocap_io),
+            StageId::Segment => serde_json::to_value(&self.segment),
+            StageId::Jointfit => serde_json::to_value(&self.jointfit),
+            StageId::Topo => serde_json::to_value(&self.topo),
+            StageId::Bonefit => serde_json::to_value(&self.bonefit),
+            StageId::Export => serde_json::to_value(&self.export),
+        };
+        v.with_context(|| format!("{}: parameters do not serialize", stage.name()))
+    }
+}
+
+/// One stage's output.
+pub enum Payload {
+    /// mocap-io.
+    Capture(Capture),
+    /// segment.
+    Segmentation(Segmentation),
+    /// jointfit.
+    PairFits(PairFits),
+    /// topo.
+    Topology(Topology),
+    /// bonefit.
+    Skeleton(Skeleton),
+    /// export.
+    Outputs(export::Outputs),
+}
+
+impl Payload {
+    /// Encodes the payload under a header as artifact bytes.
+    pub fn encode(&self, header: &ArtifactHeader) -> Result<Vec<u8>> {
+        let bytes = match self {
+            Payload::Capture(p) => artifact::encode(header, p),
+            Payload::Segmentation(p) => artifact::encode(header, p),
+            Payload::PairFits(p) => artifact::encode(header, p),
+            Payload::Topology(p) => artifact::encode(header, p),
+            Payload::Skeleton(p) => artifact::encode(header, p),
+            Payload::Outputs(p) => artifact::encode(header, p),
+        };
+        Ok(bytes?)
+    }
+
+    /// A short domain summary (segment count, joints, files...).
+    pub fn summary(&self) -> Json {
+        match self {
+            Payload::Capture(c) => {
+                let t = &c.trajectories;
+                json!({
+                    "format": c.format.name(), "markers": t.markers(), "frames": t.frames(),
+                    "frame_rate": t.frame_rate(), "missing_samples": t.missing_samples(),
+                    "units_declared": c.info.declared_units, "warnings": c.info.warnings.len(),
+                })
+            }
+            Payload::Segmentation(s) => json!({
+                "segments": s.segments.len(),
+                "markers_per_segment": s.segments.iter().map(|x| x.markers.len()).collect::<Vec<_>>(),
+                "unassigned_markers": s.unassigned.len(),
+                "sliding_markers": s.markers.iter().filter(|m| m.slides).count(),
+            }),
+            Payload::PairFits(f) => {
+                let mut kinds = std::collections::BTreeMap::<String, usize>::new();
+                for p in &f.pairs {
+                    *kinds
+                        .entry(format!("{:?}", p.kind).to_lowercase())
+                        .or_default() += 1;
+                }
+                json!({
+                    "frames": f.frames, "segments": f.poses.len(), "pairs": f.pairs.len(),
+                    "kinds": kinds,
+                    "methods": f.pairs.iter().map(|p| p.method.clone()).collect::<std::collections::BTreeSet<_>>(),
+                })
+            }
+            Payload::Topology(t) => json!({
+                "root_segment": t.root_segment,
+                "joints": t.joints.len(),
+                "edges": t.joints.iter().map(|j| format!("{} {}→{}", j.name, j.parent_segment, j.child_segment)).collect::<Vec<_>>(),
+                "detached_segments": t.detached_segments,
+            }),
+            Payload::Skeleton(s) => json!({
+                "frame_count": s.frame_count, "frame_rate": s.frame_rate,
+                "root_segment": s.root_segment, "joints": s.joints.len(),
+                "bone_lengths_mm": s.joints.iter()
+                    .map(|j| (j.name.clone(), json!((j.bone_length * 10.0).round() / 10.0)))
+                    .collect::<serde_json::Map<_, _>>(),
+            }),
+            Payload::Outputs(o) => json!({
+                "files": o.files.iter().map(|(k, v)| (k.clone(), json!(v.len()))).collect::<serde_json::Map<_, _>>(),
+            }),
+        }
+    }
+}
+
+/// Decodes artifact bytes as `stage`'s payload, checking the header's stage and schema.
+pub fn decode_payload(
+    stage: StageId,
+    bytes: &[u8],
+    path: &Path,
+) -> Result<(ArtifactHeader, Payload)> {
+    fn typed<P: serde::de::DeserializeOwned>(
+        bytes: &[u8],
+        path: &Path,
+        wrap: fn(P) -> Payload,
+    ) -> Result<(ArtifactHeader, Payload)> {
+        let (h, p) = artifact::decode::<P>(bytes, path)?;
+        Ok((h, wrap(p)))
+    }
+    let (header, payload) = match stage {
+        StageId::MocapIo => typed(bytes, path, Payload::Capture)?,
+        StageId::Segment => typed(bytes, path, Payload::Segmentation)?,
+        StageId::Jointfit => typed(bytes, path, Payload::PairFits)?,
+        StageId::Topo => typed(bytes, path, Payload::Topology)?,
+        StageId::Bonefit => typed(bytes, path, Payload::Skeleton)?,
+        StageId::Export => typed(bytes, path, Payload::Outputs)?,
+    };
+    if header.stage != stage.name() || header.schema_version != stage.schema_version() {
+        bail!(
+            "{}: artifact of {} v{}, expected {} v{}",
+            path.display(),
+            header.stage,
+            header.schema_version,
+            stage.name(),
+            stage.schema_version()
+        );
+    }
+    Ok((header, payload))
+}
+
+/// Reads only an artifact's header (the payload is skipped, not decoded).
+pub fn read_header(bytes: &[u8], path: &Path) -> Result<ArtifactHeader> {
+    let (header, _) = artifact::decode::<serde::de::IgnoredAny>(bytes, path)?;
+    Ok(header)
+}
+
+/// The decoded artifacts of one pipeline run, as far as it got.
+#[derive(Default)]
+pub struct Products {
+    /// mocap-io's output.
+    pub capture: Option<Capture>,
+    /// segment's output.
+    pub segmentation: Option<Segmentation>,
+    /// jointfit's output.
+    pub fits: Option<PairFits>,
+    /// topo's output.
+    pub topology: Option<Topology>,
+    /// bonefit's output.
+    pub skeleton: Option<Skeleton>,
+    /// export's output.
+    pub outputs: Option<export::Outputs>,
+}
+
+fn need<T>(x: &Option<T>, stage: StageId) -> Result<&T> {
+    x.as_ref().ok_or_else(|| {
+        anyhow!(
+            "the {} artifact is missing (give it with --in)",
+            stage.name()
+        )
+    })
+}
+
+impl Products {
+    /// Keeps a stage's output.
+    pub fn put(&mut self, payload: Payload) {
+        match payload {
+            Payload::Capture(p) => self.capture = Some(p),
+            Payload::Segmentation(p) => self.segmentation = Some(p),
+            Payload::PairFits(p) => self.fits = Some(p),
+            Payload::Topology(p) => self.topology = Some(p),
+            Payload::Skeleton(p) => self.skeleton = Some(p),
+            Payload::Outputs(p) => self.outputs = Some(p),
+        }
+    }
+
+    /// Runs one stage on the products it needs. mocap-io reads `capture_file`.
+    pub fn compute(
+        &self,
+        stage: StageId,
+        params: &Params,
+        capture_file: Option<&Path>,
+    ) -> Result<Payload> {
+        let capture = || need(&self.capture, StageId::MocapIo);
+        let seg = || need(&self.segmentation, StageId::Segment);
+        let fits = || need(&self.fits, StageId::Jointfit);
+        let topology = || need(&self.topology, StageId::Topo);
+        Ok(match stage {
+            StageId::MocapIo => {
+                let path = capture_file.ok_or_else(|| anyhow!("mocap-io needs a capture file"))?;
+                Payload::Capture(mocap_io::read_capture(path, &params.mocap_io)?)
+            }
+            StageId::Segment => {
+                Payload::Segmentation(segment::run(&capture()?.trajectories, &params.segment)?)
+            }
+            StageId::Jointfit => Payload::PairFits(jointfit::run(
+                &capture()?.trajectories,
+                seg()?,
+                &params.jointfit,
+            )?),
+            StageId::Topo => Payload::Topology(topo::run(seg()?, fits()?, &params.topo)?),
+            StageId::Bonefit => Payload::Skeleton(bonefit::run(
+                &capture()?.trajectories,
+                seg()?,
+                fits()?,
+                topology()?,
+                &params.bonefit,
+            )?),
+            StageId::Export => {
+                let inputs = export::Inputs {
+                    trajectories: &capture()?.trajectories,
+                    segmentation: seg()?,
+                    fits: fits()?,
+                    topology: topology()?,
+                    skeleton: need(&self.skeleton, StageId::Bonefit)?,
+                };
+                Payload::Outputs(export::run(&inputs, &params.export)?)
+            }
+        })
+    }
+}
+
+/// What happened to one stage in a run.
+#[derive(Clone, Debug, Serialize)]
+pub struct StageRun {
+    /// Stage name.
+    pub name: &'static str,
+    /// True when the artifact came from the cache.
+    pub cached: bool,
+    /// Wall time of the stage (computing, or loading and checking the cached entry).
+    pub seconds: f64,
+    /// Cache key of the run.
+    #[serde(skip)]
+    pub key: String,
+    /// blake3 of the artifact's bytes.
+    #[serde(skip)]
+    pub hash: String,
+}
+
+/// The header a stage's artifact gets.
+pub fn header(stage: StageId, params: &Params, inputs: Vec<InputHash>) -> Result<ArtifactHeader> {
+    Ok(ArtifactHeader {
+        stage: stage.name().to_string(),
+        schema_version: stage.schema_version(),
+        tool_version: TOOL_VERSION.to_string(),
+        params: params.canonical(stage)?,
+        inputs,
+    })
+}
+
+/// Runs the whole pipeline on a capture file with the cache.
+///
+/// `force_from`: that stage and everything downstream are recomputed even when cached.
+/// Returns the products and one [`StageRun`] per stage. A failing stage's error names
+/// the stage and the capture file.
+pub fn run_cached(
+    capture_file: &Path,
+    params: &Params,
+    cache: &Cache,
+    force_from: Option<StageId>,
+    progress: &Progress,
+) -> Result<(Products, Vec<StageRun>)> {
+    let file_bytes = std::fs::read(capture_file)
+        .with_context(|| format!("{}: cannot read", capture_file.display()))?;
+    let file_hash = artifact::content_hash(&file_bytes);
+    drop(file_bytes);
+
+    let mut products = Products::default();
+    let mut runs: Vec<StageRun> = Vec::new();
+    for stage in StageId::ALL {
+        let start = Instant::now();
+        progress.start(stage.name());
+        let inputs: Vec<InputHash> = if stage == StageId::MocapIo {
+            vec![InputHash {
+                role: CAPTURE_ROLE.into(),
+                blake3: file_hash.clone(),
+            }]
+        } else {
+            stage
+                .inputs()
+                .iter()
+                .map(|up| InputHash {
+                    role: up.name().into(),
+                    blake3: runs[*up as usize].hash.clone(),
+                })
+                .collect()
+        };
+        let header = header(stage, params, inputs)?;
+        let key = cache::cache_key(
+            stage.name(),
+            stage.schema_version(),
+            &cache::encode(&header.params),
+            &header.inputs,
+        );
+        let forced = force_from.is_some_and(|f| stage >= f);
+        let hit = if forced {
+            None
+        } else {
+            load_checked(cache, stage, &key, &header, progress)
+        };
+        let (cached, hash) = match hit {
+            Some((payload, hash)) => {
+                products.put(payload);
+                (true, hash)
+            }
+            None => {
+                let payload = products
+                    .compute(stage, params, Some(capture_file))
+                    .with_context(|| {
+                        format!(
+                            "stage {} failed on {}",
+                            stage.name(),
+                            capture_file.display()
+                        )
+                    });
+                let payload = match payload {
+                    Ok(p) => p,
+                    Err(e) => {
+                        progress.abandon();
+                        return Err(e);
+                    }
+                };
+                let bytes = payload.encode(&header)?;
+                if let Err(e) = cache.store(stage.name(), stage.schema_version(), &key, &bytes) {
+                    progress.warn(&format!("not cached: {e:#}"));
+                }
+                products.put(payload);
+                (false, artifact::content_hash(&bytes))
+            }
+        };
+        let seconds = start.elapsed().as_secs_f64();
+        progress.finish();
+        runs.push(StageRun {
+            name: stage.name(),
+            cached,
+            seconds,
+            key,
+            hash,
+        });
+    }
+    Ok((products, runs))
+}
+
+/// A cache entry decoded and checked against the header it should have; `None` (after a
+/// warning for a damaged or foreign entry) when there is no usable entry.
+fn load_checked(
+    cache: &Cache,
+    stage: StageId,
+    key: &str,
+    expected: &ArtifactHeader,
+    progress: &Progress,
+) -> Option<(Payload, String)> {
+    let path = cache.entry_path(stage.name(), stage.schema_version(), key);
+    let bytes = match cache.load(stage.name(), stage.schema_version(), key) {
+        Ok(Some(b)) => b,
+        Ok(None) => return None,
+        Err(e) => {
+            progress.warn(&format!("{e:#}; recomputing"));
+            return None;
+        }
+    };
+    match decode_payload(stage, &bytes, &path) {
+        Ok((header, payload)) => {
+            // The tool version may differ: the key deliberately leaves it out.
+            let same = header.params == expected.params && header.inputs == expected.inputs;
+            if same {
+                Some((payload, artifact::content_hash(&bytes)))
+            } else {
+                progress.warn(&format!(
+                    "{}: cache entry does not match its key (parameters or inputs differ); recomputing",
+                    path.display()
+                ));
+                None
+            }
+        }
+        Err(e) => {
+            progress.warn(&format!("damaged cache entry, recomputing: {e:#}"));
+            None
+        }
+    }
+}
+
+/// Runs segment → export in memory on a capture already read (no cache, no files).
+///
+/// Returns the products and the time of each stage (mocap-io not included).
+pub fn run_in_memory(capture: Capture, params: &Params) -> Result<(Products, Vec<StageRun>)> {
+    let mut products = Products {
+        capture: Some(capture),
+        ..Products::default()
+    };
+    let mut runs = Vec::new();
+    for stage in &StageId::ALL[1..] {
+        let start = Instant::now();
+        let payload = products
+            .compute(*stage, params, None)
+            .with_context(|| format!("stage {} failed", stage.name()))?;
+        products.put(payload);
+        runs.push(StageRun {
+            name: stage.name(),
+            cached: false,
+            seconds: start.elapsed().as_secs_f64(),
+            key: String::new(),
+            hash: String::new(),
+        });
+    }
+    Ok((products, runs))
+}
+
+/// Checks that an output file name is a plain name (export chooses it; we write it).
+pub fn check_output_name(name: &str) -> Result<()> {
+    let plain = !name.is_empty()
+        && name != "."
+        && name != ".."
+        && !name.contains(['/', '\\'])
+        && !name.starts_with('.');
+    if plain {
+        Ok(())
+    } else {
+        bail!("export produced a file named {name:?}, which is not a plain file name")
+    }
+}
+
+/// Writes output files into a folder, each atomically; only called once every stage succeeded.
+pub fn write_outputs(outputs: &export::Outputs, dir: &Path) -> Result<Vec<std::path::PathBuf>> {
+    for name in outputs.files.keys() {
+        check_output_name(name)?;
+    }
+    std::fs::create_dir_all(dir).with_context(|| format!("{}: cannot create", dir.display()))?;
+    let mut written = Vec::new();
+    for (name, bytes) in &outputs.files {
+        let path = dir.join(name);
+        cache::atomic_write(&path, bytes)?;
+        written.push(path);
+    }
+    Ok(written)
+}

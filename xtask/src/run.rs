@@ -1,0 +1,317 @@
+//! `cargo xtask run`: a capture in, skeleton files out, every stage cached.
+
+use std::path::{Path, PathBuf};
+
+use anyhow::{Context as _, Result, bail};
+use serde_json::json;
+
+use crate::cache::{self, Cache};
+use crate::pipeline::{self, Params, StageId, StageRun};
+use crate::progress::Progress;
+
+/// The bundled input used when `run` gets none (relative to the project root).
+pub const DEFAULT_INPUT: &str = "fixtures/human-clean.c3d";
+
+/// Arguments of `run`.
+#[derive(clap::Args)]
+#[command(after_help = "\
+Stages: mocap-io, segment, jointfit, topo, bonefit, export. Each stage's artifact is cached \
+under <cache>/<stage>-v<schema>/<key>.cbor, keyed by the stage, its schema version, its \
+parameters and its inputs' content hashes: a rerun recomputes only what changed and what \
+is downstream of it. Output files are written only when every stage succeeded, each \
+atomically. `cargo xtask params` lists every STAGE.PARAM.")]
+pub struct Args {
+    /// Capture file: C3D, TRC or CSV [default: fixtures/human-clean.c3d].
+    pub input: Option<PathBuf>,
+    /// Output folder [default: out/<input stem>/].
+    #[arg(long, value_name = "DIR")]
+    pub out: Option<PathBuf>,
+    /// Set a stage parameter, e.g. jointfit.alpha=0.25 or jointfit.method=aguiar
+    /// (VALUE is JSON if it parses, else a string). Repeatable.
+    #[arg(long = "set", value_name = "STAGE.PARAM=VALUE")]
+    pub set: Vec<String>,
+    /// Recompute this stage and everything downstream, even when cached.
+    #[arg(long, value_name = "STAGE")]
+    pub from: Option<String>,
+    /// Recompute every stage (the cache is still refreshed).
+    #[arg(long)]
+    pub force: bool,
+    /// Print a JSON report on stdout (stages, cache hits, seconds, outputs).
+    #[arg(long)]
+    pub json: bool,
+    /// Cache folder [default: $OSSIFY_CACHE, else <project root>/.cache/ossify].
+    #[arg(long, value_name = "DIR")]
+    pub cache: Option<PathBuf>,
+}
+
+/// What a run did.
+#[derive(Debug)]
+pub struct Report {
+    /// One entry per stage, in pipeline order.
+    pub stages: Vec<StageRun>,
+    /// Output folder.
+    pub out: PathBuf,
+    /// Segments found.
+    pub segments: usize,
+    /// Joints in the tree.
+    pub joints: usize,
+    /// Files written.
+    pub files: Vec<PathBuf>,
+}
+
+impl Report {
+    /// The `--json` object.
+    pub fn json(&self) -> serde_json::Value {
+        json!({
+            "stages": self.stages,
+            "out": self.out,
+            "segments": self.segments,
+            "joints": self.joints,
+            "files": self.files,
+        })
+    }
+}
+
+/// Runs `run`.
+pub fn main(args: &Args) -> Result<()> {
+    let report = execute(args, &Progress::stderr())?;
+    eprintln!("{}", summary(&report));
+    if args.json {
+        println!("{}", serde_json::to_string_pretty(&report.json())?);
+    }
+    Ok(())
+}
+
+/// The input a run reads: the argument, or the bundled fixture.
+pub fn input_path(input: Option<&Path>) -> PathBuf {
+    input.map_or_else(
+        || crate::project_root().join(DEFAULT_INPUT),
+        Path::to_path_buf,
+    )
+}
+
+/// Runs the pipeline and writes the outputs, without printing the summary.
+pub fn execute(args: &Args, progress: &Progress) -> Result<Report> {
+    let input = input_path(args.input.as_deref());
+    if !input.is_file() {
+        bail!("{}: no such capture file", input.display());
+    }
+    let params = Params::from_assignments(&args.set)?;
+    let mut force_from = args.from.as_deref().map(StageId::from_name).transpose()?;
+    if args.force {
+        force_from = Some(StageId::MocapIo);
+    }
+    let out = match &args.out {
+        Some(dir) => dir.clone(),
+        None => {
+            let stem = input
+                .file_stem()
+                .map_or_else(|| "capture".into(), |s| s.to_string_lossy().into_owned());
+            PathBuf::from("out").join(stem)
+        }
+    };
+    let cache = Cache::open(&cache::resolve_root(args.cache.as_deref()))?;
+    let (products, stages) = pipeline::run_cached(&input, &params, &cache, force_from, progress)?;
+    let outputs = products
+        .outputs
+        .as_ref()
+        .context("the export stage produced no outputs")?;
+    let files = pipeline::write_outputs(outputs, &out)
+        .with_context(|| format!("writing the outputs of {}", input.display()))?;
+    Ok(Report {
+        stages,
+        out,
+        segments: products
+            .segmentation
+            .as_ref()
+            .map_or(0, |s| s.segments.len()),
+        joints: products.topology.as_ref().map_or(0, |t| t.joints.len()),
+        files,
+    })
+}
+
+/// The end-of-run summary for stderr.
+pub fn summary(report: &Report) -> String {
+    let hits = report.stages.iter().filter(|s| s.cached).count();
+    let total: f64 = report.stages.iter().map(|s| s.seconds).sum();
+    let mut text = format!(
+        "{} segments, {} joints; {hits}/{} stages from the cache; {total:.2} s\n",
+        report.segments,
+        report.joints,
+        report.stages.len()
+    );
+    for s in &report.stages {
+        text.push_str(&format!(
+            "  {:<9} {:>8.3} s  {}\n",
+            s.name,
+            s.seconds,
+            if s.cached { "cached" } else { "computed" }
+        ));
+    }
+    text.push_str(&format!("wrote {}:", report.out.display()));
+    for f in &report.files {
+        if let Some(name) = f.file_name() {
+            text.push_str(&format!(" {}", name.to_string_lossy()));
+        }
+    }
+    text
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::tempdir::TempDir;
+
+    /// A small synthetic capture written as C3D into `dir`.
+    fn capture(dir: &Path) -> PathBuf {
+        let config = synth::SynthConfig {
+            subject: synth::Subject::Snowman,
+            frames: 150,
+            seed: 4242,
+            ..synth::SynthConfig::default()
+        };
+        let trial = synth::generate(&config).unwrap();
+        let path = dir.join("snowman.c3d");
+        mocap_io::write_c3d(&path, &trial.trajectories).unwrap();
+        path
+    }
+
+    fn args(input: &Path, dir: &Path, set: &[&str]) -> Args {
+        Args {
+            input: Some(input.to_path_buf()),
+            out: Some(dir.join("out")),
+            set: set.iter().map(|s| s.to_string()).collect(),
+            from: None,
+            force: false,
+            json: false,
+            cache: Some(dir.join("cache")),
+        }
+    }
+
+    fn cached(report: &Report) -> Vec<bool> {
+        report.stages.iter().map(|s| s.cached).collect()
+    }
+
+    #[test]
+    fn reruns_reuse_exactly_what_did_not_change() {
+        let dir = TempDir::new("run").unwrap();
+        let input = capture(dir.path());
+        let quiet = Progress::hidden();
+        let a = args(&input, dir.path(), &[]);
+
+        let first = execute(&a, &quiet).unwrap();
+        assert_eq!(cached(&first), [false; 6]);
+        let names: Vec<_> = first.stages.iter().map(|s| s.name).collect();
+        assert_eq!(
+            names,
+            [
+                "mocap-io", "segment", "jointfit", "topo", "bonefit", "export"
+            ]
+        );
+        let json = std::fs::read(dir.path().join("out/skeleton.json")).unwrap();
+        assert!(dir.path().join("out/skeleton.bvh").is_file());
+        assert!(dir.path().join("cache/CACHEDIR.TAG").is_file());
+
+        // Nothing changed: every stage from the cache, same bytes out.
+        let again = execute(&a, &quiet).unwrap();
+        assert_eq!(cached(&again), [true; 6]);
+        assert_eq!(
+            std::fs::read(dir.path().join("out/skeleton.json")).unwrap(),
+            json
+        );
+
+        // A jointfit parameter: jointfit and downstream rerun, upstream reused.
+        let set = execute(&args(&input, dir.path(), &["jointfit.alpha=0.25"]), &quiet).unwrap();
+        assert_eq!(cached(&set), [true, true, false, false, false, false]);
+        // ...and going back to the default is all cache hits again.
+        assert_eq!(cached(&execute(&a, &quiet).unwrap()), [true; 6]);
+
+        // --from topo forces topo and downstream; --force everything.
+        let from = Args {
+            from: Some("topo".into()),
+            ..args(&input, dir.path(), &[])
+        };
+        assert_eq!(
+            cached(&execute(&from, &quiet).unwrap()),
+            [true, true, true, false, false, false]
+        );
+        let force = Args {
+            force: true,
+            ..args(&input, dir.path(), &[])
+        };
+        assert_eq!(cached(&execute(&force, &quiet).unwrap()), [false; 6]);
+
+        // A damaged entry is recomputed, not trusted and not a crash; a recomputed
+        // artifact has the same bytes, so downstream stays cached.
+        let cache = Cache::open(&dir.path().join("cache")).unwrap();
+        let seg = cache.entry_path("segment", segment::SCHEMA_VERSION, &first.stages[1].key);
+        let bytes = std::fs::read(&seg).unwrap();
+        std::fs::write(&seg, &bytes[..bytes.len() / 2]).unwrap();
+        let repaired = execute(&a, &quiet).unwrap();
+        assert_eq!(cached(&repaired), [true, false, true, true, true, true]);
+        assert_eq!(std::fs::read(&seg).unwrap(), bytes);
+        assert_eq!(
+            std::fs::read(dir.path().join("out/skeleton.json")).unwrap(),
+            json
+        );
+    }
+
+    #[test]
+    fn bad_input_or_parameter_fails_naming_it_and_writes_nothing() {
+        let dir = TempDir::new("run-bad").unwrap();
+        let bad = dir.path().join("broken.c3d");
+        std::fs::write(&bad, b"not a c3d file at all").unwrap();
+        let err = execute(&args(&bad, dir.path(), &[]), &Progress::hidden()).unwrap_err();
+        let text = format!("{err:#}");
+        assert!(
+            text.contains("broken.c3d") && text.contains("mocap-io"),
+            "{text}"
+        );
+        assert!(!dir.path().join("out").exists());
+
+        let input = capture(dir.path());
+        let err = execute(
+            &args(&input, dir.path(), &["jointfit.nope=1"]),
+            &Progress::hidden(),
+        )
+        .unwrap_err();
+        assert!(format!("{err:#}").contains("alpha"), "{err:#}");
+        assert!(!dir.path().join("out").exists());
+    }
+
+    #[test]
+    fn stage_command_writes_the_same_artifacts_as_run() {
+        let dir = TempDir::new("stage").unwrap();
+        let input = capture(dir.path());
+        let report = execute(&args(&input, dir.path(), &[]), &Progress::hidden()).unwrap();
+        let cache = Cache::open(&dir.path().join("cache")).unwrap();
+        let mut previous: Vec<PathBuf> = Vec::new();
+        for (stage, run) in StageId::ALL.iter().zip(&report.stages) {
+            let out = dir.path().join(format!("{}.cbor", stage.name()));
+            let inputs = if *stage == StageId::MocapIo {
+                vec![input.clone()]
+            } else {
+                stage
+                    .inputs()
+                    .iter()
+                    .map(|s| previous[*s as usize].clone())
+                    .collect()
+            };
+            crate::stage_cmd::execute(&crate::stage_cmd::Args {
+                name: stage.name().into(),
+                inputs,
+                out: out.clone(),
+                set: Vec::new(),
+            })
+            .unwrap();
+            let cached = cache.entry_path(stage.name(), stage.schema_version(), &run.key);
+            assert_eq!(
+                std::fs::read(&out).unwrap(),
+                std::fs::read(&cached).unwrap(),
+                "{} differs from the cache",
+                stage.name()
+            );
+            previous.push(out);
+        }
+    }
+}

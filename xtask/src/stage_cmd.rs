@@ -1,0 +1,170 @@
+//! `cargo xtask stage NAME --in A --in B --out C`: one stage alone, for outside schedulers.
+
+use std::collections::BTreeMap;
+use std::path::PathBuf;
+use std::time::Instant;
+
+use anyhow::{Context as _, Result, bail};
+use mocap_io::artifact::{self, InputHash};
+
+use crate::cache;
+use crate::pipeline::{self, CAPTURE_ROLE, Params, Products, StageId};
+use crate::set_param;
+
+/// Arguments of `stage`.
+#[derive(clap::Args)]
+#[command(after_help = "\
+Inputs are recognised by their artifact header, so their order does not matter:
+  mocap-io  --in CAPTURE (.c3d/.trc/.csv)
+  segment   --in mocap-io.cbor
+  jointfit  --in mocap-io.cbor --in segment.cbor
+  topo      --in segment.cbor --in jointfit.cbor
+  bonefit   --in mocap-io.cbor --in segment.cbor --in jointfit.cbor --in topo.cbor
+  export    --in mocap-io.cbor --in segment.cbor --in jointfit.cbor --in topo.cbor --in bonefit.cbor
+For export, --out ending in .cbor writes the Outputs artifact (file name → bytes); any \
+other --out is a folder that receives skeleton.json, skeleton.bvh, joints.csv.
+The artifact written is byte-identical to the one `cargo xtask run` caches for the same \
+inputs and parameters.")]
+pub struct Args {
+    /// Stage to run: mocap-io, segment, jointfit, topo, bonefit or export.
+    pub name: String,
+    /// An input: the capture file for mocap-io, else an upstream artifact. Repeatable.
+    #[arg(long = "in", value_name = "FILE", required = true)]
+    pub inputs: Vec<PathBuf>,
+    /// Output artifact (.cbor); for export, a .cbor artifact or a folder for the files.
+    #[arg(long, value_name = "PATH")]
+    pub out: PathBuf,
+    /// Set one of this stage's parameters (STAGE.PARAM=VALUE). Repeatable.
+    #[arg(long = "set", value_name = "STAGE.PARAM=VALUE")]
+    pub set: Vec<String>,
+}
+
+/// Runs `stage`.
+pub fn main(args: &Args) -> Result<()> {
+    let start = Instant::now();
+    let written = execute(args)?;
+    eprintln!(
+        "{} done in {:.3} s: {}",
+        args.name,
+        start.elapsed().as_secs_f64(),
+        written
+            .iter()
+            .map(|p| p.display().to_string())
+            .collect::<Vec<_>>()
+            .join(", ")
+    );
+    Ok(())
+}
+
+/// Runs one stage and writes its output; returns the paths written.
+pub fn execute(args: &Args) -> Result<Vec<PathBuf>> {
+    let stage = StageId::from_name(&args.name)?;
+    let mut params = Params::default();
+    for text in &args.set {
+        let a = set_param::parse_assignment(text)?;
+        if a.stage != stage.name() {
+            bail!(
+                "--set {text}: this run is stage {}, not {}",
+                stage.name(),
+                a.stage
+            );
+        }
+        params.set(&a)?;
+    }
+    let names = || {
+        args.inputs
+            .iter()
+            .map(|p| p.display().to_string())
+            .collect::<Vec<_>>()
+            .join(", ")
+    };
+
+    let mut products = Products::default();
+    let (inputs, capture_file) = if stage == StageId::MocapIo {
+        let [file] = args.inputs.as_slice() else {
+            bail!("mocap-io takes exactly one --in: the capture file");
+        };
+        let bytes =
+            std::fs::read(file).with_context(|| format!("{}: cannot read", file.display()))?;
+        let hash = InputHash {
+            role: CAPTURE_ROLE.into(),
+            blake3: artifact::content_hash(&bytes),
+        };
+        (vec![hash], Some(file.as_path()))
+    } else {
+        let mut hashes = BTreeMap::new();
+        for path in &args.inputs {
+            let bytes =
+                std::fs::read(path).with_context(|| format!("{}: cannot read", path.display()))?;
+            let header = pipeline::read_header(&bytes, path)?;
+            let from = StageId::from_name(&header.stage)
+                .with_context(|| format!("{}: artifact of an unknown stage", path.display()))?;
+            if !stage.inputs().contains(&from) {
+                bail!(
+                    "{}: a {} artifact, but {} reads {}",
+                    path.display(),
+                    from.name(),
+                    stage.name(),
+                    stage_list(stage.inputs())
+                );
+            }
+            if hashes.contains_key(&from) {
+                bail!("{}: a second {} artifact", path.display(), from.name());
+            }
+            let (_, payload) = pipeline::decode_payload(from, &bytes, path)?;
+            products.put(payload);
+            hashes.insert(from, artifact::content_hash(&bytes));
+        }
+        let missing: Vec<StageId> = stage
+            .inputs()
+            .iter()
+            .copied()
+            .filter(|s| !hashes.contains_key(s))
+            .collect();
+        if !missing.is_empty() {
+            bail!(
+                "{} also needs the {} artifact(s): add --in for each",
+                stage.name(),
+                stage_list(&missing)
+            );
+        }
+        let inputs = stage
+            .inputs()
+            .iter()
+            .map(|s| InputHash {
+                role: s.name().into(),
+                blake3: hashes.get(s).cloned().unwrap_or_default(),
+            })
+            .collect();
+        (inputs, None)
+    };
+
+    let payload = products
+        .compute(stage, &params, capture_file)
+        .with_context(|| format!("stage {} failed on {}", stage.name(), names()))?;
+    let header = pipeline::header(stage, &params, inputs)?;
+    let to_folder = stage == StageId::Export
+        && !args
+            .out
+            .extension()
+            .is_some_and(|e| e.eq_ignore_ascii_case("cbor"));
+    if to_folder {
+        products.put(payload);
+        let outputs = products
+            .outputs
+            .as_ref()
+            .context("the export stage produced no outputs")?;
+        return pipeline::write_outputs(outputs, &args.out);
+    }
+    let bytes = payload.encode(&header)?;
+    cache::atomic_write(&args.out, &bytes)?;
+    Ok(vec![args.out.clone()])
+}
+
+fn stage_list(stages: &[StageId]) -> String {
+    stages
+        .iter()
+        .map(|s| s.name())
+        .collect::<Vec<_>>()
+        .join(", ")
+}

@@ -1,0 +1,104 @@
+//! `cargo xtask synth`: a synthetic trial with ground truth, written to a folder.
+
+use std::path::PathBuf;
+
+use anyhow::{Context as _, Result};
+use synth::{Preset, Subject, SynthConfig};
+
+/// Arguments of `synth`.
+#[derive(clap::Args)]
+pub struct Args {
+    /// Subject: human, quadruped, robotarm, snowman, hexapod, random.
+    #[arg(long, default_value = "human")]
+    pub subject: String,
+    /// Degradation: clean, noise, skin, gaps, swap, hard.
+    #[arg(long, default_value = "clean")]
+    pub preset: String,
+    /// Number of frames [default: the generator's, 240].
+    #[arg(long)]
+    pub frames: Option<usize>,
+    /// Seed of every random choice [default: 1].
+    #[arg(long)]
+    pub seed: Option<u64>,
+    /// Frame rate in Hz [default: 120].
+    #[arg(long)]
+    pub rate: Option<f64>,
+    /// Gaussian noise σ per coordinate in mm, for the noise and hard presets [default: 1].
+    #[arg(long = "noise", value_name = "MM")]
+    pub noise_mm: Option<f64>,
+    /// Markers per segment as MIN:MAX (or one number) [default: 3:6].
+    #[arg(long, value_name = "MIN:MAX")]
+    pub markers: Option<String>,
+    /// Also write a TRC file.
+    #[arg(long)]
+    pub trc: bool,
+    /// Output folder: <name>.c3d, <name>.truth.json (and <name>.trc).
+    #[arg(long, value_name = "DIR")]
+    pub out: PathBuf,
+}
+
+/// The generator's config from the arguments.
+pub fn config(args: &Args) -> Result<SynthConfig> {
+    let defaults = SynthConfig::default();
+    let subject: Subject = args.subject.parse()?;
+    let preset: Preset = args.preset.parse()?;
+    let markers_per_segment = match &args.markers {
+        None => defaults.markers_per_segment,
+        Some(text) => {
+            parse_range(text).with_context(|| format!("--markers {text}: expected MIN:MAX or N"))?
+        }
+    };
+    let config = SynthConfig {
+        subject,
+        preset,
+        frames: args.frames.unwrap_or(defaults.frames),
+        rate: args.rate.unwrap_or(defaults.rate),
+        seed: args.seed.unwrap_or(defaults.seed),
+        noise_mm: args.noise_mm.unwrap_or(defaults.noise_mm),
+        markers_per_segment,
+    };
+    config.validate()?;
+    Ok(config)
+}
+
+fn parse_range(text: &str) -> Result<(usize, usize)> {
+    let (lo, hi) = text.split_once([':', '-', ',']).unwrap_or((text, text));
+    Ok((lo.trim().parse()?, hi.trim().parse()?))
+}
+
+/// Runs `synth`.
+pub fn main(args: &Args) -> Result<()> {
+    let config = config(args)?;
+    let trial =
+        synth::generate(&config).with_context(|| format!("generating {}", config.trial_name()))?;
+    let written = synth::write_trial(&args.out, &trial, args.trc)
+        .with_context(|| format!("writing {} into {}", trial.name, args.out.display()))?;
+    let t = &trial.trajectories;
+    eprintln!(
+        "{}: {} segments, {} joints, {} markers, {} frames at {} Hz, {} missing samples",
+        trial.name,
+        trial.truth.segments.len(),
+        trial.truth.joints.len(),
+        t.markers(),
+        t.frames(),
+        t.frame_rate(),
+        t.missing_samples()
+    );
+    for path in written {
+        println!("{}", path.display());
+    }
+    Ok(())
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn ranges_parse() {
+        assert_eq!(parse_range("3:6").unwrap(), (3, 6));
+        assert_eq!(parse_range("2").unwrap(), (2, 2));
+        assert_eq!(parse_range("1-4").unwrap(), (1, 4));
+        assert!(parse_range("a:b").is_err());
+    }
+}
