@@ -1,3 +1,99 @@
-//! bonefit (being written).
+//! bonefit: constant bones and the motion as animation files need it.
+//!
+//! Takes the capture (frame count and rate), the segmentation, jointfit's
+//! [`jointfit::PairFits`] (segment poses, joint centres) and the [`topo::Topology`];
+//! gives a [`Skeleton`]: a hierarchy with one constant offset per joint, the root point's
+//! position and the root segment's rotation per frame, every joint's rotation relative to
+//! its parent per frame, and every joint's global position given by forward kinematics
+//! (FK) of exactly those numbers.
+//!
+//! How (see [`BoneMethod`]):
+//! - `rigid` (default): a joint centre is fixed in both adjacent segments' local frames
+//!   (`PairFit::centre_in_a` / `centre_in_b`), so a bone — from the parent joint of a
+//!   segment to one of its child joints, both fixed in that segment's frame — is rigid by
+//!   construction: the offset is the difference of the two centres in that segment's frame.
+//! - `paper`: Aguiar et al. Eq. 5–6, root to leaves: each bone's constant length is the
+//!   mean over frames of the distance from the (already adjusted) parent joint to the
+//!   fitted joint; its direction in the parent segment's frame is the mean direction.
+//! - The root point is the mean of the root segment's child-joint centres in its frame,
+//!   carried by its pose, so it lies inside the body.
+//! - Rotations: the root rotation is the root segment's orientation; a joint's local
+//!   rotation is the orientation of its child segment relative to its parent segment.
+//!   All local rotations identity = the rest pose = every segment at its reference
+//!   orientation (segment frames have the global axes at the reference).
+//! - Gaps: rotations are never NaN (slerp between the nearest measured poses, held at the
+//!   ends, identity when never measured). A pose gap of at most `max_gap_s` between two
+//!   measured poses is filled (slerp + linear translation) and counts as known; a joint's
+//!   position is NaN wherever a pose on its chain from the root is neither measured nor
+//!   filled.
+//!
+//! It does not fit joint centres (jointfit), choose the tree (topo) or write files (export).
+mod error;
+mod fit;
+mod poses;
 mod skeleton;
+#[cfg(any(test, feature = "testkit"))]
+pub mod testkit;
+
+pub use error::Error;
+pub use fit::run;
 pub use skeleton::*;
+
+use serde::{Deserialize, Serialize};
+
+/// Name of this stage (cache keys, artifact headers).
+pub const STAGE: &str = "bonefit";
+
+/// How the constant bone offsets are fitted.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(rename_all = "lowercase")]
+pub enum BoneMethod {
+    /// Offsets from the joint centres fixed in each segment's frame (rigid by construction).
+    #[default]
+    Rigid,
+    /// Aguiar et al. Eq. 5–6: root-to-leaf least squares on the fitted joint positions.
+    Paper,
+}
+
+impl BoneMethod {
+    /// The method's name as written in params and skeleton.json.
+    pub fn name(self) -> &'static str {
+        match self {
+            Self::Rigid => "rigid",
+            Self::Paper => "paper",
+        }
+    }
+}
+
+/// Parameters of the bonefit stage.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(default, deny_unknown_fields)]
+pub struct Params {
+    /// Offset fit: `rigid` (default) or `paper`.
+    pub method: BoneMethod,
+    /// Longest pose gap filled by interpolation, in seconds (default 0.1 s).
+    pub max_gap_s: f64,
+}
+
+impl Default for Params {
+    fn default() -> Self {
+        Self {
+            method: BoneMethod::Rigid,
+            max_gap_s: 0.1,
+        }
+    }
+}
+
+/// Every parameter: (field name, "meaning, units, default").
+pub const PARAM_DOCS: &[(&str, &str)] = &[
+    (
+        "method",
+        "bone offsets: \"rigid\" (joint centres fixed in each segment's frame; bones rigid by \
+         construction) or \"paper\" (Aguiar et al. Eq. 5-6, root to leaves); default \"rigid\"",
+    ),
+    (
+        "max_gap_s",
+        "longest gap in a segment's pose (seconds) filled by slerp/linear interpolation and \
+         counted as known; longer gaps leave joint positions unknown; default 0.1",
+    ),
+];

@@ -23,6 +23,14 @@ pub struct Skeleton {
     pub root_segment: usize,
     /// Name of the root node in animation files.
     pub root_name: String,
+    /// How the constant offsets were fitted: "rigid" (joint centres fixed in each segment's
+    /// frame) or "paper" (Aguiar et al. Eq. 5–6, root to leaves).
+    #[serde(default)]
+    pub method: String,
+    /// The root point in the root segment's local frame (mm): where `root_positions` sits on
+    /// the root segment (mean of the root's child joint centres).
+    #[serde(default)]
+    pub root_point_in_segment: [f64; 3],
     /// Root point per frame (mm, global); NaN where unknown.
     #[serde(with = "mocap_io::bulk::vec3s")]
     pub root_positions: Vec<[f64; 3]>,
@@ -45,6 +53,9 @@ pub struct SkeletonJoint {
     pub parent_segment: usize,
     /// Segment farther from the root.
     pub child_segment: usize,
+    /// Index of the joint's fit in `PairFits::pairs`.
+    #[serde(default)]
+    pub pair: usize,
     /// Constant offset from the parent joint (or root point) in the parent's rest frame (mm).
     pub offset: [f64; 3],
     /// Constant bone length: the norm of `offset` (mm).
@@ -55,4 +66,19 @@ pub struct SkeletonJoint {
     /// Global position per frame given by forward kinematics (mm); NaN where unknown.
     #[serde(with = "mocap_io::bulk::vec3s")]
     pub positions: Vec<[f64; 3]>,
+    /// Frames whose `positions` are known (not NaN).
+    #[serde(default)]
+    pub frames_known: usize,
+    /// Of `frames_known`, frames known only through a short pose gap filled by interpolation.
+    #[serde(default)]
+    pub frames_interpolated: usize,
+    /// RMS over frames of the distance between `positions` and jointfit's fitted centre
+    /// (`PairFit::positions`) where both are known (mm); NaN when never both known.
+    #[serde(default)]
+    pub fit_rms_mm: f64,
+    /// Range of motion of the child segment relative to the parent over the frames where
+    /// both poses were measured (degrees, largest angle between two relative orientations,
+    /// approximated by a two-sweep search); NaN when never both measured.
+    #[serde(default)]
+    pub range_of_motion_deg: f64,
 }

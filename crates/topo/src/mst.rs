@@ -267,6 +267,10 @@ mod tests {
             segments,
             unassigned: Vec::new(),
             markers: Vec::new(),
+            noise_mm: 0.0,
+            tolerance_mm: 1.0,
+            eigenvalues: Vec::new(),
+            eigengap_segments: 0,
         }
     }
 
@@ -295,8 +299,12 @@ mod tests {
                     positions: Vec::new(),
                     kind,
                     axis_in_a: None,
+                    axis_in_b: None,
                     residual_rms_mm: 0.0,
                     frames_used: 0,
+                    rotation_rms_deg: 30.0,
+                    rotation_max_deg: 60.0,
+                    wobble_deg: [10.0; 3],
                     evidence: String::new(),
                 });
             }

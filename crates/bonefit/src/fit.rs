@@ -1,0 +1,628 @@
+//! The bonefit stage: constant offsets, then forward kinematics over every frame.
+
+use glam::{DQuat, DVec3, DVec4};
+use jointfit::{PairFit, PairFits};
+use mocap_io::Trajectories;
+use segment::Segmentation;
+use topo::Topology;
+
+use crate::poses::{FilledPoses, fill};
+use crate::{BoneMethod, Error, Params, Skeleton, SkeletonJoint};
+
+/// Name of the root node in animation files.
+const ROOT_NAME: &str = "root";
+
+/// One topology joint resolved against the pair fits.
+struct JointSpec<'a> {
+    name: &'a str,
+    parent: Option<usize>,
+    parent_segment: usize,
+    child_segment: usize,
+    pair_index: usize,
+    pair: &'a PairFit,
+    /// Joint centre in the parent segment's local frame (mm).
+    centre_in_parent: DVec3,
+}
+
+/// Fits constant offsets and computes the motion (see the crate docs).
+pub fn run(
+    traj: &Trajectories,
+    _seg: &Segmentation,
+    fits: &PairFits,
+    topo: &Topology,
+    params: &Params,
+) -> Result<Skeleton, Error> {
+    let frames = traj.frames();
+    let segments = fits.poses.len();
+    for (s, p) in fits.poses.iter().enumerate() {
+        for (what, found) in [
+            ("rotations", p.rotations.len()),
+            ("translations", p.translations.len()),
+        ] {
+            if found != frames {
+                return Err(Error::FrameCountMismatch {
+                    what: format!("segment {s} pose {what}"),
+                    expected: frames,
+                    found,
+                });
+            }
+        }
+    }
+    let root = topo.root_segment;
+    if root >= segments {
+        return Err(Error::BadRoot { root, segments });
+    }
+    let specs = resolve_joints(fits, topo, frames)?;
+
+    let rate = traj.frame_rate();
+    let max_gap = if rate > 0.0 && params.max_gap_s.is_finite() && params.max_gap_s > 0.0 {
+        (params.max_gap_s * rate).floor() as usize
+    } else {
+        0
+    };
+    // Poses of the tree's segments only: detached segments play no part.
+    let mut tracks: Vec<Option<FilledPoses>> = (0..segments).map(|_| None).collect();
+    tracks[root] = Some(fill(&fits.poses[root], max_gap));
+    for s in &specs {
+        tracks[s.child_segment] = Some(fill(&fits.poses[s.child_segment], max_gap));
+    }
+    let track = |s: usize| tracks[s].as_ref();
+
+    // The root point: mean of the root's child-joint centres in its frame (its marker
+    // centroid, the frame's origin, when it has no children).
+    let root_children: Vec<DVec3> = specs
+        .iter()
+        .filter(|s| s.parent.is_none())
+        .map(|s| s.centre_in_parent)
+        .collect();
+    let root_point = if root_children.is_empty() {
+        DVec3::ZERO
+    } else {
+        root_children.iter().fold(DVec3::ZERO, |a, &c| a + c) / root_children.len() as f64
+    };
+
+    // Rigid offsets: the joint centre minus the parent point, both in the parent's frame.
+    let mut offsets: Vec<DVec3> = specs
+        .iter()
+        .map(|s| {
+            let from = match s.parent {
+                Some(k) => centre_in(specs[k].pair, s.parent_segment),
+                None => root_point,
+            };
+            s.centre_in_parent - from
+        })
+        .collect();
+    if params.method == BoneMethod::Paper {
+        let root_track = track(root);
+        let root_positions: Vec<DVec3> = (0..frames)
+            .map(|f| match root_track {
+                Some(t) if t.measured[f] => t.rotations[f] * root_point + t.translations[f],
+                _ => DVec3::NAN,
+            })
+            .collect();
+        paper_offsets(&specs, &tracks, &root_positions, &mut offsets);
+    }
+
+    // Forward kinematics, frame by frame, exactly as the Skeleton docs define it.
+    let n = specs.len();
+    let mut local_rotations = vec![vec![[0.0; 4]; frames]; n];
+    let mut positions = vec![vec![[f64::NAN; 3]; frames]; n];
+    let mut root_positions = vec![[f64::NAN; 3]; frames];
+    let mut root_rotations = vec![[0.0, 0.0, 0.0, 1.0]; frames];
+    let mut frames_known = vec![0usize; n];
+    let mut frames_interpolated = vec![0usize; n];
+    let mut fit_sq = vec![0.0f64; n];
+    let mut fit_count = vec![0usize; n];
+    let mut global = vec![DQuat::IDENTITY; n];
+    let mut point = vec![DVec3::ZERO; n];
+    let mut known = vec![false; n];
+    let mut measured = vec![false; n];
+    let offset_arrays: Vec<[f64; 3]> = offsets.iter().map(|o| o.to_array()).collect();
+    for f in 0..frames {
+        let (root_rotation, root_known, root_measured, root_translation) = match track(root) {
+            Some(t) => (t.rotations[f], t.known[f], t.measured[f], t.translations[f]),
+            None => (DQuat::IDENTITY, false, false, DVec3::NAN),
+        };
+        root_rotations[f] = root_rotation.to_array();
+        let root_rotation = DQuat::from_array(root_rotations[f]);
+        let root_position = root_rotation * root_point + root_translation;
+        if root_known {
+            root_positions[f] = root_position.to_array();
+        }
+        for (j, s) in specs.iter().enumerate() {
+            let parent_track = track(s.parent_segment);
+            let child_track = track(s.child_segment);
+            let q_parent = parent_track.map_or(DQuat::IDENTITY, |t| t.rotations[f]);
+            let q_child = child_track.map_or(DQuat::IDENTITY, |t| t.rotations[f]);
+            local_rotations[j][f] = (q_parent.inverse() * q_child).normalize().to_array();
+            let local = DQuat::from_array(local_rotations[j][f]);
+            let (g_parent, p_parent, k_parent, m_parent) = match s.parent {
+                Some(k) => (global[k], point[k], known[k], measured[k]),
+                None => (root_rotation, root_position, root_known, root_measured),
+            };
+            let offset = DVec3::from_array(offset_arrays[j]);
+            point[j] = p_parent + g_parent * offset;
+            global[j] = g_parent * local;
+            known[j] = k_parent && parent_track.is_some_and(|t| t.known[f]);
+            measured[j] = m_parent && parent_track.is_some_and(|t| t.measured[f]);
+            if known[j] {
+                positions[j][f] = point[j].to_array();
+                frames_known[j] += 1;
+                if !measured[j] {
+                    frames_interpolated[j] += 1;
+                }
+                let fitted = s.pair.positions.get(f).map(|&p| DVec3::from_array(p));
+                if let Some(c) = fitted.filter(|c| c.is_finite()) {
+                    fit_sq[j] += (point[j] - c).length_squared();
+                    fit_count[j] += 1;
+                }
+            }
+        }
+    }
+
+    let joints = specs
+        .iter()
+        .enumerate()
+        .map(|(j, s)| {
+            let relative: Vec<DQuat> = match (track(s.parent_segment), track(s.child_segment)) {
+                (Some(p), Some(c)) => (0..frames)
+                    .filter(|&f| p.measured[f] && c.measured[f])
+                    .map(|f| p.rotations[f].inverse() * c.rotations[f])
+                    .collect(),
+                _ => Vec::new(),
+            };
+            SkeletonJoint {
+                name: s.name.to_owned(),
+                parent: s.parent,
+                parent_segment: s.parent_segment,
+                child_segment: s.child_segment,
+                pair: s.pair_index,
+                offset: offset_arrays[j],
+                bone_length: offsets[j].length(),
+                local_rotations: std::mem::take(&mut local_rotations[j]),
+                positions: std::mem::take(&mut positions[j]),
+                frames_known: frames_known[j],
+                frames_interpolated: frames_interpolated[j],
+                fit_rms_mm: if fit_count[j] > 0 {
+                    (fit_sq[j] / fit_count[j] as f64).sqrt()
+                } else {
+                    f64::NAN
+                },
+                range_of_motion_deg: range_of_motion_deg(&relative),
+            }
+        })
+        .collect();
+
+    Ok(Skeleton {
+        frame_rate: rate,
+        frame_count: frames,
+        root_segment: root,
+        root_name: ROOT_NAME.to_owned(),
+        method: params.method.name().to_owned(),
+        root_point_in_segment: root_point.to_array(),
+        root_positions,
+        root_rotations,
+        joints,
+    })
+}
+
+/// The pair's joint centre in segment `s`'s local frame (mm).
+fn centre_in(pair: &PairFit, s: usize) -> DVec3 {
+    DVec3::from_array(if pair.a == s {
+        pair.centre_in_a
+    } else {
+        pair.centre_in_b
+    })
+}
+
+/// Checks every topology joint against the pair fits and resolves its parent joint.
+fn resolve_joints<'a>(
+    fits: &'a PairFits,
+    topo: &'a Topology,
+    frames: usize,
+) -> Result<Vec<JointSpec<'a>>, Error> {
+    let segments = fits.poses.len();
+    let mut joint_of_child: Vec<Option<usize>> = vec![None; segments];
+    let mut specs = Vec::with_capacity(topo.joints.len());
+    for (j, tj) in topo.joints.iter().enumerate() {
+        let bad = |reason: String| Error::BadJoint {
+            joint: tj.name.clone(),
+            reason,
+        };
+        let (p, c) = (tj.parent_segment, tj.child_segment);
+        if p >= segments || c >= segments || p == c {
+            return Err(bad(format!(
+                "segments {p} → {c} are not two of the {segments} segments with poses"
+            )));
+        }
+        let pair = fits
+            .pairs
+            .get(tj.pair)
+            .ok_or_else(|| bad(format!("pair {} does not exist", tj.pair)))?;
+        if (pair.a, pair.b) != (p.min(c), p.max(c)) {
+            return Err(bad(format!(
+                "pair {} joins segments {} and {}, not {p} and {c}",
+                tj.pair, pair.a, pair.b
+            )));
+        }
+        if pair.positions.len() != frames && !pair.positions.is_empty() {
+            return Err(Error::FrameCountMismatch {
+                what: format!("pair {} positions", tj.pair),
+                expected: frames,
+                found: pair.positions.len(),
+            });
+        }
+        for s in [p, c] {
+            if !centre_in(pair, s).is_finite() {
+                return Err(Error::UnfittedJoint {
+                    joint: tj.name.clone(),
+                    pair: tj.pair,
+                    segment: s,
+                });
+            }
+        }
+        if joint_of_child[c].is_some() || c == topo.root_segment {
+            return Err(bad(format!(
+                "segment {c} is the child of more than one joint"
+            )));
+        }
+        let parent = if p == topo.root_segment {
+            None
+        } else {
+            Some(joint_of_child[p].ok_or_else(|| {
+                bad(format!(
+                    "parent segment {p} is neither the root nor the child of an earlier joint"
+                ))
+            })?)
+        };
+        joint_of_child[c] = Some(j);
+        specs.push(JointSpec {
+            name: &tj.name,
+            parent,
+            parent_segment: p,
+            child_segment: c,
+            pair_index: tj.pair,
+            pair,
+            centre_in_parent: centre_in(pair, p),
+        });
+    }
+    Ok(specs)
+}
+
+/// Aguiar et al. Eq. 5–6, root to leaves: bone length = mean distance from the adjusted
+/// parent point to the fitted joint; adjusted joint = parent + length × unit direction.
+/// The offset's direction is the mean of that unit direction in the parent's frame.
+/// Joints with no usable frame keep their rigid offset.
+fn paper_offsets(
+    specs: &[JointSpec<'_>],
+    tracks: &[Option<FilledPoses>],
+    root_positions: &[DVec3],
+    offsets: &mut [DVec3],
+) {
+    let mut adjusted: Vec<Vec<DVec3>> = Vec::with_capacity(specs.len());
+    for (j, s) in specs.iter().enumerate() {
+        let from: &[DVec3] = match s.parent {
+            Some(k) => &adjusted[k],
+            None => root_positions,
+        };
+        let mut directions = vec![DVec3::NAN; from.len()];
+        let (mut sum, mut count) = (0.0, 0usize);
+        for (f, d) in directions.iter_mut().enumerate() {
+            let c = s
+                .pair
+                .positions
+                .get(f)
+                .map_or(DVec3::NAN, |&p| DVec3::from_array(p));
+            let v = c - from[f];
+            let len = v.length();
+            if len.is_finite() && len > 0.0 {
+                *d = v / len;
+                sum += len;
+                count += 1;
+            }
+        }
+        if count == 0 {
+            adjusted.push(vec![DVec3::NAN; from.len()]);
+            continue;
+        }
+        let length = sum / count as f64;
+        let parent_track = tracks[s.parent_segment].as_ref();
+        let mut mean_direction = DVec3::ZERO;
+        for (f, d) in directions.iter().enumerate() {
+            if let Some(t) = parent_track.filter(|t| t.measured[f] && d.is_finite()) {
+                mean_direction += t.rotations[f].inverse() * *d;
+            }
+        }
+        offsets[j] = match mean_direction.try_normalize() {
+            Some(u) => u * length,
+            None => offsets[j].normalize_or_zero() * length,
+        };
+        adjusted.push(
+            from.iter()
+                .zip(&directions)
+                .map(|(&p, &d)| p + d * length)
+                .collect(),
+        );
+    }
+}
+
+/// Largest angle between two of the relative orientations (degrees), by two sweeps: the
+/// orientation farthest from the mean, then the one farthest from that. NaN when empty.
+fn range_of_motion_deg(relative: &[DQuat]) -> f64 {
+    let Some(&first) = relative.first() else {
+        return f64::NAN;
+    };
+    let first = DVec4::from(first);
+    let mut sum = DVec4::ZERO;
+    for &q in relative {
+        let v = DVec4::from(q);
+        sum += if v.dot(first) < 0.0 { -v } else { v };
+    }
+    let mean = DQuat::from_vec4(sum).normalize();
+    let angle = |a: DQuat, b: DQuat| 2.0 * a.dot(b).abs().min(1.0).acos();
+    let farthest = |from: DQuat| {
+        relative
+            .iter()
+            .copied()
+            .max_by(|&x, &y| angle(from, x).total_cmp(&angle(from, y)))
+            .unwrap_or(from)
+    };
+    let extreme = farthest(mean);
+    angle(extreme, farthest(extreme)).to_degrees()
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::testkit::{Scene, scene};
+
+    fn fit(s: &Scene, params: &Params) -> Skeleton {
+        match run(
+            &s.trajectories,
+            &s.segmentation,
+            &s.fits,
+            &s.topology,
+            params,
+        ) {
+            Ok(k) => k,
+            Err(e) => panic!("bonefit failed: {e}"),
+        }
+    }
+
+    /// Forward kinematics from the skeleton's own numbers, written independently of `run`.
+    fn forward_kinematics(k: &Skeleton, f: usize) -> Vec<DVec3> {
+        let root_q = DQuat::from_array(k.root_rotations[f]);
+        let root_p = DVec3::from_array(k.root_positions[f]);
+        let mut global: Vec<DQuat> = Vec::new();
+        let mut position: Vec<DVec3> = Vec::new();
+        for j in &k.joints {
+            let (gq, gp) = match j.parent {
+                Some(p) => (global[p], position[p]),
+                None => (root_q, root_p),
+            };
+            position.push(gp + gq * DVec3::from_array(j.offset));
+            global.push(gq * DQuat::from_array(j.local_rotations[f]));
+        }
+        position
+    }
+
+    fn distance(a: [f64; 3], b: [f64; 3]) -> f64 {
+        (DVec3::from_array(a) - DVec3::from_array(b)).length()
+    }
+
+    #[test]
+    fn rigid_bones_are_exact_and_fk_reproduces_truth() {
+        let s = scene(200, 100.0);
+        let k = fit(&s, &Params::default());
+        assert_eq!(k.method, "rigid");
+        assert_eq!(k.frame_count, 200);
+        let names: Vec<&str> = k.joints.iter().map(|j| j.name.as_str()).collect();
+        assert_eq!(names, ["j1", "j3", "j2"]);
+        assert_eq!(k.joints[2].parent, Some(0));
+        // Root point: mean of the torso's child-joint centres (0,0,-200) and (0,0,180).
+        assert_eq!(k.root_point_in_segment, [0.0, 0.0, -10.0]);
+        for (j, want) in k.joints.iter().zip([190.0, 190.0, 300.0]) {
+            assert!(
+                (j.bone_length - want).abs() < 1e-9,
+                "{}: {}",
+                j.name,
+                j.bone_length
+            );
+            assert_eq!(j.frames_known, 200);
+            assert_eq!(j.frames_interpolated, 0);
+            assert!(j.fit_rms_mm < 1e-9, "{}: {}", j.name, j.fit_rms_mm);
+        }
+        for f in 0..200 {
+            let fk = forward_kinematics(&k, f);
+            for (j, joint) in k.joints.iter().enumerate() {
+                assert!(distance(fk[j].to_array(), joint.positions[f]) < 1e-9);
+                assert!(distance(joint.positions[f], s.truth[j][f]) < 1e-9);
+                let q = DQuat::from_array(joint.local_rotations[f]);
+                assert!((q.length() - 1.0).abs() < 1e-12);
+            }
+        }
+        // Range of motion: the knee flexes 0..1 rad (57.3°).
+        assert!((k.joints[2].range_of_motion_deg - 1.0f64.to_degrees()).abs() < 0.5);
+    }
+
+    #[test]
+    fn paper_method_gives_the_same_bones_on_exact_data() {
+        let s = scene(150, 100.0);
+        let p = Params {
+            method: BoneMethod::Paper,
+            ..Params::default()
+        };
+        let k = fit(&s, &p);
+        assert_eq!(k.method, "paper");
+        for (j, want) in k.joints.iter().zip([190.0, 190.0, 300.0]) {
+            assert!(
+                (j.bone_length - want).abs() < 1e-6,
+                "{}: {}",
+                j.name,
+                j.bone_length
+            );
+            assert!(j.fit_rms_mm < 1e-6);
+        }
+    }
+
+    #[test]
+    fn paper_method_bone_length_is_the_mean_distance_under_noise() {
+        // Perturb the fitted knee centre: ±5 mm along the shank on alternate frames.
+        let mut s = scene(100, 100.0);
+        let knee = s.topology.joints[2].pair;
+        let hip = s.topology.joints[0].pair;
+        for f in 0..100 {
+            let hip_p = DVec3::from_array(s.fits.pairs[hip].positions[f]);
+            let knee_p = DVec3::from_array(s.fits.pairs[knee].positions[f]);
+            let along = (knee_p - hip_p).normalize() * if f % 2 == 0 { 5.0 } else { -5.0 };
+            s.fits.pairs[knee].positions[f] = (knee_p + along).to_array();
+        }
+        let p = Params {
+            method: BoneMethod::Paper,
+            ..Params::default()
+        };
+        let k = fit(&s, &p);
+        assert!((k.joints[2].bone_length - 300.0).abs() < 1e-6);
+        // FK still reproduces the truth: the noise averaged out of the constant bone.
+        assert!(k.joints[2].fit_rms_mm > 4.9 && k.joints[2].fit_rms_mm < 5.1);
+    }
+
+    #[test]
+    fn pose_gaps_short_filled_long_unknown_rotations_never_nan() {
+        let mut s = scene(100, 100.0);
+        let thigh = &mut s.fits.poses[1];
+        for f in (10..14).chain(40..70) {
+            thigh.rotations[f] = [f64::NAN; 4];
+            thigh.translations[f] = [f64::NAN; 3];
+        }
+        // The head is never seen.
+        s.fits.poses[3].rotations.fill([f64::NAN; 4]);
+        let k = fit(&s, &Params::default()); // 0.1 s = 10 frames at 100 Hz
+        let (hip, head, knee) = (&k.joints[0], &k.joints[1], &k.joints[2]);
+        // The hip hangs on the torso only: known everywhere.
+        assert_eq!(hip.frames_known, 100);
+        // The knee hangs on the thigh: the 4-frame gap is filled, the 30-frame gap unknown.
+        assert_eq!(knee.frames_known, 70);
+        assert_eq!(knee.frames_interpolated, 4);
+        assert!(knee.positions[50][0].is_nan());
+        assert!(!knee.positions[12][0].is_nan());
+        // An interpolated frame of a rigid chain stays close to the truth (slow motion).
+        assert!(distance(knee.positions[12], s.truth[2][12]) < 30.0);
+        assert!(head.range_of_motion_deg.is_nan());
+        for j in &k.joints {
+            for f in 0..100 {
+                assert!(j.local_rotations[f].iter().all(|c| c.is_finite()));
+            }
+        }
+        assert!(k.root_rotations.iter().flatten().all(|c| c.is_finite()));
+        // FK of the stored numbers is the stored positions wherever known.
+        for f in 0..100 {
+            let fk = forward_kinematics(&k, f);
+            for (j, joint) in k.joints.iter().enumerate() {
+                if !joint.positions[f][0].is_nan() {
+                    assert!(distance(fk[j].to_array(), joint.positions[f]) < 1e-9);
+                }
+            }
+        }
+        // With gap filling off, the short gap is unknown too.
+        let p = Params {
+            max_gap_s: 0.0,
+            ..Params::default()
+        };
+        assert_eq!(fit(&s, &p).joints[2].frames_known, 66);
+    }
+
+    #[test]
+    fn unknown_root_pose_leaves_root_and_joints_unknown() {
+        let mut s = scene(50, 100.0);
+        for f in 20..45 {
+            s.fits.poses[0].rotations[f] = [f64::NAN; 4];
+        }
+        let k = fit(&s, &Params::default());
+        assert!(k.root_positions[30][0].is_nan());
+        assert!(!k.root_positions[10][0].is_nan());
+        assert!(k.joints.iter().all(|j| j.frames_known == 25));
+    }
+
+    #[test]
+    fn inconsistent_inputs_are_errors() {
+        let s = scene(20, 100.0);
+        let mut topo = s.topology.clone();
+        topo.joints[2].pair = 0;
+        let r = run(
+            &s.trajectories,
+            &s.segmentation,
+            &s.fits,
+            &topo,
+            &Params::default(),
+        );
+        assert!(matches!(r, Err(Error::BadJoint { .. })));
+        let mut fits = s.fits.clone();
+        fits.poses[2].rotations.pop();
+        let r = run(
+            &s.trajectories,
+            &s.segmentation,
+            &fits,
+            &s.topology,
+            &Params::default(),
+        );
+        assert!(matches!(r, Err(Error::FrameCountMismatch { .. })));
+        let mut fits = s.fits.clone();
+        fits.pairs[0].centre_in_b = [f64::NAN; 3];
+        let r = run(
+            &s.trajectories,
+            &s.segmentation,
+            &fits,
+            &s.topology,
+            &Params::default(),
+        );
+        assert!(matches!(r, Err(Error::UnfittedJoint { segment: 1, .. })));
+        let mut topo = s.topology.clone();
+        topo.joints.swap(0, 2);
+        let r = run(
+            &s.trajectories,
+            &s.segmentation,
+            &s.fits,
+            &topo,
+            &Params::default(),
+        );
+        assert!(matches!(r, Err(Error::BadJoint { .. })));
+    }
+
+    #[test]
+    fn single_segment_skeleton_has_a_root_only() {
+        let s = scene(10, 100.0);
+        let topo = Topology {
+            root_segment: 2,
+            joints: Vec::new(),
+            detached_segments: vec![0, 1, 3],
+            notes: Vec::new(),
+        };
+        let k = run(
+            &s.trajectories,
+            &s.segmentation,
+            &s.fits,
+            &topo,
+            &Params::default(),
+        )
+        .unwrap_or_else(|e| panic!("{e}"));
+        assert!(k.joints.is_empty());
+        assert_eq!(k.root_point_in_segment, [0.0; 3]);
+        let p = DVec3::from_array(k.root_positions[3]);
+        assert!((p - DVec3::from_array(s.fits.poses[2].translations[3])).length() < 1e-9);
+    }
+
+    #[test]
+    fn params_docs_cover_every_field() {
+        let v = serde_json::to_value(Params::default()).unwrap_or_default();
+        let fields = v.as_object().map(|o| o.keys().cloned().collect::<Vec<_>>());
+        for f in fields.unwrap_or_default() {
+            assert!(
+                crate::PARAM_DOCS.iter().any(|(n, _)| *n == f),
+                "{f} undocumented"
+            );
+        }
+        let p: Params = serde_json::from_str(r#"{"method": "paper"}"#).unwrap_or_default();
+        assert_eq!(p.method, BoneMethod::Paper);
+    }
+}
