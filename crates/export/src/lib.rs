@@ -1,1 +1,113 @@
-//! export (being written).
+//! export: the skeleton as files people open.
+//!
+//! Takes the capture, segmentation, pair fits, topology and [`bonefit::Skeleton`] (as
+//! [`Inputs`]) and gives [`Outputs`]: file name → bytes. It is the only stage that makes
+//! file bytes, and it still writes nothing: the runner does.
+//! - `skeleton.json`: DESIGN.md's output contract (units, frame_rate, frame_count,
+//!   segments, unassigned_markers, root_segment, joints with name, parent/child segment,
+//!   kind and one position per frame or null), then quality fields beside them (see
+//!   [`SkeletonJson`]). Millimetres in the capture's global frame; positions rounded to
+//!   0.001 mm; deterministic bytes.
+//! - `skeleton.bvh`: the same joint names nested by hierarchy; a ROOT at the root point
+//!   with `OFFSET 0 0 0` and 6 channels, JOINTs with 3 rotation channels in ZXY order
+//!   (R = Rz·Rx·Ry), End Sites toward the leaf segment's marker centroid; millimetres in
+//!   the capture's frame, or Y-up with `export.y_up`. Where the root point is unknown the
+//!   last known root position is held (the JSON has null there).
+//! - `joints.csv`: `frame,joint,x,y,z`, one row per joint per frame where known; `frame`
+//!   is the 0-based frame index (the capture's own number is `first_frame + frame`), mm.
+//!
+//! It does not fit anything; every number comes from the inputs.
+mod bvh;
+mod csv;
+mod error;
+mod json;
+#[cfg(test)]
+mod tests;
+
+pub use error::Error;
+pub use json::{JointJson, MarkerJson, RootJson, SegmentJson, SkeletonJson};
+
+use std::collections::BTreeMap;
+
+use serde::{Deserialize, Serialize};
+
+/// Name of this stage (cache keys, artifact headers).
+pub const STAGE: &str = "export";
+
+/// Schema version of [`Outputs`] and of skeleton.json's layout; bump when either changes.
+pub const SCHEMA_VERSION: u32 = 1;
+
+/// Everything the files are made from.
+#[derive(Clone, Copy, Debug)]
+pub struct Inputs<'a> {
+    /// The capture (labels, frame rate, first frame).
+    pub trajectories: &'a mocap_io::Trajectories,
+    /// Segments and per-marker diagnostics.
+    pub segmentation: &'a segment::Segmentation,
+    /// Segment poses and joint fits (kind, method, residuals).
+    pub fits: &'a jointfit::PairFits,
+    /// The tree (detached segments, notes).
+    pub topology: &'a topo::Topology,
+    /// The skeleton and its motion.
+    pub skeleton: &'a bonefit::Skeleton,
+}
+
+/// The files, by name; the runner writes them.
+#[derive(Clone, Debug, Default, PartialEq, Eq, Serialize, Deserialize)]
+pub struct Outputs {
+    /// File name → file bytes (skeleton.json, skeleton.bvh, joints.csv).
+    #[serde(with = "byte_files")]
+    pub files: BTreeMap<String, Vec<u8>>,
+}
+
+/// Parameters of the export stage.
+#[derive(Clone, Debug, Default, PartialEq, Serialize, Deserialize)]
+#[serde(default, deny_unknown_fields)]
+pub struct Params {
+    /// Rotate the BVH from Z-up to Y-up (x, y, z) → (x, z, −y) for Y-up consumers; the
+    /// JSON and CSV stay in the capture's frame. Default false.
+    pub y_up: bool,
+}
+
+/// Every parameter: (field name, "meaning, units, default").
+pub const PARAM_DOCS: &[(&str, &str)] = &[(
+    "y_up",
+    "rotate the BVH from the capture's Z-up to Y-up ((x, y, z) -> (x, z, -y)) for Y-up \
+     consumers; skeleton.json and joints.csv stay in the capture's frame; default false",
+)];
+
+/// Makes skeleton.json, skeleton.bvh and joints.csv.
+pub fn run(input: &Inputs<'_>, params: &Params) -> Result<Outputs, Error> {
+    let document = json::document(input)?;
+    let mut files = BTreeMap::new();
+    files.insert("skeleton.json".to_owned(), json::to_bytes(&document)?);
+    files.insert("skeleton.bvh".to_owned(), bvh::write(input, params)?);
+    files.insert("joints.csv".to_owned(), csv::write(input.skeleton));
+    Ok(Outputs { files })
+}
+
+/// File bytes as CBOR byte strings, not arrays of small integers.
+mod byte_files {
+    use std::collections::BTreeMap;
+
+    use serde::{Deserialize, Deserializer, Serialize, Serializer};
+    use serde_bytes::{ByteBuf, Bytes};
+
+    pub fn serialize<S: Serializer>(
+        files: &BTreeMap<String, Vec<u8>>,
+        s: S,
+    ) -> Result<S::Ok, S::Error> {
+        let view: BTreeMap<&str, &Bytes> = files
+            .iter()
+            .map(|(k, v)| (k.as_str(), Bytes::new(v)))
+            .collect();
+        view.serialize(s)
+    }
+
+    pub fn deserialize<'de, D: Deserializer<'de>>(
+        d: D,
+    ) -> Result<BTreeMap<String, Vec<u8>>, D::Error> {
+        let raw = BTreeMap::<String, ByteBuf>::deserialize(d)?;
+        Ok(raw.into_iter().map(|(k, v)| (k, v.into_vec())).collect())
+    }
+}

@@ -1,0 +1,323 @@
+//! skeleton.json: the output contract's fields first, quality fields beside them.
+
+use serde::{Deserialize, Serialize};
+
+use crate::{Error, Inputs};
+
+/// Below this range of motion (degrees) a joint centre is poorly determined.
+const LOW_RANGE_OF_MOTION_DEG: f64 = 20.0;
+
+/// The whole of skeleton.json. Field order is the byte order of the file.
+///
+/// Contract fields (DESIGN.md): `units` … `joints`. Everything else is added quality
+/// information; readers of the contract may ignore it.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+pub struct SkeletonJson {
+    /// Always "mm".
+    pub units: String,
+    /// Frames per second of the capture.
+    pub frame_rate: f64,
+    /// Number of frames; every `positions` list has this many entries.
+    pub frame_count: usize,
+    /// Segments: id and the labels of their markers.
+    pub segments: Vec<SegmentJson>,
+    /// Labels of markers in no segment.
+    pub unassigned_markers: Vec<String>,
+    /// Segment at the root of the tree.
+    pub root_segment: usize,
+    /// Joints, every parent before its children.
+    pub joints: Vec<JointJson>,
+    /// Program that wrote the file ("ossify").
+    pub generator: String,
+    /// Version of that program.
+    pub ossify_version: String,
+    /// Version of this file's layout (`export::SCHEMA_VERSION`).
+    pub schema_version: u32,
+    /// The capture's own number of frame index 0 (C3D frames start at 1).
+    pub first_frame: i64,
+    /// How the constant bones were fitted ("rigid" or "paper").
+    pub bone_method: String,
+    /// The root point the BVH ROOT sits at.
+    pub root: RootJson,
+    /// Per marker: its segment and diagnostics, in the capture's label order.
+    pub markers: Vec<MarkerJson>,
+    /// Segments not connected to the tree.
+    pub detached_segments: Vec<usize>,
+    /// Remarks from the topology stage, in words.
+    pub notes: Vec<String>,
+}
+
+/// One segment.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+pub struct SegmentJson {
+    /// Segment id.
+    pub id: usize,
+    /// Labels of its markers.
+    pub markers: Vec<String>,
+    /// Number of markers.
+    pub marker_count: usize,
+    /// Frames in which its rigid pose was measured.
+    pub frames_with_pose: usize,
+}
+
+/// One joint.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+pub struct JointJson {
+    /// Name, shared with the BVH: `j<child_segment>`.
+    pub name: String,
+    /// Segment nearer the root.
+    pub parent_segment: usize,
+    /// Segment farther from the root.
+    pub child_segment: usize,
+    /// "ball", "hinge", "universal" or "rigid".
+    pub kind: String,
+    /// Global joint centre per frame (mm, rounded to 0.001), null where unknown.
+    pub positions: Vec<Option<[f64; 3]>>,
+    /// Name of the parent joint, null when the parent is the root.
+    pub parent: Option<String>,
+    /// Joint-centre method that fitted it ("aguiar", "score", "local").
+    pub method: String,
+    /// RMS distance between the centre as the two segments carry it (mm).
+    pub residual_rms_mm: Option<f64>,
+    /// RMS distance between `positions` (constant bones) and the fitted centre (mm).
+    pub fk_residual_rms_mm: Option<f64>,
+    /// Range of motion of the child segment relative to the parent (degrees).
+    pub range_of_motion_deg: Option<f64>,
+    /// Why `kind` was chosen, in words.
+    pub kind_evidence: String,
+    /// Hinge axis in the parent segment's local frame (unit vector), for hinges.
+    pub hinge_axis_in_parent: Option<[f64; 3]>,
+    /// Constant bone length from the parent joint (or root point) (mm).
+    pub bone_length_mm: f64,
+    /// Constant offset from the parent joint in the parent's rest frame (mm): the BVH OFFSET.
+    pub offset_mm: [f64; 3],
+    /// Frames with a known position.
+    pub frames_known: usize,
+    /// Of those, frames known through an interpolated short pose gap.
+    pub frames_interpolated: usize,
+    /// Problems a user should know about.
+    pub warnings: Vec<String>,
+}
+
+/// The root point.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+pub struct RootJson {
+    /// Name of the BVH ROOT.
+    pub name: String,
+    /// The root point in the root segment's local frame (mm).
+    pub point_in_segment: [f64; 3],
+    /// Global root point per frame (mm, rounded to 0.001), null where unknown.
+    pub positions: Vec<Option<[f64; 3]>>,
+}
+
+/// One marker's diagnostics.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+pub struct MarkerJson {
+    /// Its label in the capture.
+    pub label: String,
+    /// Its segment, null when unassigned.
+    pub segment: Option<usize>,
+    /// Frames in which it is visible.
+    pub visible_frames: usize,
+    /// RMS over its segment-mates of the standard deviation of their distance (mm).
+    pub rigidity_residual_mm: Option<f64>,
+    /// True when it moves relative to its segment (skin slide).
+    pub slides: bool,
+    /// Why it is in no segment, when it is in none.
+    pub unassigned_reason: Option<String>,
+}
+
+/// Rounds to `decimals` places; None for NaN/infinite; no negative zero.
+pub(crate) fn round(v: f64, decimals: i32) -> Option<f64> {
+    if !v.is_finite() {
+        return None;
+    }
+    let scale = 10f64.powi(decimals);
+    let r = (v * scale).round() / scale;
+    Some(if r == 0.0 { 0.0 } else { r })
+}
+
+/// A position rounded to 0.001 mm, None where unknown.
+fn position(p: [f64; 3]) -> Option<[f64; 3]> {
+    Some([round(p[0], 3)?, round(p[1], 3)?, round(p[2], 3)?])
+}
+
+/// A finite vector rounded to 0.001 mm (zeros where not finite).
+fn vector(p: [f64; 3]) -> [f64; 3] {
+    p.map(|c| round(c, 3).unwrap_or(0.0))
+}
+
+/// Builds the document from the inputs.
+pub(crate) fn document(input: &Inputs<'_>) -> Result<SkeletonJson, Error> {
+    let traj = input.trajectories;
+    let seg = input.segmentation;
+    let fits = input.fits;
+    let skel = input.skeleton;
+    let labels = traj.labels();
+    let label = |m: usize, what: &str| {
+        labels.get(m).cloned().ok_or_else(|| {
+            Error::Mismatch(format!(
+                "{what} names marker {m} but the capture has {} markers",
+                labels.len()
+            ))
+        })
+    };
+    if skel.frame_count != traj.frames() {
+        return Err(Error::Mismatch(format!(
+            "the skeleton has {} frames, the capture {}",
+            skel.frame_count,
+            traj.frames()
+        )));
+    }
+
+    let mut segments = Vec::with_capacity(seg.segments.len());
+    for s in &seg.segments {
+        let markers = s
+            .markers
+            .iter()
+            .map(|&m| label(m, &format!("segment {}", s.id)))
+            .collect::<Result<Vec<_>, _>>()?;
+        let frames_with_pose = fits.poses.get(s.id).map_or(0, |p| {
+            p.rotations
+                .iter()
+                .filter(|q| q.iter().all(|c| c.is_finite()))
+                .count()
+        });
+        segments.push(SegmentJson {
+            id: s.id,
+            marker_count: markers.len(),
+            markers,
+            frames_with_pose,
+        });
+    }
+    let unassigned_markers = seg
+        .unassigned
+        .iter()
+        .map(|u| label(u.marker, "the unassigned list"))
+        .collect::<Result<Vec<_>, _>>()?;
+
+    let mut joints = Vec::with_capacity(skel.joints.len());
+    for j in &skel.joints {
+        let pair = fits.pairs.get(j.pair).ok_or_else(|| {
+            Error::Mismatch(format!(
+                "joint {} uses pair {} but there are {} pair fits",
+                j.name,
+                j.pair,
+                fits.pairs.len()
+            ))
+        })?;
+        if (pair.a, pair.b)
+            != (
+                j.parent_segment.min(j.child_segment),
+                j.parent_segment.max(j.child_segment),
+            )
+        {
+            return Err(Error::Mismatch(format!(
+                "joint {} joins segments {} and {} but its pair {} joins {} and {}",
+                j.name, j.parent_segment, j.child_segment, j.pair, pair.a, pair.b
+            )));
+        }
+        if j.positions.len() != skel.frame_count {
+            return Err(Error::Mismatch(format!(
+                "joint {} has {} positions for {} frames",
+                j.name,
+                j.positions.len(),
+                skel.frame_count
+            )));
+        }
+        let kind = match serde_json::to_value(pair.kind)? {
+            serde_json::Value::String(s) => s,
+            other => other.to_string(),
+        };
+        let mut warnings = Vec::new();
+        let rom = round(j.range_of_motion_deg, 2);
+        match rom {
+            Some(r) if r < LOW_RANGE_OF_MOTION_DEG => warnings.push(format!(
+                "range of motion {r:.1}° is below {LOW_RANGE_OF_MOTION_DEG}°: the joint centre is poorly determined"
+            )),
+            None => warnings.push(
+                "the two segments were never both measured: no range of motion".to_owned(),
+            ),
+            _ => {}
+        }
+        if j.frames_known == 0 {
+            warnings.push("position never known".to_owned());
+        }
+        // The hinge axis is stored in the lower segment's frame; give it in the parent's.
+        let hinge_axis_in_parent = if pair.a == j.parent_segment {
+            pair.axis_in_a
+        } else {
+            pair.axis_in_b
+        }
+        .map(|a| a.map(|c| round(c, 6).unwrap_or(0.0)));
+        joints.push(JointJson {
+            name: j.name.clone(),
+            parent_segment: j.parent_segment,
+            child_segment: j.child_segment,
+            kind,
+            positions: j.positions.iter().map(|&p| position(p)).collect(),
+            parent: j
+                .parent
+                .and_then(|p| skel.joints.get(p))
+                .map(|p| p.name.clone()),
+            method: pair.method.clone(),
+            residual_rms_mm: round(pair.residual_rms_mm, 3),
+            fk_residual_rms_mm: round(j.fit_rms_mm, 3),
+            range_of_motion_deg: rom,
+            kind_evidence: pair.evidence.clone(),
+            hinge_axis_in_parent,
+            bone_length_mm: round(j.bone_length, 3).unwrap_or(0.0),
+            offset_mm: vector(j.offset),
+            frames_known: j.frames_known,
+            frames_interpolated: j.frames_interpolated,
+            warnings,
+        });
+    }
+
+    let mut markers = Vec::with_capacity(labels.len());
+    for (m, l) in labels.iter().enumerate() {
+        let diagnostics = seg.markers.get(m);
+        markers.push(MarkerJson {
+            label: l.clone(),
+            segment: diagnostics.and_then(|d| d.segment),
+            visible_frames: diagnostics.map_or(0, |d| d.visible_frames),
+            rigidity_residual_mm: diagnostics.and_then(|d| round(d.rigidity_residual_mm, 3)),
+            slides: diagnostics.is_some_and(|d| d.slides),
+            unassigned_reason: seg
+                .unassigned
+                .iter()
+                .find(|u| u.marker == m)
+                .map(|u| u.reason.clone()),
+        });
+    }
+
+    Ok(SkeletonJson {
+        units: "mm".to_owned(),
+        frame_rate: skel.frame_rate,
+        frame_count: skel.frame_count,
+        segments,
+        unassigned_markers,
+        root_segment: skel.root_segment,
+        joints,
+        generator: "ossify".to_owned(),
+        ossify_version: env!("CARGO_PKG_VERSION").to_owned(),
+        schema_version: crate::SCHEMA_VERSION,
+        first_frame: traj.first_frame(),
+        bone_method: skel.method.clone(),
+        root: RootJson {
+            name: skel.root_name.clone(),
+            point_in_segment: vector(skel.root_point_in_segment),
+            positions: skel.root_positions.iter().map(|&p| position(p)).collect(),
+        },
+        markers,
+        detached_segments: input.topology.detached_segments.clone(),
+        notes: input.topology.notes.clone(),
+    })
+}
+
+/// The document as compact JSON bytes with a final newline.
+pub(crate) fn to_bytes(document: &SkeletonJson) -> Result<Vec<u8>, Error> {
+    let mut bytes = serde_json::to_vec(document)?;
+    bytes.push(b'\n');
+    Ok(bytes)
+}

@@ -1,0 +1,466 @@
+//! Tests of the three files against a hand-made body with exact poses.
+
+use std::f64::consts::FRAC_PI_2;
+
+use glam::{DQuat, DVec3};
+use serde_json::Value;
+
+use crate::{Inputs, Params, run};
+use bonefit::testkit::{Scene, scene};
+
+/// A node of a parsed BVH hierarchy.
+struct Node {
+    name: String,
+    parent: Option<usize>,
+    offset: DVec3,
+    channels: Vec<String>,
+}
+
+/// A parsed BVH: nodes in file order, frame count, frame time, channel values per frame.
+struct Bvh {
+    nodes: Vec<Node>,
+    frames: usize,
+    frame_time: f64,
+    motion: Vec<Vec<f64>>,
+}
+
+/// A small BVH reader, independent of the writer.
+fn parse_bvh(text: &str) -> Bvh {
+    let mut tokens = text.split_whitespace().peekable();
+    let mut nodes: Vec<Node> = Vec::new();
+    let mut stack: Vec<usize> = Vec::new();
+    let number = |t: Option<&str>| -> f64 { t.and_then(|s| s.parse().ok()).unwrap_or(f64::NAN) };
+    assert_eq!(tokens.next(), Some("HIERARCHY"));
+    loop {
+        let Some(t) = tokens.next() else {
+            panic!("no MOTION section")
+        };
+        match t {
+            "ROOT" | "JOINT" | "End" => {
+                let name = tokens.next().unwrap_or_default().to_owned();
+                let name = if t == "End" {
+                    format!("End {name}")
+                } else {
+                    name
+                };
+                assert_eq!(tokens.next(), Some("{"));
+                nodes.push(Node {
+                    name,
+                    parent: stack.last().copied(),
+                    offset: DVec3::NAN,
+                    channels: Vec::new(),
+                });
+                stack.push(nodes.len() - 1);
+            }
+            "OFFSET" => {
+                let o = DVec3::new(
+                    number(tokens.next()),
+                    number(tokens.next()),
+                    number(tokens.next()),
+                );
+                let top = *stack.last().unwrap_or(&0);
+                nodes[top].offset = o;
+            }
+            "CHANNELS" => {
+                let count = number(tokens.next()) as usize;
+                let top = *stack.last().unwrap_or(&0);
+                for _ in 0..count {
+                    nodes[top]
+                        .channels
+                        .push(tokens.next().unwrap_or_default().to_owned());
+                }
+            }
+            "}" => {
+                stack.pop();
+            }
+            "MOTION" => break,
+            other => panic!("unexpected token {other}"),
+        }
+    }
+    assert!(stack.is_empty(), "unbalanced braces");
+    assert_eq!(tokens.next(), Some("Frames:"));
+    let frames = number(tokens.next()) as usize;
+    assert_eq!(tokens.next(), Some("Frame"));
+    assert_eq!(tokens.next(), Some("Time:"));
+    let frame_time = number(tokens.next());
+    let per_frame: usize = nodes.iter().map(|n| n.channels.len()).sum();
+    let values: Vec<f64> = tokens.map(|t| number(Some(t))).collect();
+    assert_eq!(values.len(), frames * per_frame);
+    let motion = values
+        .chunks(per_frame.max(1))
+        .map(<[f64]>::to_vec)
+        .collect();
+    Bvh {
+        nodes,
+        frames,
+        frame_time,
+        motion,
+    }
+}
+
+/// Global position of every node at one frame: channels applied in their listed order
+/// (intrinsic), a node's rotation = parent's × its own.
+fn bvh_fk(bvh: &Bvh, frame: usize) -> Vec<DVec3> {
+    let values = &bvh.motion[frame];
+    let mut next = 0;
+    let mut rotation: Vec<DQuat> = Vec::new();
+    let mut position: Vec<DVec3> = Vec::new();
+    for node in &bvh.nodes {
+        let mut translation = node.offset;
+        let mut local = DQuat::IDENTITY;
+        for c in &node.channels {
+            let v = values[next];
+            next += 1;
+            match c.as_str() {
+                "Xposition" => translation.x += v,
+                "Yposition" => translation.y += v,
+                "Zposition" => translation.z += v,
+                "Xrotation" => local *= DQuat::from_rotation_x(v.to_radians()),
+                "Yrotation" => local *= DQuat::from_rotation_y(v.to_radians()),
+                "Zrotation" => local *= DQuat::from_rotation_z(v.to_radians()),
+                other => panic!("unknown channel {other}"),
+            }
+        }
+        let (pr, pp) = match node.parent {
+            Some(p) => (rotation[p], position[p]),
+            None => (DQuat::IDENTITY, DVec3::ZERO),
+        };
+        position.push(pp + pr * translation);
+        rotation.push(pr * local);
+    }
+    position
+}
+
+fn files(s: &Scene, params: &Params) -> crate::Outputs {
+    let skeleton = bonefit::run(
+        &s.trajectories,
+        &s.segmentation,
+        &s.fits,
+        &s.topology,
+        &bonefit::Params::default(),
+    )
+    .unwrap_or_else(|e| panic!("{e}"));
+    let input = Inputs {
+        trajectories: &s.trajectories,
+        segmentation: &s.segmentation,
+        fits: &s.fits,
+        topology: &s.topology,
+        skeleton: &skeleton,
+    };
+    run(&input, params).unwrap_or_else(|e| panic!("{e}"))
+}
+
+fn text(out: &crate::Outputs, name: &str) -> String {
+    String::from_utf8(out.files.get(name).cloned().unwrap_or_default()).unwrap_or_default()
+}
+
+fn json(out: &crate::Outputs) -> Value {
+    serde_json::from_str(&text(out, "skeleton.json")).unwrap_or(Value::Null)
+}
+
+/// A scene with a torso pose gap (root unknown) and a long thigh gap.
+fn gappy_scene() -> Scene {
+    let mut s = scene(120, 60.0);
+    for f in 30..50 {
+        s.fits.poses[0].rotations[f] = [f64::NAN; 4];
+    }
+    for f in 70..100 {
+        s.fits.poses[1].translations[f] = [f64::NAN; 3];
+    }
+    s
+}
+
+/// Checks BVH forward kinematics against skeleton.json, mapping JSON points by `axes`.
+fn check_round_trip(out: &crate::Outputs, axes: impl Fn(DVec3) -> DVec3) -> usize {
+    let doc = json(out);
+    let bvh = parse_bvh(&text(out, "skeleton.bvh"));
+    assert_eq!(
+        bvh.frames,
+        doc["frame_count"].as_u64().unwrap_or(0) as usize
+    );
+    let rate = doc["frame_rate"].as_f64().unwrap_or(0.0);
+    assert!((bvh.frame_time - 1.0 / rate).abs() < 1e-12);
+    assert_eq!(bvh.nodes[0].name, "root");
+    assert_eq!(bvh.nodes[0].offset, DVec3::ZERO);
+    assert_eq!(bvh.nodes[0].channels.len(), 6);
+    let joints = doc["joints"].as_array().cloned().unwrap_or_default();
+    let mut checked = 0;
+    for f in 0..bvh.frames {
+        let fk = bvh_fk(&bvh, f);
+        for j in &joints {
+            let name = j["name"].as_str().unwrap_or_default();
+            let node = bvh.nodes.iter().position(|n| n.name == name);
+            let Some(node) = node else {
+                panic!("joint {name} missing from the BVH")
+            };
+            // The BVH nests joints as the JSON's parents say.
+            let parent_name = bvh.nodes[bvh.nodes[node].parent.unwrap_or(0)].name.as_str();
+            assert_eq!(parent_name, j["parent"].as_str().unwrap_or("root"));
+            let p = &j["positions"][f];
+            if p.is_null() {
+                continue;
+            }
+            let want = axes(DVec3::new(
+                p[0].as_f64().unwrap_or(f64::NAN),
+                p[1].as_f64().unwrap_or(f64::NAN),
+                p[2].as_f64().unwrap_or(f64::NAN),
+            ));
+            let error = (fk[node] - want).length();
+            assert!(error < 0.01, "{name} frame {f}: BVH FK off by {error} mm");
+            checked += 1;
+        }
+    }
+    checked
+}
+
+#[test]
+fn bvh_forward_kinematics_reproduces_the_json() {
+    let s = gappy_scene();
+    let out = files(&s, &Params::default());
+    let checked = check_round_trip(&out, |p| p);
+    // 3 joints × 120 frames minus the unknown ones.
+    assert!(checked > 200, "only {checked} positions compared");
+    // The JSON positions are the truth (exact poses, rigid bones).
+    let doc = json(&out);
+    let p = &doc["joints"][2]["positions"][10];
+    let want = DVec3::from_array(s.truth[2][10]);
+    let got = DVec3::new(
+        p[0].as_f64().unwrap_or(0.0),
+        p[1].as_f64().unwrap_or(0.0),
+        p[2].as_f64().unwrap_or(0.0),
+    );
+    assert!((got - want).length() < 0.001);
+}
+
+#[test]
+fn y_up_bvh_is_the_same_motion_turned() {
+    let s = gappy_scene();
+    let out = files(&s, &Params { y_up: true });
+    // (x, y, z) Z-up → (x, z, −y) Y-up.
+    let checked = check_round_trip(&out, |p| DVec3::new(p.x, p.z, -p.y));
+    assert!(checked > 200);
+    // The JSON is the same in both modes.
+    let z_up = files(&s, &Params::default());
+    assert_eq!(
+        out.files.get("skeleton.json"),
+        z_up.files.get("skeleton.json")
+    );
+    assert_ne!(
+        out.files.get("skeleton.bvh"),
+        z_up.files.get("skeleton.bvh")
+    );
+}
+
+#[test]
+fn bvh_layout_nesting_end_sites_and_held_root() {
+    let s = gappy_scene();
+    let out = files(&s, &Params::default());
+    let bvh = parse_bvh(&text(&out, "skeleton.bvh"));
+    let names: Vec<&str> = bvh.nodes.iter().map(|n| n.name.as_str()).collect();
+    // j2 (shank) nests in j1 (thigh); head j3 after; leaves end in End Sites.
+    assert_eq!(names, ["root", "j1", "j2", "End Site", "j3", "End Site"]);
+    assert_eq!(bvh.nodes[2].parent, Some(1));
+    assert_eq!(bvh.nodes[4].parent, Some(0));
+    for n in &bvh.nodes[1..] {
+        let want = if n.name == "End Site" { 0 } else { 3 };
+        assert_eq!(n.channels.len(), want);
+        assert_eq!(
+            n.channels.join(" ").replace("rotation", ""),
+            if want == 3 { "Z X Y" } else { "" }
+        );
+    }
+    // End Site of the shank: from the knee (0,0,120) to the shank's centroid, in its frame.
+    assert!((bvh.nodes[3].offset - DVec3::new(0.0, 0.0, -120.0)).length() < 1e-6);
+    // OFFSETs are the skeleton's bones: knee 300 mm below the hip.
+    assert!((bvh.nodes[2].offset - DVec3::new(0.0, 0.0, -300.0)).length() < 1e-6);
+    // Root unknown at frames 30..50: the BVH holds frame 29's root position.
+    assert_eq!(bvh.motion[29][..3], bvh.motion[40][..3]);
+    assert_ne!(bvh.motion[29][..3], bvh.motion[28][..3]);
+    let doc = json(&out);
+    assert!(doc["root"]["positions"][40].is_null());
+    assert!(doc["joints"][0]["positions"][40].is_null());
+}
+
+#[test]
+fn json_contract_fields_and_types() {
+    let s = gappy_scene();
+    let out = files(&s, &Params::default());
+    let doc = json(&out);
+    assert_eq!(doc["units"], "mm");
+    assert_eq!(doc["frame_rate"].as_f64(), Some(60.0));
+    assert_eq!(doc["frame_count"].as_u64(), Some(120));
+    let segments = doc["segments"].as_array().cloned().unwrap_or_default();
+    assert_eq!(segments.len(), 4);
+    assert_eq!(segments[1]["id"].as_u64(), Some(1));
+    assert_eq!(
+        segments[1]["markers"],
+        serde_json::json!(["M003", "M004", "M005"])
+    );
+    assert_eq!(segments[0]["frames_with_pose"].as_u64(), Some(100));
+    assert!(
+        doc["unassigned_markers"]
+            .as_array()
+            .is_some_and(Vec::is_empty)
+    );
+    assert_eq!(doc["root_segment"].as_u64(), Some(0));
+    let joints = doc["joints"].as_array().cloned().unwrap_or_default();
+    let names: Vec<&str> = joints.iter().filter_map(|j| j["name"].as_str()).collect();
+    assert_eq!(names, ["j1", "j3", "j2"]);
+    for j in &joints {
+        assert!(j["parent_segment"].is_u64() && j["child_segment"].is_u64());
+        assert!(matches!(j["kind"].as_str(), Some("ball" | "hinge")));
+        let positions = j["positions"].as_array().cloned().unwrap_or_default();
+        assert_eq!(positions.len(), 120);
+        for p in &positions {
+            assert!(
+                p.is_null()
+                    || p.as_array()
+                        .is_some_and(|a| a.len() == 3 && a.iter().all(Value::is_f64))
+            );
+        }
+        assert!(j["bone_length_mm"].is_f64());
+        assert!(j["range_of_motion_deg"].is_f64());
+        assert!(j["residual_rms_mm"].is_f64());
+        assert!(j["warnings"].is_array());
+    }
+    assert_eq!(joints[2]["kind"], "hinge");
+    assert_eq!(joints[2]["parent"], "j1");
+    assert_eq!(joints[2]["bone_length_mm"].as_f64(), Some(300.0));
+    // Knee: thigh poses missing at 70..100 (translation only) → position null there.
+    assert!(joints[2]["positions"][80].is_null());
+    assert!(!joints[2]["positions"][60].is_null());
+    // The head nods ±0.4 rad about x only: range ≈ 45.8°, no warning.
+    let head_rom = joints[1]["range_of_motion_deg"].as_f64().unwrap_or(0.0);
+    assert!((head_rom - 0.8f64.to_degrees()).abs() < 2.0, "{head_rom}");
+    assert_eq!(doc["markers"][4]["segment"].as_u64(), Some(1));
+    assert_eq!(doc["markers"][4]["label"], "M004");
+    assert_eq!(doc["generator"], "ossify");
+    assert!(doc["ossify_version"].is_string());
+    // Positions rounded to 0.001 mm.
+    let x = joints[0]["positions"][0][0].as_f64().unwrap_or(0.0);
+    assert_eq!((x * 1000.0).round() / 1000.0, x);
+}
+
+#[test]
+fn low_range_of_motion_warns() {
+    let mut s = scene(60, 60.0);
+    // Make the head rigid on the torso: same rotation, translation through the joint.
+    for f in 0..60 {
+        let r0 = DQuat::from_array(s.fits.poses[0].rotations[f]);
+        let t0 = DVec3::from_array(s.fits.poses[0].translations[f]);
+        let centre = r0 * DVec3::new(0.0, 0.0, 180.0) + t0;
+        s.fits.poses[3].rotations[f] = r0.to_array();
+        s.fits.poses[3].translations[f] = (centre - r0 * DVec3::new(0.0, 0.0, -60.0)).to_array();
+    }
+    let doc = json(&files(&s, &Params::default()));
+    let head = &doc["joints"][1];
+    assert_eq!(head["name"], "j3");
+    assert!(head["range_of_motion_deg"].as_f64().unwrap_or(99.0) < 1e-3);
+    let warnings = head["warnings"].to_string();
+    assert!(warnings.contains("below 20"), "{warnings}");
+}
+
+#[test]
+fn csv_rows_only_where_known() {
+    let s = gappy_scene();
+    let out = files(&s, &Params::default());
+    let csv = text(&out, "joints.csv");
+    let mut lines = csv.lines();
+    assert_eq!(lines.next(), Some("frame,joint,x,y,z"));
+    let rows: Vec<Vec<&str>> = lines.map(|l| l.split(',').collect()).collect();
+    let doc = json(&out);
+    let known: usize = doc["joints"]
+        .as_array()
+        .map(|js| {
+            js.iter()
+                .map(|j| {
+                    j["positions"]
+                        .as_array()
+                        .map_or(0, |p| p.iter().filter(|x| !x.is_null()).count())
+                })
+                .sum()
+        })
+        .unwrap_or(0);
+    assert_eq!(rows.len(), known);
+    assert!(rows.iter().all(|r| r.len() == 5));
+    assert_eq!(rows[0][0], "0");
+    assert_eq!(rows[0][1], "j1");
+    let x: f64 = rows[0][2].parse().unwrap_or(f64::NAN);
+    assert_eq!(Some(x), doc["joints"][0]["positions"][0][0].as_f64());
+    assert!(!rows.iter().any(|r| r[0] == "40"));
+}
+
+#[test]
+fn outputs_are_deterministic_and_round_trip_through_serde() {
+    let s = gappy_scene();
+    let a = files(&s, &Params::default());
+    let b = files(&s, &Params::default());
+    assert_eq!(a, b);
+    assert_eq!(
+        a.files.keys().map(String::as_str).collect::<Vec<_>>(),
+        ["joints.csv", "skeleton.bvh", "skeleton.json"]
+    );
+    let json_bytes = serde_json::to_vec(&a).unwrap_or_default();
+    let back: crate::Outputs = serde_json::from_slice(&json_bytes).unwrap_or_default();
+    assert_eq!(back, a);
+}
+
+#[test]
+fn zxy_euler_is_rz_rx_ry_and_round_trips() {
+    let (a, b, c) = (0.7, -0.4, 2.1);
+    let q = DQuat::from_euler(glam::EulerRot::ZXY, a, b, c);
+    let manual = DQuat::from_rotation_z(a) * DQuat::from_rotation_x(b) * DQuat::from_rotation_y(c);
+    assert!(q.angle_between(manual) < 1e-12);
+    // Near gimbal lock too (x = ±90°).
+    for (z, x, y) in [
+        (0.3, 1.2, -2.0),
+        (-2.9, -0.2, 0.1),
+        (1.0, FRAC_PI_2 - 1e-4, 0.5),
+        (0.0, -FRAC_PI_2, 3.0),
+    ] {
+        let q = DQuat::from_rotation_z(z) * DQuat::from_rotation_x(x) * DQuat::from_rotation_y(y);
+        let text = crate::bvh::euler_degrees(q);
+        let v: Vec<f64> = text.split(' ').filter_map(|s| s.parse().ok()).collect();
+        let back = DQuat::from_rotation_z(v[0].to_radians())
+            * DQuat::from_rotation_x(v[1].to_radians())
+            * DQuat::from_rotation_y(v[2].to_radians());
+        assert!(q.angle_between(back) < 1e-6, "{z} {x} {y} → {text}");
+    }
+}
+
+#[test]
+fn mismatched_inputs_are_errors() {
+    let s = scene(10, 60.0);
+    let skeleton = bonefit::run(
+        &s.trajectories,
+        &s.segmentation,
+        &s.fits,
+        &s.topology,
+        &bonefit::Params::default(),
+    )
+    .unwrap_or_else(|e| panic!("{e}"));
+    let mut seg = s.segmentation.clone();
+    seg.segments[0].markers.push(99);
+    let input = Inputs {
+        trajectories: &s.trajectories,
+        segmentation: &seg,
+        fits: &s.fits,
+        topology: &s.topology,
+        skeleton: &skeleton,
+    };
+    assert!(matches!(
+        run(&input, &Params::default()),
+        Err(crate::Error::Mismatch(_))
+    ));
+    let mut skel = skeleton.clone();
+    skel.frame_rate = 0.0;
+    let input = Inputs {
+        skeleton: &skel,
+        segmentation: &s.segmentation,
+        ..input
+    };
+    assert!(matches!(
+        run(&input, &Params::default()),
+        Err(crate::Error::BadFrameRate { .. })
+    ));
+}
