@@ -530,3 +530,38 @@ fn truth_json_is_compact_and_round_trips() {
     // One line per joint-centre frame, not five.
     assert!(json.lines().count() < t.truth.joints.len() * (t.truth.frame_count + 30) + 200);
 }
+
+#[test]
+fn committed_fixtures_are_reproducible() {
+    // The fixtures come from examples/make_fixtures.rs in the release profile; the same
+    // bytes from this (dev) build show the output does not depend on the profile.
+    let dir = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("../../fixtures");
+    for (subject, preset, markers_per_segment) in [
+        (Subject::Human, Preset::Clean, (3, 4)),
+        (Subject::Human, Preset::Hard, (3, 4)),
+        (Subject::Robotarm, Preset::Clean, (3, 6)),
+    ] {
+        let stem = format!("{}-{}", subject.name(), preset.name());
+        let Ok(committed) = std::fs::read_to_string(dir.join(format!("{stem}.truth.json"))) else {
+            eprintln!("SKIPPED fixture check: fixtures/{stem}.truth.json is absent");
+            continue;
+        };
+        let mut t = generate(&SynthConfig {
+            subject,
+            preset,
+            markers_per_segment,
+            ..SynthConfig::default()
+        })
+        .unwrap();
+        t.truth.name = stem.clone();
+        assert!(
+            t.truth.to_json().unwrap() == committed,
+            "{stem}.truth.json differs"
+        );
+        let c3d = std::fs::read(dir.join(format!("{stem}.c3d"))).unwrap();
+        assert!(
+            mocap_io::c3d::write(&t.trajectories).unwrap() == c3d,
+            "{stem}.c3d differs"
+        );
+    }
+}
