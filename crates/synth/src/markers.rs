@@ -1,6 +1,6 @@
 //! Marker placement on segments, shuffled labels, and global marker positions.
 
-use glam::DVec3;
+use glam::{DQuat, DVec3};
 use rand::Rng;
 use rand::seq::SliceRandom;
 use rand_chacha::ChaCha8Rng;
@@ -8,7 +8,8 @@ use rand_chacha::ChaCha8Rng;
 use crate::body::Body;
 use crate::motion::Motion;
 
-/// Markers closer than this on one segment are re-drawn (a real marker is ~14 mm wide), mm.
+/// Markers closer than this to another marker in the rest pose are re-drawn (a real
+/// marker is ~14 mm wide), mm.
 const MIN_SEPARATION_MM: f64 = 15.0;
 
 /// Every marker, in label order (`M000`, `M001`, …).
@@ -29,30 +30,34 @@ pub(crate) struct MarkerSet {
 pub(crate) fn place(body: &Body, count: (usize, usize), rng: &mut ChaCha8Rng) -> MarkerSet {
     let mut segment = Vec::new();
     let mut local: Vec<DVec3> = Vec::new();
+    // Rest-pose positions of the markers placed so far (rest rotations are identity).
+    let rest = body.pose(DQuat::IDENTITY, DVec3::ZERO, &[]);
+    let mut placed: Vec<DVec3> = Vec::new();
     for (s, seg) in body.segments.iter().enumerate() {
         let n = rng.random_range(count.0..=count.1);
         let [start, end] = seg.bone;
         let axis = (end - start).try_normalize().unwrap_or(DVec3::Z);
         let e1 = axis.any_orthonormal_vector();
         let e2 = axis.cross(e1);
-        let first = local.len();
         for _ in 0..n {
             let mut p = start;
-            // Re-draw a few times when too close to a marker already on this segment.
+            // Re-draw a few times when too close to a marker already placed.
             for _ in 0..50 {
                 let along = rng.random_range(0.1..0.9);
                 let angle = rng.random_range(0.0..std::f64::consts::TAU);
                 let r = rng.random_range(seg.radius[0]..=seg.radius[1]);
                 p = start + (end - start) * along + (e1 * angle.cos() + e2 * angle.sin()) * r;
-                if local[first..]
+                let at_rest = rest.origin[s] + p;
+                if placed
                     .iter()
-                    .all(|q| q.distance(p) >= MIN_SEPARATION_MM)
+                    .all(|q| q.distance(at_rest) >= MIN_SEPARATION_MM)
                 {
                     break;
                 }
             }
             segment.push(s);
             local.push(p);
+            placed.push(rest.origin[s] + p);
         }
     }
     // Label numbers are a random permutation, so a label says nothing about its segment.

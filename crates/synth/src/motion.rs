@@ -3,7 +3,7 @@
 //! Every degree of freedom follows a sum of three sinusoids (random frequencies in a
 //! low band, random phases and amplitudes), affinely rescaled so that over the trial it
 //! spans exactly a random 70–95 % of the joint's range, placed at random inside it. The
-//! band is 0.3–1.2 Hz, raised for short trials so each track completes at least one
+//! band is 0.25–0.8 Hz, raised for short trials so each track completes at least one
 //! cycle. The root walks a circle of 0.5–4 m circumference while its heading makes one
 //! full turn, bobs or jumps, and tilts a few degrees.
 
@@ -46,7 +46,7 @@ impl Motion {
 
 /// Frequency band (Hz) of the angle tracks for a trial of `duration` seconds.
 fn band(duration: f64) -> [f64; 2] {
-    [0.3f64.max(1.0 / duration), 1.2f64.max(2.0 / duration)]
+    [0.25f64.max(1.0 / duration), 0.8f64.max(1.5 / duration)]
 }
 
 /// A smooth track over `frames` frames, rescaled to span exactly [0, 1].

@@ -332,7 +332,7 @@ fn robotarm(rng: &mut ChaCha8Rng) -> Body {
     let mut offset = v(0.0, 0.0, base);
     for k in 1..=6 {
         let length = rng.random_range(150.0..400.0);
-        let width = rng.random_range(120.0..200.0);
+        let width = rng.random_range(90.0..150.0);
         let centre = rng.random_range(-20.0..20.0);
         let axis = [heading.cos(), heading.sin(), 0.0];
         at = b.attach(
@@ -416,7 +416,8 @@ fn snowman(rng: &mut ChaCha8Rng) -> Body {
     b
 }
 
-/// A hexapod: an oval body and six legs splayed 60°, 90° and 120° from forward.
+/// A hexapod: an oval body and six legs splayed 60°, 90° and 120° from forward; the
+/// legs swing ±22° about the vertical so neighbours do not cross.
 fn hexapod(rng: &mut ChaCha8Rng) -> Body {
     let k = rng.random_range(0.85..1.15);
     let three = rng.random_bool(0.5);
@@ -459,14 +460,14 @@ fn hexapod(rng: &mut ChaCha8Rng) -> Body {
                     0,
                     format!("{leg}_coxa_joint"),
                     mount,
-                    JointKind::hinge([0.0, 0.0, 1.0], [-35.0, 35.0]),
+                    JointKind::hinge([0.0, 0.0, 1.0], [-22.0, 22.0]),
                     seg("coxa", coxa),
                 );
                 b.attach(
                     c,
                     format!("{leg}_femur_joint"),
                     coxa,
-                    JointKind::hinge(lift.to_array(), [-45.0, 60.0]),
+                    JointKind::hinge(lift.to_array(), [-40.0, 45.0]),
                     seg("femur", femur),
                 )
             } else {
@@ -474,7 +475,7 @@ fn hexapod(rng: &mut ChaCha8Rng) -> Body {
                     0,
                     format!("{leg}_hip"),
                     mount,
-                    JointKind::ball([-30.0, 30.0], [-30.0, 30.0], [-35.0, 35.0]),
+                    JointKind::ball([-30.0, 30.0], [-30.0, 30.0], [-22.0, 22.0]),
                     seg("femur", femur),
                 )
             };
@@ -482,7 +483,7 @@ fn hexapod(rng: &mut ChaCha8Rng) -> Body {
                 f,
                 format!("{leg}_tibia_joint"),
                 femur,
-                JointKind::hinge(lift.to_array(), [-30.0, 90.0]),
+                JointKind::hinge(lift.to_array(), [-25.0, 55.0]),
                 seg("tibia", tibia),
             );
         }
