@@ -12,9 +12,9 @@ use crate::truth::{TruthGap, TruthSwap};
 
 /// Soft-tissue artefact amplitude range per marker (largest displacement over the trial), mm.
 pub(crate) const SKIN_AMPLITUDE_MM: [f64; 2] = [5.0, 15.0];
-/// Share of each segment's trial length that a swap lasts.
+/// Share of the trial a label swap lasts.
 pub(crate) const SWAP_FRACTION: f64 = 0.15;
-/// Short holes: probability a marker gets any, how many, and their length in frames.
+/// Short holes: probability that a marker gets any.
 pub(crate) const SHORT_GAP_PROBABILITY: f64 = 0.5;
 /// Short holes per affected marker, inclusive range.
 pub(crate) const SHORT_GAPS_PER_MARKER: [usize; 2] = [1, 3];

@@ -519,6 +519,23 @@ fn written_trial_reads_back_unchanged_and_byte_identical() {
     let again = write_trial(&dir.0, &t, false).unwrap();
     let second: Vec<Vec<u8>> = again.iter().map(|p| std::fs::read(p).unwrap()).collect();
     assert!(first == second, "rewritten files differ");
+
+    // With a TRC too: same labels, frames and gaps, positions to the TRC's decimals.
+    let with_trc = write_trial(&dir.0, &t, true).unwrap();
+    assert_eq!(with_trc.len(), 3);
+    let trc = mocap_io::read_capture(&with_trc[2], &mocap_io::ReadOptions::default()).unwrap();
+    assert_eq!(trc.trajectories.labels(), t.trajectories.labels());
+    for (a, b) in trc
+        .trajectories
+        .positions()
+        .iter()
+        .zip(t.trajectories.positions())
+    {
+        assert_eq!(mocap_io::is_present(*a), mocap_io::is_present(*b));
+        if mocap_io::is_present(*b) {
+            assert!((0..3).all(|k| (a[k] - b[k]).abs() < 1e-3), "{a:?} vs {b:?}");
+        }
+    }
 }
 
 #[test]
