@@ -423,11 +423,11 @@ pub struct StageRun {
     pub cached: bool,
     /// Wall time of the stage (computing, or loading and checking the cached entry).
     pub seconds: f64,
-    /// Cache key of the run.
-    #[serde(skip)]
+    /// Cache key of the run (the entry is `<cache>/<stage>-v<schema>/<key>.cbor`).
+    #[serde(skip_serializing_if = "String::is_empty")]
     pub key: String,
     /// blake3 of the artifact's bytes.
-    #[serde(skip)]
+    #[serde(rename = "blake3", skip_serializing_if = "String::is_empty")]
     pub hash: String,
 }
 
