@@ -464,3 +464,48 @@ fn mismatched_inputs_are_errors() {
         Err(crate::Error::BadFrameRate { .. })
     ));
 }
+
+#[test]
+fn end_to_end_synthetic_robot_arm_bvh_reproduces_json() {
+    let trial = synth::generate(&synth::SynthConfig {
+        subject: synth::Subject::Robotarm,
+        frames: 180,
+        seed: 7,
+        ..synth::SynthConfig::default()
+    })
+    .unwrap_or_else(|e| panic!("{e}"));
+    let traj = &trial.trajectories;
+    let seg = segment::run(traj, &segment::Params::default()).unwrap_or_else(|e| panic!("{e}"));
+    let fits =
+        jointfit::run(traj, &seg, &jointfit::Params::default()).unwrap_or_else(|e| panic!("{e}"));
+    let topology =
+        topo::run(&seg, &fits, &topo::Params::default()).unwrap_or_else(|e| panic!("{e}"));
+    let skeleton = bonefit::run(traj, &seg, &fits, &topology, &bonefit::Params::default())
+        .unwrap_or_else(|e| panic!("{e}"));
+    // Clean data: constant bones follow jointfit's centres closely.
+    for j in &skeleton.joints {
+        assert!(
+            j.fit_rms_mm < 1.0,
+            "{}: FK vs fitted {} mm",
+            j.name,
+            j.fit_rms_mm
+        );
+    }
+    let input = Inputs {
+        trajectories: traj,
+        segmentation: &seg,
+        fits: &fits,
+        topology: &topology,
+        skeleton: &skeleton,
+    };
+    let out = run(&input, &Params::default()).unwrap_or_else(|e| panic!("{e}"));
+    let checked = check_round_trip(&out, |p| p);
+    assert_eq!(checked, skeleton.joints.len() * 180);
+    let y_up = run(&input, &Params { y_up: true }).unwrap_or_else(|e| panic!("{e}"));
+    check_round_trip(&y_up, |p| DVec3::new(p.x, p.z, -p.y));
+    let estimate: synth::score::Estimate =
+        serde_json::from_slice(out.files.get("skeleton.json").map_or(&[][..], |v| v))
+            .unwrap_or_else(|e| panic!("{e}"));
+    let score = synth::score::score(&trial.truth, &estimate);
+    assert!(score.topology_exact, "{score}");
+}
