@@ -23,7 +23,7 @@ fn rotate(axis: [f64; 3], angle: f64, v: [f64; 3]) -> [f64; 3] {
 
 fn capture(frames: usize, bodies: usize, per_body: usize) -> Trajectories {
     let mut rng = ChaCha8Rng::seed_from_u64(2006);
-    let mut unit = |rng: &mut ChaCha8Rng| loop {
+    let unit = |rng: &mut ChaCha8Rng| loop {
         let v: [f64; 3] = std::array::from_fn(|_| rng.random_range(-1.0..1.0));
         let n = (v[0] * v[0] + v[1] * v[1] + v[2] * v[2]).sqrt();
         if n > 0.2 && n < 1.0 {
@@ -49,7 +49,11 @@ fn capture(frames: usize, bodies: usize, per_body: usize) -> Trajectories {
         let mut rots: Vec<([f64; 3], f64)> = Vec::new();
         for b in 0..bodies {
             rots.push((axes[b], 0.8 * (rates[b] * f as f64).sin()));
-            let apply = |v| rots.iter().rev().fold(v, |acc, &(ax, an)| rotate(ax, an, acc));
+            let apply = |v| {
+                rots.iter()
+                    .rev()
+                    .fold(v, |acc, &(ax, an)| rotate(ax, an, acc))
+            };
             for o in &offsets[b] {
                 let p = apply(*o);
                 if rng.random::<f64>() < 0.1 {
@@ -69,7 +73,10 @@ fn capture(frames: usize, bodies: usize, per_body: usize) -> Trajectories {
 }
 
 fn main() {
-    let args: Vec<usize> = std::env::args().skip(1).filter_map(|a| a.parse().ok()).collect();
+    let args: Vec<usize> = std::env::args()
+        .skip(1)
+        .filter_map(|a| a.parse().ok())
+        .collect();
     let frames = args.first().copied().unwrap_or(6000);
     let bodies = args.get(1).copied().unwrap_or(14);
     let traj = capture(frames, bodies, 5);

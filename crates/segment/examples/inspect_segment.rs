@@ -1,0 +1,151 @@
+//! Shows one synthetic trial's segmentation against the truth, with the distance standard
+//! deviation ρ (mm) inside and between the groups, to see why a partition differs.
+//!
+//! `cargo run --release -p segment --example inspect_segment SUBJECT PRESET SEED [frames] [key=value ...]`
+#![allow(clippy::print_stdout)]
+
+use std::collections::BTreeMap;
+
+use synth::{Preset, Subject, SynthConfig};
+
+fn main() {
+    let args: Vec<String> = std::env::args().skip(1).collect();
+    let subject: Subject = args
+        .first()
+        .and_then(|s| s.parse().ok())
+        .unwrap_or(Subject::Human);
+    let preset: Preset = args
+        .get(1)
+        .and_then(|s| s.parse().ok())
+        .unwrap_or(Preset::Hard);
+    let seed: u64 = args.get(2).and_then(|s| s.parse().ok()).unwrap_or(1);
+    let frames: usize = args.get(3).and_then(|s| s.parse().ok()).unwrap_or(600);
+    let overrides: serde_json::Map<String, serde_json::Value> = args
+        .iter()
+        .skip(4)
+        .filter_map(|kv| kv.split_once('='))
+        .map(|(k, v)| {
+            (
+                k.to_string(),
+                serde_json::from_str(v).unwrap_or(serde_json::Value::String(v.to_string())),
+            )
+        })
+        .collect();
+    let params: segment::Params =
+        serde_json::from_value(serde_json::Value::Object(overrides)).expect("params");
+    let config = SynthConfig {
+        subject,
+        preset,
+        frames,
+        seed,
+        ..SynthConfig::default()
+    };
+    let trial = synth::generate(&config).expect("trial");
+    let traj = &trial.trajectories;
+    let labels = traj.labels();
+    let n = traj.markers();
+    let index: BTreeMap<&str, usize> = labels
+        .iter()
+        .enumerate()
+        .map(|(i, l)| (l.as_str(), i))
+        .collect();
+    let mut truth = vec![usize::MAX; n];
+    for (s, seg) in trial.truth.segments.iter().enumerate() {
+        for l in &seg.markers {
+            truth[index[l.as_str()]] = s;
+        }
+    }
+    // ρ by brute force (this is a diagnostic, not the stage).
+    let rho = |i: usize, j: usize| {
+        let d: Vec<f64> = (0..traj.frames())
+            .filter_map(|f| {
+                let (a, b) = (traj.get(f, i)?, traj.get(f, j)?);
+                Some(((a[0] - b[0]).powi(2) + (a[1] - b[1]).powi(2) + (a[2] - b[2]).powi(2)).sqrt())
+            })
+            .collect();
+        let m = d.iter().sum::<f64>() / d.len() as f64;
+        (d.iter().map(|x| (x - m).powi(2)).sum::<f64>() / d.len() as f64).sqrt()
+    };
+    let seg = segment::run(traj, &params).expect("segmentation");
+    println!(
+        "{}: noise {:.2} mm, tolerance {:.2} mm, eigen-gap k {}, {} segments (truth {})",
+        trial.name,
+        seg.noise_mm,
+        seg.tolerance_mm,
+        seg.eigengap_segments,
+        seg.segments.len(),
+        trial.truth.segments.len()
+    );
+    let ev: Vec<String> = seg
+        .eigenvalues
+        .iter()
+        .take(trial.truth.segments.len() + 3)
+        .map(|v| format!("{v:.3}"))
+        .collect();
+    println!("eigenvalues {}", ev.join(" "));
+    for (s, tseg) in trial.truth.segments.iter().enumerate() {
+        let ms: Vec<usize> = (0..n).filter(|&m| truth[m] == s).collect();
+        let found: Vec<String> = ms
+            .iter()
+            .map(|&m| seg.markers[m].segment.map_or("-".into(), |x| x.to_string()))
+            .collect();
+        let mut within = Vec::new();
+        for (a, &i) in ms.iter().enumerate() {
+            for &j in &ms[a + 1..] {
+                within.push(rho(i, j));
+            }
+        }
+        let wmax = within.iter().copied().fold(0.0, f64::max);
+        let consistent = found.iter().all(|f| *f == found[0]);
+        println!(
+            "{} truth {:>2} {:<12} max within ρ {:6.2} found {:?}",
+            if consistent { " " } else { "!" },
+            s,
+            tseg.name,
+            wmax,
+            found
+        );
+    }
+    for u in &seg.unassigned {
+        println!(
+            "unassigned {} ({}): {}",
+            u.marker, labels[u.marker], u.reason
+        );
+    }
+    // Found segments mixing truths: show the cross ρ between the truth parts.
+    for s in &seg.segments {
+        let parts: Vec<usize> = {
+            let mut p: Vec<usize> = s.markers.iter().map(|&m| truth[m]).collect();
+            p.sort_unstable();
+            p.dedup();
+            p
+        };
+        if parts.len() > 1 {
+            let a: Vec<usize> = s
+                .markers
+                .iter()
+                .copied()
+                .filter(|&m| truth[m] == parts[0])
+                .collect();
+            let b: Vec<usize> = s
+                .markers
+                .iter()
+                .copied()
+                .filter(|&m| truth[m] != parts[0])
+                .collect();
+            let cross: Vec<f64> = a
+                .iter()
+                .flat_map(|&i| b.iter().map(move |&j| (i, j)))
+                .map(|(i, j)| rho(i, j))
+                .collect();
+            let mean = cross.iter().sum::<f64>() / cross.len() as f64;
+            let min = cross.iter().copied().fold(f64::INFINITY, f64::min);
+            println!(
+                "found {} mixes truth {:?}: cross ρ mean {:.2} min {:.2}",
+                s.id, parts, mean, min
+            );
+        }
+    }
+    let slides: Vec<usize> = (0..n).filter(|&m| seg.markers[m].slides).collect();
+    println!("sliding markers: {slides:?}");
+}

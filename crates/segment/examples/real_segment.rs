@@ -1,0 +1,70 @@
+//! Segments a real capture and prints the groups by label.
+//!
+//! `cargo run --release -p segment --example real_segment PATH [key=value ...]`
+#![allow(clippy::print_stdout)]
+
+use std::path::Path;
+
+fn main() {
+    let args: Vec<String> = std::env::args().skip(1).collect();
+    let Some(path) = args.first() else {
+        println!("usage: real_segment PATH [key=value ...]");
+        return;
+    };
+    let overrides: serde_json::Map<String, serde_json::Value> = args
+        .iter()
+        .skip(1)
+        .filter_map(|kv| kv.split_once('='))
+        .map(|(k, v)| {
+            (
+                k.to_string(),
+                serde_json::from_str(v).unwrap_or(serde_json::Value::String(v.to_string())),
+            )
+        })
+        .collect();
+    let params: segment::Params =
+        serde_json::from_value(serde_json::Value::Object(overrides)).expect("params");
+    let capture =
+        mocap_io::read_capture(Path::new(path), &Default::default()).expect("readable capture");
+    let traj = &capture.trajectories;
+    let start = std::time::Instant::now();
+    let seg = segment::run(traj, &params).expect("segmentation");
+    let labels = traj.labels();
+    println!(
+        "{path}: {} frames, {} markers, {} missing samples; {:.1} ms",
+        traj.frames(),
+        traj.markers(),
+        traj.missing_samples(),
+        start.elapsed().as_secs_f64() * 1e3
+    );
+    println!(
+        "noise {:.2} mm, tolerance {:.2} mm, eigen-gap k {}",
+        seg.noise_mm, seg.tolerance_mm, seg.eigengap_segments
+    );
+    let ev: Vec<String> = seg
+        .eigenvalues
+        .iter()
+        .take(25)
+        .map(|v| format!("{v:.3}"))
+        .collect();
+    println!("eigenvalues {}", ev.join(" "));
+    for s in &seg.segments {
+        let names: Vec<String> = s
+            .markers
+            .iter()
+            .map(|&m| {
+                let d = &seg.markers[m];
+                format!(
+                    "{}({:.1}{})",
+                    labels[m],
+                    d.rigidity_residual_mm,
+                    if d.slides { ",slides" } else { "" }
+                )
+            })
+            .collect();
+        println!("segment {:>2}: {}", s.id, names.join(" "));
+    }
+    for u in &seg.unassigned {
+        println!("unassigned {}: {}", labels[u.marker], u.reason);
+    }
+}
