@@ -18,6 +18,8 @@
 // Index loops read like the matrix formulas they implement.
 #![allow(clippy::needless_range_loop)]
 
+use std::cell::Cell;
+
 use argmin::core::{CostFunction, Executor, Gradient, State};
 use argmin::solver::linesearch::MoreThuenteLineSearch;
 use argmin::solver::quasinewton::LBFGS;
@@ -70,43 +72,75 @@ impl EqTwo<'_> {
             }
         }
         for cloud in self.clouds {
-            let n = cloud.points.len() as f64;
-            let (mut sum_r, mut sum_r2, mut sum_u) = (0.0, 0.0, DVec3::ZERO);
+            // Welford's running mean and squared deviation: E[r²] − E[r]² would cancel
+            // catastrophically near a good centre (r ≈ 300 mm, σ ≈ 0.01 mm²), and a noisy
+            // cost stalls the line search.
+            let (mut mean, mut m2, mut sum_u, mut k) = (0.0, 0.0, DVec3::ZERO, 0.0);
             for q in &cloud.points {
                 let v = c - *q;
-                let r2 = v.length_squared();
-                let r = r2.sqrt();
-                sum_r += r;
-                sum_r2 += r2;
+                let r = v.length();
+                k += 1.0;
+                let delta = r - mean;
+                mean += delta / k;
+                m2 += delta * (r - mean);
                 if r > 0.0 {
                     sum_u += v / r;
                 }
             }
-            let dbar = sum_r / n;
-            let var = (sum_r2 / n - dbar * dbar).max(0.0);
-            let grad_dbar = sum_u / n;
+            let var = m2 / k;
+            let grad_dbar = sum_u / k;
             // ∇σ = 2 mean((r − d̄) u) = 2 (c − mean q) − 2 d̄ ∇d̄.
-            let grad_var = 2.0 * (c - cloud.mean) - 2.0 * dbar * grad_dbar;
-            total += var + self.alpha * dbar;
+            let grad_var = 2.0 * (c - cloud.mean) - 2.0 * mean * grad_dbar;
+            total += var + self.alpha * mean;
             grad += grad_var + self.alpha * grad_dbar;
         }
         (total / markers, grad / markers)
     }
 }
 
-impl CostFunction for EqTwo<'_> {
-    type Param = Vec<f64>;
-    type Output = f64;
-    fn cost(&self, p: &Self::Param) -> Result<f64, argmin::core::Error> {
-        Ok(self.eval(to_vec3(p)).0)
+/// [`EqTwo`] as argmin sees it: counts evaluations, remembers the best point, and stops
+/// the solver (with an error) on a non-finite step or when the evaluation budget is
+/// spent, because argmin's More–Thuente search has no iteration limit of its own and can
+/// loop forever once L-BFGS produces a degenerate direction at an exact minimum.
+pub(crate) struct Guarded<'a> {
+    problem: EqTwo<'a>,
+    budget: usize,
+    evals: Cell<usize>,
+    best: Cell<(f64, DVec3)>,
+}
+
+impl<'a> Guarded<'a> {
+    fn check(&self, p: &[f64]) -> Result<(f64, DVec3), argmin::core::Error> {
+        let c = to_vec3(p);
+        let n = self.evals.get() + 1;
+        self.evals.set(n);
+        if n > self.budget {
+            return Err(argmin::core::Error::msg("evaluation budget spent"));
+        }
+        if !c.is_finite() {
+            return Err(argmin::core::Error::msg("non-finite step"));
+        }
+        let (cost, grad) = self.problem.eval(c);
+        if cost < self.best.get().0 {
+            self.best.set((cost, c));
+        }
+        Ok((cost, grad))
     }
 }
 
-impl Gradient for EqTwo<'_> {
+impl CostFunction for &Guarded<'_> {
+    type Param = Vec<f64>;
+    type Output = f64;
+    fn cost(&self, p: &Self::Param) -> Result<f64, argmin::core::Error> {
+        Ok(self.check(p)?.0)
+    }
+}
+
+impl Gradient for &Guarded<'_> {
     type Param = Vec<f64>;
     type Gradient = Vec<f64>;
     fn gradient(&self, p: &Self::Param) -> Result<Vec<f64>, argmin::core::Error> {
-        Ok(self.eval(to_vec3(p)).1.to_array().to_vec())
+        Ok(self.check(p)?.1.to_array().to_vec())
     }
 }
 
@@ -184,42 +218,40 @@ pub(crate) struct Minimum {
     pub note: String,
 }
 
-/// Minimises Eq. 2 from `start`; falls back to `start` if the solver fails.
+/// Minimises Eq. 2 from `start`; the best point evaluated wins, whatever stopped the solver.
 pub(crate) fn minimise(problem: &EqTwo<'_>, start: DVec3, max_iters: u64) -> Minimum {
     let start_cost = problem.eval(start).0;
-    let run = || -> Result<(DVec3, f64, u64), argmin::core::Error> {
+    let guarded = Guarded {
+        problem: *problem,
+        // L-BFGS spends one cost and one gradient per line-search step, a few steps per
+        // iteration.
+        budget: 40 * max_iters as usize,
+        evals: Cell::new(0),
+        best: Cell::new((start_cost, start)),
+    };
+    let run = || -> Result<u64, argmin::core::Error> {
         let linesearch = MoreThuenteLineSearch::new();
         let solver = LBFGS::new(linesearch, 7)
             .with_tolerance_grad(1e-8)?
             .with_tolerance_cost(1e-12)?;
-        let result = Executor::new(*problem, solver)
+        let result = Executor::new(&guarded, solver)
             .configure(|state| state.param(start.to_array().to_vec()).max_iters(max_iters))
             .run()?;
-        let state = result.state();
-        let best = state.get_best_param().map_or(DVec3::NAN, |p| to_vec3(p));
-        Ok((best, state.get_best_cost(), state.get_iter()))
+        Ok(result.state().get_iter())
     };
-    match run() {
-        Ok((centre, cost, iters)) if centre.is_finite() && cost <= start_cost => Minimum {
-            centre,
-            cost,
-            note: format!(
-                "L-BFGS {iters} iterations from sphere fit (cost {start_cost:.3} → {cost:.3})"
-            ),
-        },
-        Ok(_) => Minimum {
-            centre: start,
-            cost: start_cost,
-            note: "L-BFGS did not improve on the sphere fit; kept it".to_string(),
-        },
-        Err(e) => Minimum {
-            centre: start,
-            cost: start_cost,
-            note: format!("L-BFGS failed ({e}); kept the sphere fit"),
-        },
+    let outcome = run();
+    let (cost, centre) = guarded.best.get();
+    let evals = guarded.evals.get();
+    let how = match outcome {
+        Ok(iters) => format!("{iters} iterations"),
+        Err(e) => format!("stopped after {evals} evaluations: {e}"),
+    };
+    Minimum {
+        centre,
+        cost,
+        note: format!("L-BFGS {how}; sphere-fit start cost {start_cost:.3} → {cost:.3}"),
     }
 }
-
 #[cfg(test)]
 mod tests {
     use super::*;

@@ -52,8 +52,9 @@ pub fn run(
     run_on_segments(traj, &segments, params)
 }
 
-/// [`run`] on bare marker lists: `segments[id]` = marker indices of segment `id`.
-pub(crate) fn run_on_segments(
+/// [`run`] on bare marker lists: `segments[id]` = marker indices of segment `id` (for
+/// evaluations that start from a known segmentation rather than the segment stage's).
+pub fn run_on_segments(
     traj: &Trajectories,
     segments: &[Vec<usize>],
     params: &Params,

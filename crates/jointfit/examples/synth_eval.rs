@@ -1,0 +1,164 @@
+//! Joint-centre accuracy of every method on synthetic trials, from the TRUE segmentation.
+//!
+//! `cargo run --release -p jointfit --example synth_eval -- [SEED] [FRAMES]`
+//! Per subject and preset (clean, hard) and method: mean and worst joint error over the
+//! true joints (mm and % of height), fraction of frames with a position, whether a
+//! minimum spanning tree on the pair costs equals the true tree, hinge-vs-not right, time.
+#![allow(clippy::print_stdout)]
+
+use std::collections::BTreeSet;
+use std::time::Instant;
+
+use jointfit::{JointKind, Method, Params, run_on_segments};
+use synth::{Preset, Subject, SynthConfig};
+
+fn main() -> Result<(), Box<dyn std::error::Error>> {
+    let args: Vec<String> = std::env::args().collect();
+    let seed: u64 = args.get(1).map_or(Ok(101), |s| s.parse())?;
+    let frames: usize = args.get(2).map_or(Ok(1200), |s| s.parse())?;
+    // Optional third argument: only subjects whose name contains it, with per-joint detail.
+    let only = args.get(3);
+    let verbose = only.is_some();
+    println!(
+        "{:<28} {:<7} {:>8} {:>7} {:>8} {:>7} {:>6} {:>5} {:>6} {:>7}",
+        "trial",
+        "method",
+        "mean_mm",
+        "mean_%",
+        "worst_mm",
+        "worst_%",
+        "known",
+        "tree",
+        "hinge",
+        "secs"
+    );
+    for subject in Subject::ALL {
+        if only.is_some_and(|o| !subject.name().contains(o.as_str())) {
+            continue;
+        }
+        for preset in [Preset::Clean, Preset::Hard] {
+            let trial = synth::generate(&SynthConfig {
+                subject,
+                preset,
+                frames,
+                seed,
+                ..SynthConfig::default()
+            })?;
+            let truth = &trial.truth;
+            let traj = &trial.trajectories;
+            let segments: Vec<Vec<usize>> = truth
+                .segments
+                .iter()
+                .map(|s| {
+                    s.markers
+                        .iter()
+                        .filter_map(|l| traj.labels().iter().position(|x| x == l))
+                        .collect()
+                })
+                .collect();
+            let true_edges: BTreeSet<(usize, usize)> = truth
+                .joints
+                .iter()
+                .map(|j| {
+                    (
+                        j.parent_segment.min(j.child_segment),
+                        j.parent_segment.max(j.child_segment),
+                    )
+                })
+                .collect();
+            for method in [Method::Score, Method::Aguiar] {
+                let params = Params {
+                    method,
+                    ..Params::default()
+                };
+                let start = Instant::now();
+                let fits = run_on_segments(traj, &segments, &params)?;
+                let secs = start.elapsed().as_secs_f64();
+                let (mut sum, mut worst, mut known, mut total, mut hinge_ok) =
+                    (0.0, 0.0f64, 0, 0, 0);
+                for j in &truth.joints {
+                    let (a, b) = (
+                        j.parent_segment.min(j.child_segment),
+                        j.parent_segment.max(j.child_segment),
+                    );
+                    let Some(fit) = fits.pairs.iter().find(|p| p.a == a && p.b == b) else {
+                        continue;
+                    };
+                    let (mut e, mut n) = (0.0, 0);
+                    for (p, t) in fit.positions.iter().zip(&j.positions) {
+                        total += 1;
+                        if p[0].is_finite() {
+                            known += 1;
+                            e += ((p[0] - t[0]).powi(2)
+                                + (p[1] - t[1]).powi(2)
+                                + (p[2] - t[2]).powi(2))
+                            .sqrt();
+                            n += 1;
+                        }
+                    }
+                    let e = if n > 0 { e / n as f64 } else { f64::NAN };
+                    if verbose {
+                        println!(
+                            "    {:<14} truth {:<5} fit {:<6} err {:>7.2} mm  wobble {:>6.2} {:>6.2} {:>6.2}  resid {:>6.2}  cost {:>8.2}",
+                            j.name,
+                            j.kind,
+                            format!("{:?}", fit.kind),
+                            e,
+                            fit.wobble_deg[0],
+                            fit.wobble_deg[1],
+                            fit.wobble_deg[2],
+                            fit.residual_rms_mm,
+                            fit.cost
+                        );
+                    }
+                    sum += e;
+                    worst = worst.max(e);
+                    if (fit.kind == JointKind::Hinge) == (j.kind == "hinge") {
+                        hinge_ok += 1;
+                    }
+                }
+                let mean = sum / truth.joints.len() as f64;
+                let tree = mst(segments.len(), &fits) == true_edges;
+                let h = truth.height_mm / 100.0;
+                println!(
+                    "{:<28} {:<7} {:>8.2} {:>7.3} {:>8.2} {:>7.3} {:>6.3} {:>5} {:>3}/{:<2} {:>7.3}",
+                    trial.name,
+                    method.name(),
+                    mean,
+                    mean / h,
+                    worst,
+                    worst / h,
+                    known as f64 / total.max(1) as f64,
+                    if tree { "ok" } else { "WRONG" },
+                    hinge_ok,
+                    truth.joints.len(),
+                    secs
+                );
+            }
+        }
+    }
+    Ok(())
+}
+
+/// Kruskal's minimum spanning tree on the pair costs (ties by pair order).
+fn mst(n: usize, fits: &jointfit::PairFits) -> BTreeSet<(usize, usize)> {
+    let mut order: Vec<_> = fits.pairs.iter().filter(|p| p.cost.is_finite()).collect();
+    order.sort_by(|x, y| x.cost.total_cmp(&y.cost));
+    let mut parent: Vec<usize> = (0..n).collect();
+    fn find(parent: &mut [usize], mut x: usize) -> usize {
+        while parent[x] != x {
+            parent[x] = parent[parent[x]];
+            x = parent[x];
+        }
+        x
+    }
+    let mut edges = BTreeSet::new();
+    for p in order {
+        let (ra, rb) = (find(&mut parent, p.a), find(&mut parent, p.b));
+        if ra != rb {
+            parent[ra] = rb;
+            edges.insert((p.a, p.b));
+        }
+    }
+    edges
+}
