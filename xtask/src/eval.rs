@@ -458,7 +458,7 @@ fn print_comparison(all: &[(String, Vec<TrialResult>, f64)]) {
                     fmt_f(r.mean_error_pct, 2),
                     fmt_f(r.worst_error_pct, 2),
                     fmt_f(r.known_fraction * 100.0, 1),
-                    fmt_f(r.seconds, 1)
+                    fmt_f(r.seconds, 2)
                 ));
             }
         }
