@@ -118,7 +118,26 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
                     }
                 }
                 let mean = sum / truth.joints.len() as f64;
-                let tree = mst(segments.len(), &fits) == true_edges;
+                let found = mst(segments.len(), &fits);
+                let tree = found == true_edges;
+                if verbose && !tree {
+                    for e in found.difference(&true_edges) {
+                        let p = fits.pairs.iter().find(|p| (p.a, p.b) == *e);
+                        println!(
+                            "    extra edge {e:?}: cost {:.3} kind {:?}; {}",
+                            p.map_or(f64::NAN, |p| p.cost),
+                            p.map(|p| p.kind),
+                            p.map_or("", |p| p.evidence.as_str())
+                        );
+                    }
+                    for e in true_edges.difference(&found) {
+                        let p = fits.pairs.iter().find(|p| (p.a, p.b) == *e);
+                        println!(
+                            "    missed edge {e:?}: cost {:.3}",
+                            p.map_or(f64::NAN, |p| p.cost)
+                        );
+                    }
+                }
                 let h = truth.height_mm / 100.0;
                 println!(
                     "{:<28} {:<7} {:>8.2} {:>7.3} {:>8.2} {:>7.3} {:>6.3} {:>5} {:>3}/{:<2} {:>7.3}",

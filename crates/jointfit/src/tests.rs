@@ -245,3 +245,70 @@ fn bad_segmentation_is_an_error() {
         }
     ));
 }
+
+/// The synthetic human, clean, from the true segmentation: ball centres exact, kinds
+/// right, true joints the cheapest pairs (a minimum spanning tree finds the true tree).
+#[test]
+fn synthetic_human_clean_score() {
+    let trial = synth::generate(&synth::SynthConfig {
+        frames: 240,
+        seed: 3,
+        ..synth::SynthConfig::default()
+    })
+    .expect("synthetic trial");
+    let traj = &trial.trajectories;
+    let segments: Vec<Vec<usize>> = trial
+        .truth
+        .segments
+        .iter()
+        .map(|s| {
+            s.markers
+                .iter()
+                .filter_map(|l| traj.labels().iter().position(|x| x == l))
+                .collect()
+        })
+        .collect();
+    let fits = run_on_segments(traj, &segments, &Params::default()).unwrap();
+    let mut true_edges = Vec::new();
+    for j in &trial.truth.joints {
+        let (a, b) = (
+            j.parent_segment.min(j.child_segment),
+            j.parent_segment.max(j.child_segment),
+        );
+        true_edges.push((a, b));
+        let fit = pair(&fits, a, b);
+        assert_eq!(
+            fit.kind == JointKind::Hinge,
+            j.kind == "hinge",
+            "{}: {}",
+            j.name,
+            fit.evidence
+        );
+        if j.kind == "ball" {
+            let truth: Vec<DVec3> = j.positions.iter().map(|p| DVec3::from_array(*p)).collect();
+            let err = mean_error(fit, &truth);
+            assert!(err < 0.5, "{}: {err} mm", j.name);
+        }
+    }
+    // Kruskal on the costs.
+    let mut order: Vec<&PairFit> = fits.pairs.iter().collect();
+    order.sort_by(|x, y| x.cost.total_cmp(&y.cost));
+    let mut root: Vec<usize> = (0..segments.len()).collect();
+    fn find(root: &mut [usize], mut x: usize) -> usize {
+        while root[x] != x {
+            x = root[x];
+        }
+        x
+    }
+    let mut tree = Vec::new();
+    for p in order {
+        let (ra, rb) = (find(&mut root, p.a), find(&mut root, p.b));
+        if ra != rb {
+            root[ra] = rb;
+            tree.push((p.a, p.b));
+        }
+    }
+    tree.sort();
+    true_edges.sort();
+    assert_eq!(tree, true_edges);
+}
