@@ -7,7 +7,12 @@ fn stages(json: &serde_json::Value) -> Vec<(String, bool)> {
         .as_array()
         .expect("stages array")
         .iter()
-        .map(|s| (s["name"].as_str().unwrap().to_owned(), s["cached"].as_bool().unwrap()))
+        .map(|s| {
+            (
+                s["name"].as_str().unwrap().to_owned(),
+                s["cached"].as_bool().unwrap(),
+            )
+        })
         .collect()
 }
 
@@ -20,25 +25,39 @@ fn default_run_writes_the_contract_and_caches_every_stage() {
 
     let first: serde_json::Value = serde_json::from_str(&xtask_ok(&args)).unwrap();
     let names: Vec<_> = stages(&first).into_iter().map(|(n, _)| n).collect();
-    assert_eq!(names, ["mocap-io", "segment", "jointfit", "topo", "bonefit", "export"]);
+    assert_eq!(
+        names,
+        [
+            "mocap-io", "segment", "jointfit", "topo", "bonefit", "export"
+        ]
+    );
     assert!(stages(&first).iter().all(|(_, cached)| !cached), "{first}");
 
     let skeleton = read_json(&tmp.path("out/skeleton.json"));
     assert_eq!(skeleton["units"], "mm");
     let frames = skeleton["frame_count"].as_u64().unwrap() as usize;
     assert!(skeleton["frame_rate"].as_f64().unwrap() > 0.0);
-    assert!(skeleton["segments"].as_array().unwrap().len() >= 15, "human has ≥ 15 segments");
+    assert!(
+        skeleton["segments"].as_array().unwrap().len() >= 15,
+        "human has ≥ 15 segments"
+    );
     assert!(skeleton["unassigned_markers"].is_array());
     let root = skeleton["root_segment"].as_u64().unwrap();
     let joints = skeleton["joints"].as_array().unwrap();
-    assert_eq!(joints.len() + 1, skeleton["segments"].as_array().unwrap().len());
+    assert_eq!(
+        joints.len() + 1,
+        skeleton["segments"].as_array().unwrap().len()
+    );
     let bvh = std::fs::read_to_string(tmp.path("out/skeleton.bvh")).unwrap();
     assert!(bvh.starts_with("HIERARCHY"));
     assert!(bvh.contains(&format!("Frames: {frames}")));
     for j in joints {
         assert_eq!(j["positions"].as_array().unwrap().len(), frames);
         let name = j["name"].as_str().unwrap();
-        assert!(bvh.contains(&format!("JOINT {name}\n")), "BVH lacks joint {name}");
+        assert!(
+            bvh.contains(&format!("JOINT {name}\n")),
+            "BVH lacks joint {name}"
+        );
         assert!(["ball", "hinge", "universal", "rigid"].contains(&j["kind"].as_str().unwrap()));
         assert_ne!(j["child_segment"].as_u64().unwrap(), root);
     }
@@ -49,7 +68,10 @@ fn default_run_writes_the_contract_and_caches_every_stage() {
     let json_bytes = std::fs::read(tmp.path("out/skeleton.json")).unwrap();
     let again: serde_json::Value = serde_json::from_str(&xtask_ok(&args)).unwrap();
     assert!(stages(&again).iter().all(|(_, cached)| *cached), "{again}");
-    assert_eq!(std::fs::read(tmp.path("out/skeleton.json")).unwrap(), json_bytes);
+    assert_eq!(
+        std::fs::read(tmp.path("out/skeleton.json")).unwrap(),
+        json_bytes
+    );
 
     // A jointfit parameter reruns jointfit and everything downstream, nothing upstream.
     let mut set = args.to_vec();
@@ -65,9 +87,14 @@ fn recomputing_without_the_cache_gives_byte_identical_files() {
     let run = |name: &str| {
         let out = tmp.path(name);
         let cache = tmp.path(&format!("cache-{name}"));
-        xtask_ok(&["run", "--out", out.to_str().unwrap(), "--cache", cache.to_str().unwrap()]);
-        ["skeleton.json", "skeleton.bvh", "joints.csv"]
-            .map(|f| std::fs::read(out.join(f)).unwrap())
+        xtask_ok(&[
+            "run",
+            "--out",
+            out.to_str().unwrap(),
+            "--cache",
+            cache.to_str().unwrap(),
+        ]);
+        ["skeleton.json", "skeleton.bvh", "joints.csv"].map(|f| std::fs::read(out.join(f)).unwrap())
     };
     assert!(run("a") == run("b"), "two fresh runs differ");
 }
@@ -92,7 +119,10 @@ fn a_bad_capture_fails_clearly_and_writes_nothing() {
     ]);
     assert!(!result.status.success());
     let stderr = String::from_utf8_lossy(&result.stderr);
-    assert!(stderr.contains("broken.c3d"), "error does not name the file: {stderr}");
+    assert!(
+        stderr.contains("broken.c3d"),
+        "error does not name the file: {stderr}"
+    );
     assert!(!out.join("skeleton.json").exists() && !out.join("skeleton.bvh").exists());
 }
 

@@ -3,6 +3,7 @@
 //! One integration-test binary (STYLE.md). Each module drives the CLI as a user would and
 //! checks the files it writes against ground truth.
 
+mod accuracy;
 mod cli;
 mod real;
 mod support;

@@ -62,7 +62,9 @@ pub fn mean_distance(a: &serde_json::Value, b: &serde_json::Value) -> Option<f64
     let mut sum = 0.0;
     let mut n = 0usize;
     for (p, q) in a.iter().zip(b) {
-        let (Some(p), Some(q)) = (p.as_array(), q.as_array()) else { continue };
+        let (Some(p), Some(q)) = (p.as_array(), q.as_array()) else {
+            continue;
+        };
         let d: f64 = p
             .iter()
             .zip(q)
