@@ -1,6 +1,7 @@
 //! Joint-centre accuracy of every method on synthetic trials, from the TRUE segmentation.
 //!
-//! `cargo run --release -p jointfit --example synth_eval -- [SEED] [FRAMES]`
+//! `cargo run --release -p jointfit --example synth_eval -- [SEED] [FRAMES] [SUBJECT|all] [LO,HI]`
+//! (LO,HI: markers per segment, default the generator's).
 //! Per subject and preset (clean, hard) and method: mean and worst joint error over the
 //! true joints (mm and % of height), fraction of frames with a position, whether a
 //! minimum spanning tree on the pair costs equals the true tree, hinge-vs-not right, time.
@@ -17,8 +18,15 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
     let seed: u64 = args.get(1).map_or(Ok(101), |s| s.parse())?;
     let frames: usize = args.get(2).map_or(Ok(1200), |s| s.parse())?;
     // Optional third argument: only subjects whose name contains it, with per-joint detail.
-    let only = args.get(3);
+    let only = args.get(3).filter(|s| s.as_str() != "all");
     let verbose = only.is_some();
+    let markers_per_segment = match args.get(4) {
+        Some(s) => {
+            let (lo, hi) = s.split_once(',').ok_or("markers: LO,HI")?;
+            (lo.parse()?, hi.parse()?)
+        }
+        None => SynthConfig::default().markers_per_segment,
+    };
     println!(
         "{:<28} {:<7} {:>8} {:>7} {:>8} {:>7} {:>6} {:>5} {:>6} {:>7}",
         "trial",
@@ -42,6 +50,7 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
                 preset,
                 frames,
                 seed,
+                markers_per_segment,
                 ..SynthConfig::default()
             })?;
             let truth = &trial.truth;
@@ -66,9 +75,14 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
                     )
                 })
                 .collect();
-            for method in [Method::Score, Method::Aguiar] {
+            for (name, method, anchor) in [
+                ("score", Method::Score, true),
+                ("no-anch", Method::Score, false),
+                ("aguiar", Method::Aguiar, true),
+            ] {
                 let params = Params {
                     method,
+                    anchor,
                     ..Params::default()
                 };
                 let start = Instant::now();
@@ -142,7 +156,7 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
                 println!(
                     "{:<28} {:<7} {:>8.2} {:>7.3} {:>8.2} {:>7.3} {:>6.3} {:>5} {:>3}/{:<2} {:>7.3}",
                     trial.name,
-                    method.name(),
+                    name,
                     mean,
                     mean / h,
                     worst,

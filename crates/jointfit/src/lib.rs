@@ -9,11 +9,19 @@
 //! hinge axis. Methods (`Params::method`): `score` (symmetrical centre of rotation with
 //! SARA hinge axes, closed form; default) and `aguiar` (the paper's Eq. 2 by L-BFGS).
 //!
-//! It does not choose which pairs are joints (topo does, from the costs), does not
-//! place hinge centres using neighbouring joints (bonefit may), and does not yet pose
-//! segments carried by two markers: their poses are missing (NaN).
+//! Segments carried by 1 or 2 markers (or collinear ones) are posed through the joint with
+//! a posed neighbour (greedy anchoring, `Params::anchor`, see `anchor.rs`): 2 markers plus
+//! the joint centre the neighbour carries; a 1-marker segment gets a swing-only pose (its
+//! twist about the centre→marker line is unobservable and set to the neighbour's). Frames
+//! where only 2 markers of a larger segment are visible are filled the same way. At least
+//! one segment must have ≥ 3 non-collinear markers to start from.
+//!
+//! It does not choose which pairs are joints (topo does, from the costs); hinge centres
+//! are placed on their axes from the tree by [`place_hinge_centres`], which the caller
+//! runs once the tree is known.
 
 mod aguiar;
+mod anchor;
 mod error;
 mod fit;
 mod horn;
@@ -69,7 +77,8 @@ pub fn run_on_segments(
             });
         }
     }
-    let poses = poses::all_segment_poses(traj, segments, params.min_spread_mm);
+    let mut poses = poses::all_segment_poses(traj, segments, params.min_spread_mm);
+    let anchors = anchor::anchor_segments(traj, segments, &mut poses, params);
     let tracks: Vec<Vec<Option<poses::Pose>>> = poses.par_iter().map(poses::pose_track).collect();
     let views: Vec<fit::SegmentView<'_>> = segments
         .iter()
@@ -84,10 +93,28 @@ pub fn run_on_segments(
     let pairs: Vec<(usize, usize)> = (0..views.len())
         .flat_map(|a| ((a + 1)..views.len()).map(move |b| (a, b)))
         .collect();
-    let fits = pairs
+    let mut fits: Vec<PairFit> = pairs
         .par_iter()
         .map(|&(a, b)| fit::fit_pair(traj, a, b, &views[a], &views[b], params))
         .collect();
+    // Say which joints carry a segment's poses: their costs are low partly by construction.
+    for (s, anchor) in anchors.iter().enumerate() {
+        let Some(anchor) = anchor else { continue };
+        let (a, b) = (s.min(anchor.neighbour), s.max(anchor.neighbour));
+        if let Some(fit) = fits.iter_mut().find(|p| p.a == a && p.b == b) {
+            let how = if anchor.posed_by_anchor {
+                "posed through this joint"
+            } else {
+                "2-marker frames filled through this joint"
+            };
+            fit.evidence.push_str(&format!(
+                "; segment {s} {how} in {} frames (common centre in segment {}: {})",
+                anchor.frames_posed,
+                anchor.neighbour,
+                anchor.fit.describe()
+            ));
+        }
+    }
     Ok(PairFits {
         frames: traj.frames(),
         poses,

@@ -46,6 +46,13 @@ pub struct Params {
     pub min_spread_mm: f64,
     /// L-BFGS iteration limit for the `aguiar` method.
     pub max_iters: u64,
+    /// Pose segments with fewer than 3 markers through a joint with a posed neighbour,
+    /// and fill frames where only 2 of a segment's markers are visible.
+    pub anchor: bool,
+    /// Anchoring: least RMS angle (degrees) the markers must turn about the common centre.
+    pub anchor_min_excursion_deg: f64,
+    /// Anchoring: largest RMS radial residual (mm) of an acceptable common centre.
+    pub anchor_max_rms_mm: f64,
 }
 
 impl Default for Params {
@@ -58,6 +65,9 @@ impl Default for Params {
             hinge_ratio: 0.3,
             min_spread_mm: 2.0,
             max_iters: 200,
+            anchor: true,
+            anchor_min_excursion_deg: 10.0,
+            anchor_max_rms_mm: 25.0,
         }
     }
 }
@@ -98,6 +108,23 @@ pub const PARAM_DOCS: &[(&str, &str)] = &[
         "max_iters",
         "aguiar only: L-BFGS iteration limit per pair; iterations; default 200",
     ),
+    (
+        "anchor",
+        "pose segments with 1 or 2 markers (or collinear ones) through the joint with the \
+         posed neighbour whose frame sees their markers at the most constant distance from \
+         one centre, and fill frames where only 2 of a segment's markers are visible from \
+         those 2 plus that joint; bool; default true",
+    ),
+    (
+        "anchor_min_excursion_deg",
+        "anchoring: a neighbour qualifies only if the markers turn at least this RMS angle \
+         about the common centre (less: the joint is not identifiable); degrees; default 10",
+    ),
+    (
+        "anchor_max_rms_mm",
+        "anchoring: a neighbour qualifies only if the markers' distances to the common \
+         centre vary by at most this RMS; mm; default 25",
+    ),
 ];
 
 impl Params {
@@ -126,6 +153,20 @@ impl Params {
                 "min_spread_mm",
                 self.min_spread_mm,
                 "must be a finite number ≥ 0",
+            ));
+        }
+        if !(self.anchor_min_excursion_deg.is_finite() && self.anchor_min_excursion_deg >= 0.0) {
+            return Err(bad(
+                "anchor_min_excursion_deg",
+                self.anchor_min_excursion_deg,
+                "must be a finite number ≥ 0",
+            ));
+        }
+        if !(self.anchor_max_rms_mm.is_finite() && self.anchor_max_rms_mm > 0.0) {
+            return Err(bad(
+                "anchor_max_rms_mm",
+                self.anchor_max_rms_mm,
+                "must be a finite number > 0",
             ));
         }
         if self.min_frames == 0 {

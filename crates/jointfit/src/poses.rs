@@ -58,15 +58,66 @@ pub(crate) fn segment_poses(
     markers: &[usize],
     min_spread_mm: f64,
 ) -> SegmentPoses {
-    let frames = traj.frames();
-    let nan3 = [f64::NAN; 3];
-    let visible = |f: usize| {
-        markers
-            .iter()
-            .filter(|&&m| traj.get(f, m).is_some())
-            .count()
-    };
-    // First frame with the most visible markers.
+    let shape = fit_shape(
+        traj.frames(),
+        markers.len(),
+        markers.len(),
+        |f, k| traj.get(f, markers[k]).map(DVec3::from_array),
+        min_spread_mm,
+    );
+    shape.into_poses(id, markers.len())
+}
+
+/// A reference shape and the rigid fit of every frame against it.
+pub(crate) struct Shape {
+    /// Reference positions in the local frame (mm); NaN for a point never seen.
+    pub reference: Vec<DVec3>,
+    /// Fit per frame; `None` where fewer than 3 points are visible or they are collinear.
+    pub fits: Vec<Option<RigidFit>>,
+}
+
+impl Shape {
+    /// Stored poses of segment `id`, whose markers are the first `markers` points.
+    pub fn into_poses(self, id: usize, markers: usize) -> SegmentPoses {
+        let nan3 = [f64::NAN; 3];
+        SegmentPoses {
+            segment: id,
+            reference: self.reference[..markers]
+                .iter()
+                .map(|r| if r.is_finite() { r.to_array() } else { nan3 })
+                .collect(),
+            rotations: self
+                .fits
+                .iter()
+                .map(|f| f.map_or([f64::NAN; 4], |f| f.rotation.to_array()))
+                .collect(),
+            translations: self
+                .fits
+                .iter()
+                .map(|f| f.map_or(nan3, |f| f.translation.to_array()))
+                .collect(),
+            rms_mm: self
+                .fits
+                .iter()
+                .map(|f| f.map_or(f64::NAN, |f| f.rms_mm))
+                .collect(),
+        }
+    }
+}
+
+/// Reference shape of `count` points and their per-frame rigid fits. `point(f, k)` is
+/// point k's global position at frame f (mm) or `None`. The local origin is the centroid
+/// of the first `origin_points` points (a segment's own markers, not the virtual joint
+/// centre an anchored segment adds).
+pub(crate) fn fit_shape(
+    frames: usize,
+    count: usize,
+    origin_points: usize,
+    point: impl Fn(usize, usize) -> Option<DVec3>,
+    min_spread_mm: f64,
+) -> Shape {
+    let visible = |f: usize| (0..count).filter(|&k| point(f, k).is_some()).count();
+    // First frame with the most visible points.
     let mut ref_frame = None;
     let mut best = 0;
     for f in 0..frames {
@@ -74,73 +125,55 @@ pub(crate) fn segment_poses(
         if v > best {
             best = v;
             ref_frame = Some(f);
-            if v == markers.len() {
+            if v == count {
                 break;
             }
         }
     }
     let mut reference: Vec<DVec3> = match ref_frame {
-        Some(f) => markers
-            .iter()
-            .map(|&m| traj.get(f, m).map_or(DVec3::NAN, DVec3::from_array))
+        Some(f) => (0..count)
+            .map(|k| point(f, k).unwrap_or(DVec3::NAN))
             .collect(),
-        None => vec![DVec3::NAN; markers.len()],
+        None => vec![DVec3::NAN; count],
     };
-    recentre(&mut reference);
+    recentre(&mut reference, origin_points);
 
-    let mut buf = Vec::with_capacity(markers.len());
+    let mut buf = Vec::with_capacity(count);
     let mut fits: Vec<Option<RigidFit>> = vec![None; frames];
     if best >= 3 {
         // One round of align-and-average, then the final alignment against the mean shape.
         for (f, fit) in fits.iter_mut().enumerate() {
-            *fit = fit_frame(traj, f, markers, &reference, &mut buf, min_spread_mm);
+            *fit = fit_frame(f, &point, &reference, &mut buf, min_spread_mm);
         }
-        let mut sum = vec![DVec3::ZERO; markers.len()];
-        let mut count = vec![0usize; markers.len()];
+        let mut sum = vec![DVec3::ZERO; count];
+        let mut seen = vec![0usize; count];
         for (f, fit) in fits.iter().enumerate() {
             let Some(fit) = fit else { continue };
             let inv = fit.rotation.inverse();
-            for (k, &m) in markers.iter().enumerate() {
-                if let Some(p) = traj.get(f, m) {
-                    sum[k] += inv * (DVec3::from_array(p) - fit.translation);
-                    count[k] += 1;
+            for k in 0..count {
+                if let Some(p) = point(f, k) {
+                    sum[k] += inv * (p - fit.translation);
+                    seen[k] += 1;
                 }
             }
         }
         reference = sum
             .iter()
-            .zip(&count)
+            .zip(&seen)
             .map(|(s, &c)| if c > 0 { *s / c as f64 } else { DVec3::NAN })
             .collect();
-        recentre(&mut reference);
+        recentre(&mut reference, origin_points);
         for (f, fit) in fits.iter_mut().enumerate() {
-            *fit = fit_frame(traj, f, markers, &reference, &mut buf, min_spread_mm);
+            *fit = fit_frame(f, &point, &reference, &mut buf, min_spread_mm);
         }
     }
-    SegmentPoses {
-        segment: id,
-        reference: reference
-            .iter()
-            .map(|r| if r.is_finite() { r.to_array() } else { nan3 })
-            .collect(),
-        rotations: fits
-            .iter()
-            .map(|f| f.map_or([f64::NAN; 4], |f| f.rotation.to_array()))
-            .collect(),
-        translations: fits
-            .iter()
-            .map(|f| f.map_or(nan3, |f| f.translation.to_array()))
-            .collect(),
-        rms_mm: fits
-            .iter()
-            .map(|f| f.map_or(f64::NAN, |f| f.rms_mm))
-            .collect(),
-    }
+    Shape { reference, fits }
 }
 
-/// Moves the origin to the centroid of the finite reference positions.
-fn recentre(reference: &mut [DVec3]) {
-    let (sum, n) = reference
+/// Moves the origin to the centroid of the finite ones among the first `origin_points`
+/// reference positions.
+fn recentre(reference: &mut [DVec3], origin_points: usize) {
+    let (sum, n) = reference[..origin_points.min(reference.len())]
         .iter()
         .filter(|r| r.is_finite())
         .fold((DVec3::ZERO, 0usize), |(s, n), r| (s + *r, n + 1));
@@ -152,23 +185,27 @@ fn recentre(reference: &mut [DVec3]) {
     }
 }
 
-/// Horn fit of one frame on the markers visible there and present in the reference.
+/// Horn fit of one frame on the points visible there and present in the reference.
 fn fit_frame(
-    traj: &Trajectories,
     frame: usize,
-    markers: &[usize],
+    point: &impl Fn(usize, usize) -> Option<DVec3>,
     reference: &[DVec3],
     buf: &mut Vec<(DVec3, DVec3)>,
     min_spread_mm: f64,
 ) -> Option<RigidFit> {
     buf.clear();
-    for (&m, r) in markers.iter().zip(reference) {
-        if let Some(p) = traj.get(frame, m)
+    for (k, r) in reference.iter().enumerate() {
+        if let Some(p) = point(frame, k)
             && r.is_finite()
         {
-            buf.push((*r, DVec3::from_array(p)));
+            buf.push((*r, p));
         }
     }
+    fit_pairs(buf, min_spread_mm)
+}
+
+/// Horn fit of (reference, observed) pairs: `None` with fewer than 3 or a collinear set.
+pub(crate) fn fit_pairs(buf: &[(DVec3, DVec3)], min_spread_mm: f64) -> Option<RigidFit> {
     if buf.len() < 3 || spread_mm(buf) < min_spread_mm {
         return None;
     }

@@ -1,0 +1,482 @@
+//! Poses for segments carried by fewer than three markers, through a joint with a posed
+//! neighbour (the second paper's handling of two-marker segments, made greedy).
+//!
+//! A segment S without its own poses (1 or 2 markers, or collinear markers) is anchored to
+//! the posed segment N whose frame sees S's markers move most like points at constant
+//! distances from one common centre: in N's local frame every marker m of S satisfies
+//! `|q − c|² = r_m²`, i.e. `|q|² = 2 c·q + k_m` with one `k_m` per marker, linear in `c`.
+//! A hinge leaves the component of `c` along its axis undetermined: when dropping that
+//! direction does not raise the radial residual, `c` is put on the axis nearest the
+//! midpoint of N's origin and S's markers (any point on the axis is fixed in both
+//! segments, so the resulting pose does not depend on where). The cost is the RMS of the
+//! radial residual `|q − c| − r_m` (mm); pairs with too few samples, too little angular
+//! excursion about `c` (no identifiable joint) or too large a residual are not candidates.
+//! Greedily, the cheapest (S, N) over all unposed S and posed N is taken, S becomes posed,
+//! and the search repeats until no candidate is left.
+//!
+//! S's pose at a frame: with ≥ 2 markers, Horn's method on S's visible markers plus the
+//! centre as N carries it, against a reference shape {markers, centre} in S's local frame
+//! (origin at S's markers' centroid; ≥ 3 non-collinear points needed, otherwise no pose).
+//! With one marker no full pose exists: the twist about the centre→marker line cannot be
+//! seen. We give it N's rotation composed with the minimal rotation (swing) carrying the
+//! marker's mean direction from the centre (in N's frame) to its current direction, so the
+//! twist relative to N is zero by convention; the local origin is the marker, the centre
+//! sits at distance r along the reference direction, and the translation puts the centre
+//! exactly where N carries it.
+//!
+//! Segments with their own poses (≥ 3 markers) get the same anchor search, and frames
+//! where only 2 of their markers are visible are filled from those 2 plus the anchor's
+//! centre (issue 5, item 4).
+
+// Index loops read like the matrix formulas they implement.
+#![allow(clippy::needless_range_loop)]
+
+use glam::{DQuat, DVec3};
+use mocap_io::Trajectories;
+
+use crate::pairfits::SegmentPoses;
+use crate::params::Params;
+use crate::poses::{Pose, fit_pairs, fit_shape, pose_track};
+use crate::small::sym_eigen;
+
+/// How a segment was tied to a neighbour.
+#[derive(Clone, Debug)]
+pub(crate) struct Anchor {
+    /// The posed neighbour N.
+    pub neighbour: usize,
+    /// Whether S's poses come from this anchor (true) or only its gaps were filled (false).
+    pub posed_by_anchor: bool,
+    /// The common centre fit.
+    pub fit: CentreFit,
+    /// Frames filled or posed through the anchor.
+    pub frames_posed: usize,
+}
+
+/// A common centre of S's markers in N's local frame.
+#[derive(Clone, Debug)]
+pub(crate) struct CentreFit {
+    /// Centre in N's local frame (mm).
+    pub centre: DVec3,
+    /// RMS radial residual (mm).
+    pub rms_mm: f64,
+    /// Largest over S's markers of the RMS angle of the centre→marker direction from its
+    /// mean (degrees).
+    pub excursion_deg: f64,
+    /// Samples (marker × frame) used.
+    pub samples: usize,
+    /// True when one direction of the centre was undetermined (a hinge axis) and set by
+    /// placement.
+    pub hinge: bool,
+    /// Per marker of S (in S's marker order): mean radius (mm) and mean unit direction
+    /// from the centre (N-local); NaN when the marker had too few samples.
+    pub radii: Vec<(f64, DVec3)>,
+}
+
+impl CentreFit {
+    /// One line for `PairFit::evidence`.
+    pub fn describe(&self) -> String {
+        format!(
+            "radial residual {:.2} mm over {} samples, excursion {:.1}°{}",
+            self.rms_mm,
+            self.samples,
+            self.excursion_deg,
+            if self.hinge {
+                ", centre placed on the hinge axis"
+            } else {
+                ""
+            }
+        )
+    }
+}
+
+/// Anchors every segment it can; replaces the poses of segments without their own and
+/// fills 2-marker frames of the others. Returns the anchor of every segment.
+pub(crate) fn anchor_segments(
+    traj: &Trajectories,
+    segments: &[Vec<usize>],
+    poses: &mut [SegmentPoses],
+    params: &Params,
+) -> Vec<Option<Anchor>> {
+    let n = segments.len();
+    let mut anchors: Vec<Option<Anchor>> = vec![None; n];
+    if !params.anchor {
+        return anchors;
+    }
+    let mut tracks: Vec<Vec<Option<Pose>>> = poses.iter().map(pose_track).collect();
+    let posed_count = |t: &[Option<Pose>]| t.iter().filter(|p| p.is_some()).count();
+    let own: Vec<bool> = tracks
+        .iter()
+        .map(|t| posed_count(t) >= params.min_frames)
+        .collect();
+    let mut posed = own.clone();
+    // Fits are computed once per (S, N): N's poses never change after it is posed.
+    let mut memo: Vec<Vec<Option<Option<CentreFit>>>> = vec![vec![None; n]; n];
+    let mut failed = vec![vec![false; n]; n];
+    loop {
+        let mut best: Option<(f64, usize, usize)> = None;
+        for s in 0..n {
+            if posed[s] || segments[s].is_empty() {
+                continue;
+            }
+            for nb in 0..n {
+                if nb == s || !posed[nb] || failed[s][nb] {
+                    continue;
+                }
+                let fit = memo[s][nb]
+                    .get_or_insert_with(|| centre_fit(traj, &segments[s], &tracks[nb], params));
+                if let Some(fit) = fit
+                    && best.is_none_or(|(c, _, _)| fit.rms_mm < c)
+                {
+                    best = Some((fit.rms_mm, s, nb));
+                }
+            }
+        }
+        let Some((_, s, nb)) = best else { break };
+        let Some(Some(fit)) = memo[s][nb].clone() else {
+            break;
+        };
+        let new = anchored_poses(traj, s, &segments[s], &poses[nb], &tracks[nb], &fit, params);
+        let track = pose_track(&new);
+        let count = posed_count(&track);
+        if count < params.min_frames {
+            // Too few frames with both markers and the neighbour: try the next candidate.
+            failed[s][nb] = true;
+            continue;
+        }
+        poses[s] = new;
+        tracks[s] = track;
+        posed[s] = true;
+        anchors[s] = Some(Anchor {
+            neighbour: nb,
+            posed_by_anchor: true,
+            fit,
+            frames_posed: count,
+        });
+    }
+    // Gap filling for segments posed by their own markers.
+    for s in 0..n {
+        if !own[s] || segments[s].len() < 3 {
+            continue;
+        }
+        let gappy = (0..traj.frames()).any(|f| {
+            tracks[s][f].is_none()
+                && segments[s]
+                    .iter()
+                    .filter(|&&m| traj.get(f, m).is_some())
+                    .count()
+                    >= 2
+        });
+        if !gappy {
+            continue;
+        }
+        let mut best: Option<(f64, usize, CentreFit)> = None;
+        for nb in 0..n {
+            let loops_back = anchors[nb].as_ref().is_some_and(|a| a.neighbour == s);
+            if nb == s || !posed[nb] || loops_back {
+                continue;
+            }
+            let fit = match memo[s][nb].take() {
+                Some(fit) => fit,
+                None => centre_fit(traj, &segments[s], &tracks[nb], params),
+            };
+            if let Some(fit) = fit
+                && best.as_ref().is_none_or(|(c, _, _)| fit.rms_mm < *c)
+            {
+                best = Some((fit.rms_mm, nb, fit));
+            }
+        }
+        let Some((_, nb, fit)) = best else { continue };
+        let filled = fill_gaps(
+            traj,
+            &segments[s],
+            &mut poses[s],
+            &tracks[s],
+            &tracks[nb],
+            &fit,
+            params,
+        );
+        if filled > 0 {
+            tracks[s] = pose_track(&poses[s]);
+            anchors[s] = Some(Anchor {
+                neighbour: nb,
+                posed_by_anchor: false,
+                fit,
+                frames_posed: filled,
+            });
+        }
+    }
+    anchors
+}
+
+/// Common centre of `markers` (S's) in the frame of a neighbour with poses `track`.
+pub(crate) fn centre_fit(
+    traj: &Trajectories,
+    markers: &[usize],
+    track: &[Option<Pose>],
+    params: &Params,
+) -> Option<CentreFit> {
+    // Samples of each marker in N's frame.
+    let clouds: Vec<Vec<DVec3>> = markers
+        .iter()
+        .map(|&m| {
+            track
+                .iter()
+                .enumerate()
+                .filter_map(|(f, pose)| {
+                    let p = traj.get(f, m)?;
+                    Some(pose.as_ref()?.inverse_apply(DVec3::from_array(p)))
+                })
+                .collect()
+        })
+        .collect();
+    let used: Vec<bool> = clouds
+        .iter()
+        .map(|c| c.len() >= params.min_frames)
+        .collect();
+    let samples: usize = clouds
+        .iter()
+        .zip(&used)
+        .filter(|(_, u)| **u)
+        .map(|(c, _)| c.len())
+        .sum();
+    if samples == 0 {
+        return None;
+    }
+    // Work relative to the samples' mean so |q|² does not cancel catastrophically.
+    let origin = clouds
+        .iter()
+        .zip(&used)
+        .filter(|(_, u)| **u)
+        .flat_map(|(c, _)| c.iter())
+        .sum::<DVec3>()
+        / samples as f64;
+    let mut a = [[0.0f64; 3]; 3];
+    let mut b = DVec3::ZERO;
+    let mut means = vec![DVec3::ZERO; clouds.len()];
+    for (k, cloud) in clouds.iter().enumerate() {
+        if !used[k] {
+            continue;
+        }
+        let len = cloud.len() as f64;
+        let mean = cloud.iter().map(|q| *q - origin).sum::<DVec3>() / len;
+        let sq_mean = cloud
+            .iter()
+            .map(|q| (*q - origin).length_squared())
+            .sum::<f64>()
+            / len;
+        means[k] = mean + origin;
+        for q in cloud {
+            let d = *q - origin - mean;
+            let y = (*q - origin).length_squared() - sq_mean;
+            let d3 = d.to_array();
+            for i in 0..3 {
+                for j in 0..3 {
+                    a[i][j] += d3[i] * d3[j];
+                }
+            }
+            b += d * (0.5 * y);
+        }
+    }
+    let (values, vectors) = sym_eigen(a);
+    if values[0].is_nan() || values[0] <= 0.0 {
+        return None;
+    }
+    let solve = |keep: usize, target: DVec3| {
+        let mut c = DVec3::ZERO;
+        for k in 0..3 {
+            let v = DVec3::from_array(vectors[k]);
+            if k < keep && values[k] > 1e-12 * values[0] {
+                c += v * (v.dot(b) / values[k]);
+            } else {
+                c += v * v.dot(target - origin);
+            }
+        }
+        c + origin
+    };
+    // Placement target for an undetermined direction: midway between N's origin and S's
+    // markers' mean position in N's frame.
+    let markers_mean = means
+        .iter()
+        .zip(&used)
+        .filter(|(_, u)| **u)
+        .map(|(m, _)| *m)
+        .sum::<DVec3>()
+        / used.iter().filter(|u| **u).count() as f64;
+    let target = 0.5 * markers_mean;
+    let full = solve(3, target);
+    let planar = solve(2, target);
+    let (rms_full, _) = radial(&clouds, &used, full);
+    let (rms_planar, _) = radial(&clouds, &used, planar);
+    // The dropped direction bought nothing: it is a hinge axis (or near it).
+    let hinge = rms_planar <= 1.05 * rms_full + 1e-3;
+    let centre = if hinge { planar } else { full };
+    let (rms_mm, radii) = radial(&clouds, &used, centre);
+    let excursion_deg = clouds
+        .iter()
+        .zip(&radii)
+        .zip(&used)
+        .filter(|(_, u)| **u)
+        .map(|((cloud, (_, dir)), _)| {
+            let sq = cloud
+                .iter()
+                .filter_map(|q| (*q - centre).try_normalize())
+                .map(|u| u.dot(*dir).clamp(-1.0, 1.0).acos().powi(2))
+                .sum::<f64>();
+            (sq / cloud.len() as f64).sqrt().to_degrees()
+        })
+        .fold(0.0f64, f64::max);
+    let ok = rms_mm.is_finite()
+        && rms_mm <= params.anchor_max_rms_mm
+        && excursion_deg >= params.anchor_min_excursion_deg;
+    ok.then_some(CentreFit {
+        centre,
+        rms_mm,
+        excursion_deg,
+        samples,
+        hinge,
+        radii,
+    })
+}
+
+/// RMS radial residual about `c` and every marker's (mean radius, mean unit direction).
+fn radial(clouds: &[Vec<DVec3>], used: &[bool], c: DVec3) -> (f64, Vec<(f64, DVec3)>) {
+    let (mut sq, mut count) = (0.0, 0usize);
+    let mut radii = Vec::with_capacity(clouds.len());
+    for (cloud, &u) in clouds.iter().zip(used) {
+        if !u {
+            radii.push((f64::NAN, DVec3::NAN));
+            continue;
+        }
+        let len = cloud.len() as f64;
+        let r = cloud.iter().map(|q| (*q - c).length()).sum::<f64>() / len;
+        let dir = cloud
+            .iter()
+            .filter_map(|q| (*q - c).try_normalize())
+            .sum::<DVec3>()
+            .try_normalize()
+            .unwrap_or(DVec3::NAN);
+        for q in cloud {
+            let e = (*q - c).length() - r;
+            sq += e * e;
+        }
+        count += cloud.len();
+        radii.push((r, dir));
+    }
+    ((sq / count.max(1) as f64).sqrt(), radii)
+}
+
+/// Poses of segment `id` (markers `markers`) through the centre `fit` found in N's frame.
+fn anchored_poses(
+    traj: &Trajectories,
+    id: usize,
+    markers: &[usize],
+    n_poses: &SegmentPoses,
+    n_track: &[Option<Pose>],
+    fit: &CentreFit,
+    params: &Params,
+) -> SegmentPoses {
+    let c = fit.centre;
+    if markers.len() >= 2 {
+        let count = markers.len() + 1;
+        let shape = fit_shape(
+            traj.frames(),
+            count,
+            markers.len(),
+            |f, k| match markers.get(k) {
+                Some(&m) => traj.get(f, m).map(DVec3::from_array),
+                None => n_track[f].as_ref().map(|p| p.apply(c)),
+            },
+            params.min_spread_mm,
+        );
+        return shape.into_poses(id, markers.len());
+    }
+    // One marker: swing-only pose relative to N (see the module docs).
+    let (r, dir0) = fit.radii.first().copied().unwrap_or((f64::NAN, DVec3::NAN));
+    let frames = traj.frames();
+    let nan3 = [f64::NAN; 3];
+    let mut rotations = vec![[f64::NAN; 4]; frames];
+    let mut translations = vec![nan3; frames];
+    let mut rms_mm = vec![f64::NAN; frames];
+    if r.is_finite() && dir0.is_finite() {
+        for f in 0..frames {
+            let (Some(pose), Some(p)) =
+                (&n_track[f], markers.first().and_then(|&m| traj.get(f, m)))
+            else {
+                continue;
+            };
+            let q = pose.inverse_apply(DVec3::from_array(p)) - c;
+            let Some(u) = q.try_normalize() else { continue };
+            let rot_n = DQuat::from_array(n_poses.rotations[f]);
+            let mut rot = (rot_n * DQuat::from_rotation_arc(dir0, u)).normalize();
+            if rot.w < 0.0 {
+                rot = -rot;
+            }
+            rotations[f] = rot.to_array();
+            translations[f] = (pose.apply(c) + r * (rot * dir0)).to_array();
+            rms_mm[f] = (q.length() - r).abs();
+        }
+    }
+    SegmentPoses {
+        segment: id,
+        reference: vec![[0.0; 3]],
+        rotations,
+        translations,
+        rms_mm,
+    }
+}
+
+/// Fills frames where `poses` (S's own, ≥ 3 markers) is missing from S's visible markers
+/// plus the anchor's centre; returns the number of frames filled.
+fn fill_gaps(
+    traj: &Trajectories,
+    markers: &[usize],
+    poses: &mut SegmentPoses,
+    s_track: &[Option<Pose>],
+    n_track: &[Option<Pose>],
+    fit: &CentreFit,
+    params: &Params,
+) -> usize {
+    // The centre in S's local frame: the mean of where N carries it, seen from S.
+    let (mut sum, mut count) = (DVec3::ZERO, 0usize);
+    for (s, nb) in s_track.iter().zip(n_track) {
+        if let (Some(s), Some(nb)) = (s, nb) {
+            sum += s.inverse_apply(nb.apply(fit.centre));
+            count += 1;
+        }
+    }
+    if count < params.min_frames {
+        return 0;
+    }
+    let centre_in_s = sum / count as f64;
+    let reference: Vec<DVec3> = poses
+        .reference
+        .iter()
+        .map(|r| DVec3::from_array(*r))
+        .collect();
+    let mut buf = Vec::with_capacity(markers.len() + 1);
+    let mut filled = 0;
+    for f in 0..traj.frames() {
+        let (None, Some(nb)) = (&s_track[f], &n_track[f]) else {
+            continue;
+        };
+        buf.clear();
+        for (&m, r) in markers.iter().zip(&reference) {
+            if let Some(p) = traj.get(f, m)
+                && r.is_finite()
+            {
+                buf.push((*r, DVec3::from_array(p)));
+            }
+        }
+        if buf.len() != 2 {
+            continue;
+        }
+        buf.push((centre_in_s, nb.apply(fit.centre)));
+        if let Some(rf) = fit_pairs(&buf, params.min_spread_mm) {
+            poses.rotations[f] = rf.rotation.to_array();
+            poses.translations[f] = rf.translation.to_array();
+            poses.rms_mm[f] = rf.rms_mm;
+            filled += 1;
+        }
+    }
+    filled
+}
