@@ -47,7 +47,22 @@ fn main() {
     } else {
         vec![101, 202]
     };
+    // SEG_VARIANTS='name={"method":"linkage"};other={...}' runs those parameter sets.
+    let custom = std::env::var("SEG_VARIANTS").unwrap_or_default();
+    let custom: Vec<(String, Params)> = custom
+        .split(';')
+        .filter_map(|v| v.split_once('='))
+        .map(|(name, json)| {
+            let params: Params = serde_json::from_str(json).expect("variant params as JSON");
+            (name.to_string(), params)
+        })
+        .collect();
+    let leaked: Vec<(&str, Params)> = custom
+        .into_iter()
+        .map(|(n, p)| (&*Box::leak(n.into_boxed_str()), p))
+        .collect();
     let variants: Vec<(&str, Params)> = match std::env::var("SEG_VARIANTS").as_deref() {
+        _ if !leaked.is_empty() => leaked,
         Ok("tune") => vec![
             ("default", Params::default()),
             (
@@ -127,14 +142,18 @@ fn main() {
         Subject::Hexapod,
         Subject::Random,
     ];
-    let presets = [
-        Preset::Clean,
-        Preset::Noise,
-        Preset::Skin,
-        Preset::Gaps,
-        Preset::Swap,
-        Preset::Hard,
-    ];
+    // SEG_PRESETS=clean,hard limits the presets.
+    let presets: Vec<Preset> = match std::env::var("SEG_PRESETS") {
+        Ok(list) => list.split(',').filter_map(|p| p.parse().ok()).collect(),
+        Err(_) => vec![
+            Preset::Clean,
+            Preset::Noise,
+            Preset::Skin,
+            Preset::Gaps,
+            Preset::Swap,
+            Preset::Hard,
+        ],
+    };
     let mut summary: BTreeMap<(&str, &str), (f64, usize, usize)> = BTreeMap::new();
     for &preset in &presets {
         for &subject in &subjects {
@@ -188,7 +207,9 @@ fn main() {
                         seg.unassigned.len()
                     );
                 }
-                println!("{line}");
+                if std::env::var_os("SEG_QUIET").is_none() {
+                    println!("{line}");
+                }
             }
         }
     }

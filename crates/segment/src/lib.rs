@@ -5,8 +5,12 @@
 //! residual, skin sliding). One pass over the frames gives every pair's distance mean and
 //! standard deviation ρ over the frames where both are seen (a marker is never dropped for
 //! a gap); an affinity from ρ, normalised spectral clustering with the eigen-gap segment
-//! count and seeded k-means (Aguiar et al. 2006, Sect. 3), then a rigidity check that
-//! splits, moves and merges under a tolerance; or rigid cliques (`method = "cliques"`).
+//! count and seeded k-means (Aguiar et al. 2006, Sect. 3), then a rigidity check: each
+//! cluster is re-split by complete linkage on ρ / √(s_i s_j) (s = a marker's ρ to its
+//! nearest marker, floored at the noise), so a two-marker segment whose pair is each
+//! other's nearest stays whole; orphans rejoin only a group they slide on no more than
+//! they slide on anything; then markers move and rigid neighbours merge under a tolerance.
+//! Or agglomeration alone (`method = "linkage"`) or rigid cliques (`method = "cliques"`).
 //!
 //! It does not estimate poses, joints or topology (jointfit, topo) and does no I/O.
 
@@ -15,6 +19,7 @@ mod cliques;
 mod eigen;
 mod error;
 mod kmeans;
+mod linkage;
 mod pairstats;
 mod params;
 mod rigidity;
@@ -24,7 +29,7 @@ mod spectral;
 mod tests;
 
 pub use error::Error;
-pub use params::{Affinity, Method, PARAM_DOCS, Params};
+pub use params::{Affinity, Linkage, Method, PARAM_DOCS, Params};
 pub use segmentation::*;
 
 use mocap_io::Trajectories;
@@ -102,7 +107,14 @@ pub fn run(traj: &Trajectories, params: &Params) -> Result<Segmentation, Error> 
                 .iter()
                 .map(|c| c.iter().map(|&p| nodes[p]).collect())
                 .collect();
-            let clusters = if params.rigidity_check {
+            let clusters = if params.rigidity_check && params.split_linkage {
+                let mut groups: Vec<Vec<usize>> = clusters
+                    .iter()
+                    .flat_map(|c| linkage_groups(&stats, &nodes, c, noise_mm, tolerance_mm, params))
+                    .collect();
+                rejoin_orphans(&mut groups, &stats, &nodes, noise_mm, tolerance_mm, params);
+                rigidity::repair(groups, &stats, tolerance_mm, min_overlap)
+            } else if params.rigidity_check {
                 rigidity::refine(
                     clusters,
                     &stats,
@@ -116,6 +128,11 @@ pub fn run(traj: &Trajectories, params: &Params) -> Result<Segmentation, Error> 
             (clusters, found.eigenvalues, found.chosen)
         }
         Method::Spectral => (Vec::new(), Vec::new(), 0),
+        Method::Linkage => {
+            let mut groups = linkage_groups(&stats, &nodes, &nodes, noise_mm, tolerance_mm, params);
+            rejoin_orphans(&mut groups, &stats, &nodes, noise_mm, tolerance_mm, params);
+            (groups, Vec::new(), 0)
+        }
         Method::Cliques => (
             cliques::rigid_cliques(&stats, &nodes, tolerance_mm, min_overlap),
             Vec::new(),
@@ -154,6 +171,74 @@ pub fn run(traj: &Trajectories, params: &Params) -> Result<Segmentation, Error> 
         eigenvalues,
         eigengap_segments,
     })
+}
+
+/// Agglomerative groups of `members` (marker indices, a subset of `nodes`): complete or
+/// average linkage on ρ cut at the tolerance, or with `linkage_scaled` on ρ relative to
+/// both markers' own steadiness cut at `linkage_cut`. The scales come from all `nodes`.
+fn linkage_groups(
+    stats: &PairStats,
+    nodes: &[usize],
+    members: &[usize],
+    noise_mm: f64,
+    tolerance_mm: f64,
+    params: &Params,
+) -> Vec<Vec<usize>> {
+    let min_overlap = params.min_overlap_frames;
+    if params.linkage_scaled {
+        // s = ρ to the marker's nearest marker, never below the noise level: a marker with
+        // skin motion is judged on its own scale, and a two-marker segment's one pair
+        // scores ≈ 1 however far its other neighbours are.
+        let scales = linkage::node_scales(stats, nodes, params.linkage_k, noise_mm, min_overlap);
+        let scale_of = |m: usize| {
+            nodes
+                .iter()
+                .position(|&x| x == m)
+                .map_or(noise_mm, |p| scales[p])
+        };
+        let member_scales: Vec<f64> = members.iter().map(|&m| scale_of(m)).collect();
+        let dist = |a: usize, b: usize| {
+            stats
+                .rho(members[a], members[b], min_overlap)
+                .map(|r| r / (member_scales[a] * member_scales[b]).sqrt())
+        };
+        linkage::agglomerate(members, dist, params.linkage_cut, params.linkage)
+    } else {
+        let dist = |a: usize, b: usize| stats.rho(members[a], members[b], min_overlap);
+        linkage::agglomerate(members, dist, tolerance_mm, params.linkage)
+    }
+}
+
+/// Groups smaller than `min_segment_markers` join the group they are most rigid with when
+/// their RMS ρ to it is within the tolerance, or within `rejoin_factor` × their own scale
+/// (ρ to their nearest marker, floored at the noise). A marker sliding on the skin moves
+/// against every marker alike, so its RMS ρ to its true segment is close to its own scale;
+/// a marker orphaned at a joint (LSHN once LANK went to the foot) has a steady partner
+/// (its own scale is small) and ρ of tens of mm to the rest, so it stays out.
+fn rejoin_orphans(
+    groups: &mut Vec<Vec<usize>>,
+    stats: &PairStats,
+    nodes: &[usize],
+    noise_mm: f64,
+    tolerance_mm: f64,
+    params: &Params,
+) {
+    let min_overlap = params.min_overlap_frames;
+    let scales = linkage::node_scales(stats, nodes, 1, noise_mm, min_overlap);
+    let bound = |group: &[usize]| {
+        let own = group
+            .iter()
+            .filter_map(|m| nodes.iter().position(|x| x == m).map(|p| scales[p]))
+            .fold(noise_mm, f64::max);
+        tolerance_mm.max(params.rejoin_factor * own)
+    };
+    rigidity::rejoin_small(
+        groups,
+        stats,
+        bound,
+        min_overlap,
+        params.min_segment_markers,
+    );
 }
 
 /// Why marker `m` ended in a group of `size` < `min_segment_markers`, naming its most rigid partner.

@@ -13,6 +13,19 @@ pub enum Method {
     Spectral,
     /// Greedy maximal rigid cliques under the distance tolerance (local-fitting paper, Sect. 3.1).
     Cliques,
+    /// Agglomerative clustering on ρ cut at the tolerance, then orphans rejoin.
+    Linkage,
+}
+
+/// How the ρ between two groups of markers is summarised in agglomerative clustering.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(rename_all = "lowercase")]
+pub enum Linkage {
+    /// The largest cross-pair ρ: every pair must keep its distance (rigidity).
+    #[default]
+    Complete,
+    /// The mean cross-pair ρ: tolerant of one sliding marker, blurs joints near a marker.
+    Average,
 }
 
 /// How the standard deviation ρ of a pair's distance becomes an affinity.
@@ -36,6 +49,16 @@ pub struct Params {
     pub method: Method,
     /// Affinity of the spectral method.
     pub affinity: Affinity,
+    /// Linkage of the agglomerative method.
+    pub linkage: Linkage,
+    /// Agglomerative split: a group smaller than min_segment_markers rejoins its most rigid group within max(tolerance, this × its own scale).
+    pub rejoin_factor: f64,
+    /// Agglomerative method: divide each ρ by √(s_i s_j), s = ρ to the linkage_k-th nearest marker floored at the noise.
+    pub linkage_scaled: bool,
+    /// Neighbour rank of the scale of `linkage_scaled`.
+    pub linkage_k: usize,
+    /// Cut of the scaled linkage (dimensionless).
+    pub linkage_cut: f64,
     /// Local scaling: the neighbour rank k whose ρ sets a marker's scale.
     pub local_k: usize,
     /// Local scaling: floor on every marker's scale, mm.
@@ -60,6 +83,8 @@ pub struct Params {
     pub min_segment_markers: usize,
     /// After spectral clustering: split non-rigid clusters, move misplaced markers, merge rigid neighbours.
     pub rigidity_check: bool,
+    /// Rigidity check: split clusters by the linkage method's agglomeration instead of the average-linkage split.
+    pub split_linkage: bool,
     /// Rigidity tolerance on ρ, mm; 0 = automatic from the noise level.
     pub tolerance_mm: f64,
     /// Automatic tolerance = max(tolerance_min_mm, tolerance_factor × noise).
@@ -77,6 +102,11 @@ impl Default for Params {
         Self {
             method: Method::Spectral,
             affinity: Affinity::Local,
+            linkage: Linkage::Complete,
+            rejoin_factor: 3.0,
+            linkage_scaled: true,
+            linkage_k: 1,
+            linkage_cut: 6.0,
             local_k: 2,
             min_scale_mm: 1.0,
             scale_mm: 5.0,
@@ -89,6 +119,7 @@ impl Default for Params {
             min_overlap_frames: 10,
             min_segment_markers: 2,
             rigidity_check: true,
+            split_linkage: true,
             tolerance_mm: 0.0,
             tolerance_factor: 5.0,
             tolerance_min_mm: 2.0,
@@ -102,11 +133,31 @@ impl Default for Params {
 pub const PARAM_DOCS: &[(&str, &str)] = &[
     (
         "method",
-        "grouping method: \"spectral\" (Ng–Jordan–Weiss on the affinity) or \"cliques\" (greedy maximal rigid cliques under the tolerance); default \"spectral\"",
+        "grouping method: \"spectral\" (Ng–Jordan–Weiss on the affinity, then the rigidity check), \"linkage\" (agglomerative clustering on ρ alone, see linkage*) or \"cliques\" (greedy maximal rigid cliques under the tolerance); default \"spectral\"",
     ),
     (
         "affinity",
         "spectral affinity from the distance std ρ: \"local\" (exp(-ρ²/(s_i s_j)), s_i = ρ to the local_k-th nearest marker), \"paper\" (Eq. 1 as printed), \"absolute\" (exp(-ρ²/2scale_mm²)); default \"local\"",
+    ),
+    (
+        "linkage",
+        "linkage method: group-to-group ρ is \"complete\" (largest cross-pair ρ: the union is rigid only if every pair is) or \"average\" (mean cross-pair ρ); default \"complete\"",
+    ),
+    (
+        "rejoin_factor",
+        "linkage method and split_linkage: a group smaller than min_segment_markers joins the group it is most rigid with when its RMS ρ to it is within the tolerance or within rejoin_factor × its own scale (ρ to its nearest marker, floored at the noise); else its markers are unassigned; default 3.0",
+    ),
+    (
+        "linkage_scaled",
+        "linkage method: divide each pair's ρ by √(s_i·s_j), s = the marker's ρ to its linkage_k-th nearest marker, never below the noise level, and cut at linkage_cut instead of the tolerance; default true",
+    ),
+    (
+        "linkage_k",
+        "linkage method: neighbour rank of the scale; default 1",
+    ),
+    (
+        "linkage_cut",
+        "linkage method and split_linkage, with linkage_scaled: largest scaled linkage (ρ / √(s_i s_j)) that still merges (dimensionless); default 6.0",
     ),
     (
         "local_k",
@@ -149,6 +200,10 @@ pub const PARAM_DOCS: &[(&str, &str)] = &[
     (
         "rigidity_check",
         "after spectral clustering split clusters that are not rigid within the tolerance, move markers rigid with another cluster, merge clusters rigid with each other; default true (false = the paper)",
+    ),
+    (
+        "split_linkage",
+        "rigidity check: split each spectral cluster with the linkage method (linkage, linkage_scaled, linkage_cut) and rejoin orphans within rejoin_factor × tolerance, instead of the average-linkage split with a 4 × tolerance rejoin; default true",
     ),
     (
         "tolerance_mm",
@@ -200,6 +255,11 @@ impl Params {
             return Err(bad("local_k", self.local_k, "must be ≥ 1"));
         }
         positive("min_scale_mm", self.min_scale_mm)?;
+        non_negative("rejoin_factor", self.rejoin_factor)?;
+        positive("linkage_cut", self.linkage_cut)?;
+        if self.linkage_k == 0 {
+            return Err(bad("linkage_k", self.linkage_k, "must be ≥ 1"));
+        }
         positive("scale_mm", self.scale_mm)?;
         if self.max_segments == 0 {
             return Err(bad("max_segments", self.max_segments, "must be ≥ 1"));

@@ -63,10 +63,21 @@ pub(crate) fn refine(
     min_overlap: usize,
     min_group: usize,
 ) -> Vec<Vec<usize>> {
-    let mut clusters: Vec<Vec<usize>> = clusters
+    let clusters: Vec<Vec<usize>> = clusters
         .iter()
         .flat_map(|c| split(c, stats, tol, min_overlap, min_group))
         .collect();
+    repair(clusters, stats, tol, min_overlap)
+}
+
+/// Moves misplaced markers and merges rigid neighbours until nothing changes (at most
+/// [`MAX_SWEEPS`] sweeps), then normalises.
+pub(crate) fn repair(
+    mut clusters: Vec<Vec<usize>>,
+    stats: &PairStats,
+    tol: f64,
+    min_overlap: usize,
+) -> Vec<Vec<usize>> {
     for _ in 0..MAX_SWEEPS {
         let moved = move_markers(&mut clusters, stats, tol, min_overlap);
         let merged = merge_rigid(&mut clusters, stats, tol, min_overlap);
@@ -115,7 +126,26 @@ pub(crate) fn split(
         let taken = groups.remove(b);
         groups[a].extend(taken);
     }
-    // Rejoin small groups, smallest marker first, to the big group they are most rigid with.
+    rejoin_small(
+        &mut groups,
+        stats,
+        |_| REJOIN_FACTOR * tol,
+        min_overlap,
+        min_group,
+    );
+    groups
+}
+
+/// Groups smaller than `min_group` (a sliding or orphaned marker), smallest marker first,
+/// join the big group they are most rigid with (RMS ρ over their markers) when that RMS is
+/// within `bound(small group)` (mm); the others stay as they are.
+pub(crate) fn rejoin_small(
+    groups: &mut Vec<Vec<usize>>,
+    stats: &PairStats,
+    bound: impl Fn(&[usize]) -> f64,
+    min_overlap: usize,
+    min_group: usize,
+) {
     groups.sort_by_key(|g| g.iter().min().copied());
     let mut g = 0;
     while g < groups.len() {
@@ -140,7 +170,7 @@ pub(crate) fn split(
             })
             .min_by(|a, b| a.0.total_cmp(&b.0).then(a.1.cmp(&b.1)));
         match best {
-            Some((r, h)) if r <= REJOIN_FACTOR * tol => {
+            Some((r, h)) if r <= bound(&groups[g]) => {
                 let taken = groups.remove(g);
                 let h = if h > g { h - 1 } else { h };
                 groups[h].extend(taken);
@@ -149,7 +179,6 @@ pub(crate) fn split(
             _ => g += 1,
         }
     }
-    groups
 }
 
 /// Mean ρ over the measurable pairs between two groups, mm.

@@ -520,3 +520,52 @@ fn cmu_02_01_groups_the_body_parts_we_are_sure_of() {
     assert_ne!(segment_of("LFHD"), segment_of("LFWT"));
     assert_ne!(segment_of("LFRM"), segment_of("RFRM"));
 }
+
+#[test]
+fn cmu_02_01_keeps_two_marker_thighs_and_upper_arm() {
+    // Thigh (LTHI, LKNE) and upper arm (LUPA, LELB) carry two markers each; local scaling
+    // with k = 2 looked past the one mate and merged them into shank or forearm. The
+    // rigidity split by scaled complete linkage keeps them (measured: both thighs and the
+    // left upper arm come out as their own two-marker segments).
+    let Some(dir) = mocap_io::testdata::shared_data_dir("segment cmu_02_01 two-marker") else {
+        return;
+    };
+    let capture = mocap_io::read_capture(&dir.join("c3d/cmu/02_01.c3d"), &Default::default())
+        .expect("CMU 02_01 reads");
+    let traj = &capture.trajectories;
+    let seg = run(traj, &Params::default()).expect("segments");
+    let find = |name: &str| {
+        traj.labels()
+            .iter()
+            .position(|l| l.rsplit(':').next() == Some(name))
+            .unwrap_or_else(|| panic!("label {name} in 02_01"))
+    };
+    let segment_of = |name: &str| seg.markers[find(name)].segment;
+    for side in ["L", "R"] {
+        let thi = segment_of(&format!("{side}THI"));
+        assert!(thi.is_some(), "{side}THI unassigned");
+        assert_eq!(thi, segment_of(&format!("{side}KNE")), "{side} thigh split");
+        assert_ne!(
+            thi,
+            segment_of(&format!("{side}SHN")),
+            "{side} thigh with shank"
+        );
+        assert_ne!(
+            thi,
+            segment_of(&format!("{side}FWT")),
+            "{side} thigh with pelvis"
+        );
+        let size = seg
+            .segments
+            .iter()
+            .find(|s| Some(s.id) == thi)
+            .map(|s| s.markers.len());
+        assert_eq!(size, Some(2), "{side} thigh is LTHI + LKNE only");
+    }
+    let upa = segment_of("LUPA");
+    assert!(upa.is_some(), "LUPA unassigned");
+    assert_eq!(upa, segment_of("LELB"));
+    assert_ne!(upa, segment_of("LFHD"), "upper arm with head");
+    assert_ne!(upa, segment_of("LFRM"), "upper arm with forearm");
+    assert_ne!(upa, segment_of("LSHO"), "upper arm with torso");
+}
