@@ -6,8 +6,9 @@ use mocap_io::Trajectories;
 use segment::Segmentation;
 use topo::Topology;
 
+use crate::horn::{RotationFit, spans_plane};
 use crate::poses::{FilledPoses, fill};
-use crate::{BoneMethod, Error, Params, Skeleton, SkeletonJoint};
+use crate::{BoneMethod, Error, Params, RotationMethod, Skeleton, SkeletonJoint};
 
 /// Name of the root node in animation files.
 const ROOT_NAME: &str = "root";
@@ -27,7 +28,7 @@ struct JointSpec<'a> {
 /// Fits constant offsets and computes the motion (see the crate docs).
 pub fn run(
     traj: &Trajectories,
-    _seg: &Segmentation,
+    seg: &Segmentation,
     fits: &PairFits,
     topo: &Topology,
     params: &Params,
@@ -103,7 +104,21 @@ pub fn run(
         paper_offsets(&specs, &tracks, &root_positions, &mut offsets);
     }
 
-    // Forward kinematics, frame by frame, exactly as the Skeleton docs define it.
+    // Forward kinematics, frame by frame, exactly as the Skeleton docs define it; each
+    // segment's orientation is chosen (fitted or from its pose) once its parent joint is
+    // placed, so the fit can anchor on it.
+    let models = segment_models(traj, seg, fits, &specs, &offsets, root, root_point);
+    let mut frame_fit = FrameFit {
+        traj,
+        root,
+        specs: &specs,
+        models: &models,
+        marker_weight: params.marker_weight.max(0.0),
+        scratch_local: Vec::new(),
+        scratch_observed: Vec::new(),
+        scratch_weights: Vec::new(),
+    };
+    let fitted = params.rotations == RotationMethod::Fitted;
     let n = specs.len();
     let mut local_rotations = vec![vec![[0.0; 4]; frames]; n];
     let mut positions = vec![vec![[f64::NAN; 3]; frames]; n];
@@ -117,42 +132,100 @@ pub fn run(
     let mut point = vec![DVec3::ZERO; n];
     let mut known = vec![false; n];
     let mut measured = vec![false; n];
+    // Per segment at the current frame: the target orientation, and whether it is fixed
+    // by observations (measured) or by those or a filled pose gap (known).
+    let mut seg_rotation = vec![DQuat::IDENTITY; segments];
+    let mut seg_known = vec![false; segments];
+    let mut seg_measured = vec![false; segments];
     let offset_arrays: Vec<[f64; 3]> = offsets.iter().map(|o| o.to_array()).collect();
     for f in 0..frames {
-        let (root_rotation, root_known, root_measured, root_translation) = match track(root) {
-            Some(t) => (t.rotations[f], t.known[f], t.measured[f], t.translations[f]),
-            None => (DQuat::IDENTITY, false, false, DVec3::NAN),
+        let prior = |s: usize| match track(s) {
+            Some(t) => Prior {
+                rotation: t.rotations[f],
+                known: t.known[f],
+                measured: t.measured[f],
+            },
+            None => Prior {
+                rotation: DQuat::IDENTITY,
+                known: false,
+                measured: false,
+            },
         };
-        root_rotations[f] = root_rotation.to_array();
+        let root_prior = prior(root);
+        let root_pose_point = match track(root) {
+            Some(t) => t.rotations[f] * root_point + t.translations[f],
+            None => DVec3::NAN,
+        };
+        let estimate = if fitted {
+            frame_fit.root(f, root_prior)
+        } else {
+            None
+        };
+        let (root_rotation, root_position, root_known, root_measured) = match estimate {
+            Some(e) => (e.rotation, e.anchor, e.known, e.measured),
+            None => (
+                root_prior.rotation,
+                root_pose_point,
+                root_prior.known,
+                root_prior.measured,
+            ),
+        };
+        root_rotations[f] = root_rotation.normalize().to_array();
         let root_rotation = DQuat::from_array(root_rotations[f]);
-        let root_position = root_rotation * root_point + root_translation;
+        let root_known = root_known && root_position.is_finite();
         if root_known {
             root_positions[f] = root_position.to_array();
         }
+        seg_rotation[root] = root_rotation;
+        seg_known[root] = root_known;
+        seg_measured[root] = root_measured;
         for (j, s) in specs.iter().enumerate() {
-            let parent_track = track(s.parent_segment);
-            let child_track = track(s.child_segment);
-            let q_parent = parent_track.map_or(DQuat::IDENTITY, |t| t.rotations[f]);
-            let q_child = child_track.map_or(DQuat::IDENTITY, |t| t.rotations[f]);
-            local_rotations[j][f] = (q_parent.inverse() * q_child).normalize().to_array();
-            let local = DQuat::from_array(local_rotations[j][f]);
             let (g_parent, p_parent, k_parent, m_parent) = match s.parent {
                 Some(k) => (global[k], point[k], known[k], measured[k]),
                 None => (root_rotation, root_position, root_known, root_measured),
             };
             let offset = DVec3::from_array(offset_arrays[j]);
             point[j] = p_parent + g_parent * offset;
-            global[j] = g_parent * local;
-            known[j] = k_parent && parent_track.is_some_and(|t| t.known[f]);
-            measured[j] = m_parent && parent_track.is_some_and(|t| t.measured[f]);
+            let fitted_centre = s
+                .pair
+                .positions
+                .get(f)
+                .map(|&p| DVec3::from_array(p))
+                .filter(|c| c.is_finite());
+            // With fitted rotations the bone towards an observed centre is aimed at it,
+            // whatever the parent segment's spin.
+            let aimed = fitted && fitted_centre.is_some();
+            let p = s.parent_segment;
+            known[j] = k_parent && (seg_known[p] || aimed);
+            measured[j] = m_parent && (seg_measured[p] || aimed);
+
+            // The child segment's orientation, anchored at this joint.
+            let c = s.child_segment;
+            let child_prior = prior(c);
+            let estimate = if fitted && point[j].is_finite() {
+                frame_fit.about_joint(f, c, point[j], child_prior)
+            } else {
+                None
+            };
+            (seg_rotation[c], seg_known[c], seg_measured[c]) = match estimate {
+                Some(e) => (e.rotation, e.known, e.measured),
+                None => (
+                    child_prior.rotation,
+                    child_prior.known,
+                    child_prior.measured,
+                ),
+            };
+            local_rotations[j][f] = (g_parent.inverse() * seg_rotation[c])
+                .normalize()
+                .to_array();
+            global[j] = g_parent * DQuat::from_array(local_rotations[j][f]);
             if known[j] {
                 positions[j][f] = point[j].to_array();
                 frames_known[j] += 1;
                 if !measured[j] {
                     frames_interpolated[j] += 1;
                 }
-                let fitted = s.pair.positions.get(f).map(|&p| DVec3::from_array(p));
-                if let Some(c) = fitted.filter(|c| c.is_finite()) {
+                if let Some(c) = fitted_centre {
                     fit_sq[j] += (point[j] - c).length_squared();
                     fit_count[j] += 1;
                 }
@@ -199,11 +272,203 @@ pub fn run(
         root_segment: root,
         root_name: ROOT_NAME.to_owned(),
         method: params.method.name().to_owned(),
+        rotation_method: params.rotations.name().to_owned(),
         root_point_in_segment: root_point.to_array(),
         root_positions,
         root_rotations,
         joints,
     })
+}
+
+/// Shortest observed vector (mm) that counts towards fixing a rotation by itself.
+const MIN_LEVER_MM: f64 = 10.0;
+/// Two observed vectors fix a rotation when at least this far apart (sine, ≈ 6°).
+const MIN_SPREAD_SIN: f64 = 0.1;
+
+/// What a segment's orientation is fitted to, in its local frame, relative to its anchor
+/// (the parent joint's centre; the root point for the root).
+#[derive(Default)]
+struct SegmentModel {
+    /// (joint index, constant bone vector from the anchor to that child joint), mm.
+    children: Vec<(usize, DVec3)>,
+    /// (marker index in the trajectories, reference position relative to the anchor), mm.
+    markers: Vec<(usize, DVec3)>,
+}
+
+/// A segment's pose track at one frame: the fit's weak prior and fallback.
+#[derive(Clone, Copy)]
+struct Prior {
+    /// Measured or interpolated orientation (never NaN).
+    rotation: DQuat,
+    /// Measured or inside a filled short gap.
+    known: bool,
+    /// Measured by jointfit.
+    measured: bool,
+}
+
+/// One segment's fitted orientation at one frame.
+struct Estimate {
+    /// Orientation, local frame → global frame.
+    rotation: DQuat,
+    /// The anchor's global position (mm): the given parent joint, or the fitted root point.
+    anchor: DVec3,
+    /// Fixed by observations or by a measured or filled pose.
+    known: bool,
+    /// Fixed by observations or by a measured pose (not only a filled gap).
+    measured: bool,
+}
+
+/// Builds every tree segment's model: its child joints' bone vectors and its markers.
+fn segment_models(
+    traj: &Trajectories,
+    seg: &Segmentation,
+    fits: &PairFits,
+    specs: &[JointSpec<'_>],
+    offsets: &[DVec3],
+    root: usize,
+    root_point: DVec3,
+) -> Vec<SegmentModel> {
+    let segments = fits.poses.len();
+    let mut anchors: Vec<Option<DVec3>> = vec![None; segments];
+    anchors[root] = Some(root_point);
+    for s in specs {
+        anchors[s.child_segment] = Some(centre_in(s.pair, s.child_segment));
+    }
+    let mut models: Vec<SegmentModel> = (0..segments).map(|_| SegmentModel::default()).collect();
+    for (k, s) in specs.iter().enumerate() {
+        models[s.parent_segment].children.push((k, offsets[k]));
+    }
+    for (s, model) in models.iter_mut().enumerate() {
+        let (Some(anchor), Some(segment)) = (anchors[s], seg.segments.get(s)) else {
+            continue;
+        };
+        for (&m, &r) in segment.markers.iter().zip(&fits.poses[s].reference) {
+            let r = DVec3::from_array(r);
+            if m < traj.markers() && r.is_finite() {
+                model.markers.push((m, r - anchor));
+            }
+        }
+    }
+    models
+}
+
+/// The per-frame orientation fit (see [`crate::RotationMethod::Fitted`]), with scratch
+/// buffers reused across frames.
+struct FrameFit<'a> {
+    traj: &'a Trajectories,
+    root: usize,
+    specs: &'a [JointSpec<'a>],
+    models: &'a [SegmentModel],
+    marker_weight: f64,
+    scratch_local: Vec<DVec3>,
+    scratch_observed: Vec<DVec3>,
+    scratch_weights: Vec<f64>,
+}
+
+impl FrameFit<'_> {
+    /// Collects segment `s`'s observations at frame `f` (local vector, observed global
+    /// point, weight) into the scratch buffers.
+    fn observe(&mut self, s: usize, f: usize) {
+        self.scratch_local.clear();
+        self.scratch_observed.clear();
+        self.scratch_weights.clear();
+        let model = &self.models[s];
+        for &(k, a) in &model.children {
+            let y = self.specs[k]
+                .pair
+                .positions
+                .get(f)
+                .map_or(DVec3::NAN, |&p| DVec3::from_array(p));
+            if y.is_finite() {
+                self.scratch_local.push(a);
+                self.scratch_observed.push(y);
+                self.scratch_weights.push(1.0);
+            }
+        }
+        if self.marker_weight > 0.0 {
+            let markers = self.traj.markers();
+            let positions = self.traj.positions();
+            for &(m, a) in &model.markers {
+                let z = positions
+                    .get(f * markers + m)
+                    .map_or(DVec3::NAN, |&p| DVec3::from_array(p));
+                if z.is_finite() {
+                    self.scratch_local.push(a);
+                    self.scratch_observed.push(z);
+                    self.scratch_weights.push(self.marker_weight);
+                }
+            }
+        }
+    }
+
+    /// Orientation of segment `s` about its parent joint at `anchor` (global, mm); `None`
+    /// when nothing of the segment is observed at frame `f`.
+    fn about_joint(&mut self, f: usize, s: usize, anchor: DVec3, prior: Prior) -> Option<Estimate> {
+        self.observe(s, f);
+        if self.scratch_local.is_empty() {
+            return None;
+        }
+        let mut fit = RotationFit::new();
+        for ((&a, &b), &w) in self
+            .scratch_local
+            .iter()
+            .zip(&self.scratch_observed)
+            .zip(&self.scratch_weights)
+        {
+            fit.add(a, b - anchor, w);
+        }
+        let spans = spans_plane(&self.scratch_local, MIN_LEVER_MM, MIN_SPREAD_SIN);
+        Some(Estimate {
+            rotation: fit.solve(prior.rotation),
+            anchor,
+            known: spans || prior.known,
+            measured: spans || prior.measured,
+        })
+    }
+
+    /// The root segment's orientation and root point (a rigid fit with translation);
+    /// `None` when nothing of the root is observed at frame `f`.
+    fn root(&mut self, f: usize, prior: Prior) -> Option<Estimate> {
+        self.observe(self.root, f);
+        let total: f64 = self.scratch_weights.iter().sum();
+        if total.is_nan() || total <= 0.0 {
+            return None;
+        }
+        let (mut local_mean, mut observed_mean) = (DVec3::ZERO, DVec3::ZERO);
+        for ((&a, &b), &w) in self
+            .scratch_local
+            .iter()
+            .zip(&self.scratch_observed)
+            .zip(&self.scratch_weights)
+        {
+            local_mean += w * a;
+            observed_mean += w * b;
+        }
+        local_mean /= total;
+        observed_mean /= total;
+        let mut fit = RotationFit::new();
+        for ((&a, &b), &w) in self
+            .scratch_local
+            .iter()
+            .zip(&self.scratch_observed)
+            .zip(&self.scratch_weights)
+        {
+            fit.add(a - local_mean, b - observed_mean, w);
+        }
+        // Three points not on one line fix a rigid pose.
+        let first = self.scratch_local[0];
+        for a in self.scratch_local.iter_mut() {
+            *a -= first;
+        }
+        let spans = spans_plane(&self.scratch_local, MIN_LEVER_MM, MIN_SPREAD_SIN);
+        let rotation = fit.solve(prior.rotation);
+        Some(Estimate {
+            rotation,
+            anchor: observed_mean - rotation * local_mean,
+            known: spans || prior.known,
+            measured: spans || prior.measured,
+        })
+    }
 }
 
 /// The pair's joint centre in segment `s`'s local frame (mm).
@@ -374,6 +639,7 @@ fn range_of_motion_deg(relative: &[DQuat]) -> f64 {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::RotationMethod;
     use crate::testkit::{Scene, scene};
 
     fn fit(s: &Scene, params: &Params) -> Skeleton {
@@ -487,6 +753,101 @@ mod tests {
         assert!(k.joints[2].fit_rms_mm > 4.9 && k.joints[2].fit_rms_mm < 5.1);
     }
 
+    /// The marker-pose rotations (the method before `fitted`).
+    fn poses() -> Params {
+        Params {
+            rotations: RotationMethod::Poses,
+            ..Params::default()
+        }
+    }
+
+    /// Hides marker `m` of the trajectories at the frames `range`.
+    fn hide_marker(s: &mut Scene, m: usize, range: std::ops::Range<usize>) {
+        let markers = s.trajectories.markers();
+        let mut positions = s.trajectories.positions().to_vec();
+        for f in range {
+            positions[f * markers + m] = [f64::NAN; 3];
+        }
+        let t = &s.trajectories;
+        s.trajectories = Trajectories::new(
+            t.labels().to_vec(),
+            t.frame_rate(),
+            t.first_frame(),
+            t.frames(),
+            positions,
+        )
+        .unwrap_or_else(|e| panic!("{e}"));
+    }
+
+    #[test]
+    fn fitted_rotations_follow_the_centres_not_the_poses() {
+        // Every segment's pose is tilted by a few degrees; markers and centres are exact.
+        let mut s = scene(120, 100.0);
+        for (i, p) in s.fits.poses.iter_mut().enumerate() {
+            for (f, q) in p.rotations.iter_mut().enumerate() {
+                let tilt = DQuat::from_rotation_y(0.05 * (1.0 + i as f64) * (0.1 * f as f64).sin());
+                *q = (DQuat::from_array(*q) * tilt).to_array();
+            }
+        }
+        let fitted = fit(&s, &Params::default());
+        assert_eq!(fitted.rotation_method, "fitted");
+        let chained = fit(&s, &poses());
+        let mut worst_chained = 0.0f64;
+        for f in 0..120 {
+            for j in 0..3 {
+                let e = distance(fitted.joints[j].positions[f], s.truth[j][f]);
+                assert!(e < 1e-6, "frame {f} joint {j}: {e} mm");
+                worst_chained =
+                    worst_chained.max(distance(chained.joints[j].positions[f], s.truth[j][f]));
+            }
+            // The fitted orientations are the true ones: markers and centres agree on them.
+            let fk = forward_kinematics(&fitted, f);
+            for (j, joint) in fitted.joints.iter().enumerate() {
+                assert!(distance(fk[j].to_array(), joint.positions[f]) < 1e-9);
+            }
+        }
+        assert!(worst_chained > 5.0, "{worst_chained}");
+    }
+
+    #[test]
+    fn fitted_rotations_use_the_child_side_and_two_markers_in_pose_gaps() {
+        let mut s = scene(100, 100.0);
+        // The thigh (markers 3, 4, 5) loses its pose and every marker at 40..70; the knee's
+        // fitted centre is still known there (carried by the shank).
+        for f in 40..70 {
+            s.fits.poses[1].rotations[f] = [f64::NAN; 4];
+            s.fits.poses[1].translations[f] = [f64::NAN; 3];
+        }
+        for m in 3..6 {
+            hide_marker(&mut s, m, 40..70);
+        }
+        // The torso (markers 0, 1, 2) keeps two markers at 20..30 and loses its pose.
+        for f in 20..30 {
+            s.fits.poses[0].rotations[f] = [f64::NAN; 4];
+            s.fits.poses[0].translations[f] = [f64::NAN; 3];
+        }
+        hide_marker(&mut s, 2, 20..30);
+        let k = fit(&s, &Params::default());
+        for (j, joint) in k.joints.iter().enumerate() {
+            assert_eq!(joint.frames_known, 100, "{}", joint.name);
+            assert_eq!(joint.frames_interpolated, 0, "{}", joint.name);
+            for f in 0..100 {
+                let e = distance(joint.positions[f], s.truth[j][f]);
+                assert!(e < 1e-6, "frame {f} {}: {e} mm", joint.name);
+            }
+        }
+        // Without the knee's centre in the gap nothing orients the thigh: the knee is
+        // unknown there (a 30-frame gap is longer than max_gap_s), known elsewhere.
+        let knee = s.topology.joints[2].pair;
+        for f in 40..70 {
+            s.fits.pairs[knee].positions[f] = [f64::NAN; 3];
+        }
+        let k = fit(&s, &Params::default());
+        assert_eq!(k.joints[2].frames_known, 70);
+        assert!(k.joints[2].positions[55][0].is_nan());
+        assert_eq!(k.joints[0].frames_known, 100);
+    }
+
     #[test]
     fn pose_gaps_short_filled_long_unknown_rotations_never_nan() {
         let mut s = scene(100, 100.0);
@@ -497,7 +858,7 @@ mod tests {
         }
         // The head is never seen.
         s.fits.poses[3].rotations.fill([f64::NAN; 4]);
-        let k = fit(&s, &Params::default()); // 0.1 s = 10 frames at 100 Hz
+        let k = fit(&s, &poses()); // 0.1 s = 10 frames at 100 Hz
         let (hip, head, knee) = (&k.joints[0], &k.joints[1], &k.joints[2]);
         // The hip hangs on the torso only: known everywhere.
         assert_eq!(hip.frames_known, 100);
@@ -527,7 +888,7 @@ mod tests {
         // With gap filling off, the short gap is unknown too.
         let p = Params {
             max_gap_s: 0.0,
-            ..Params::default()
+            ..poses()
         };
         assert_eq!(fit(&s, &p).joints[2].frames_known, 66);
     }
@@ -538,9 +899,17 @@ mod tests {
         for f in 20..45 {
             s.fits.poses[0].rotations[f] = [f64::NAN; 4];
         }
-        let k = fit(&s, &Params::default());
+        let k = fit(&s, &poses());
         assert!(k.root_positions[30][0].is_nan());
         assert!(!k.root_positions[10][0].is_nan());
+        assert!(k.joints.iter().all(|j| j.frames_known == 25));
+        // Fitted: the torso's markers gone too, its two child centres lie on one line
+        // through the root point, so its spin is unknown there.
+        for m in 0..3 {
+            hide_marker(&mut s, m, 20..45);
+        }
+        let k = fit(&s, &Params::default());
+        assert!(k.root_positions[30][0].is_nan());
         assert!(k.joints.iter().all(|j| j.frames_known == 25));
     }
 

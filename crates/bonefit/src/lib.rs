@@ -20,16 +20,33 @@
 //! - Rotations: the root rotation is the root segment's orientation; a joint's local
 //!   rotation is the orientation of its child segment relative to its parent segment.
 //!   All local rotations identity = the rest pose = every segment at its reference
-//!   orientation (segment frames have the global axes at the reference).
+//!   orientation (segment frames have the global axes at the reference). How each
+//!   segment's orientation is chosen per frame (see [`RotationMethod`]):
+//!   - `fitted` (default): root to leaves, each segment's rotation about its parent joint
+//!     (already placed by FK) is the weighted least-squares rotation (Horn, no translation)
+//!     mapping its constant bone vectors onto the observed ones (jointfit's fitted child
+//!     centres minus the FK parent joint), and its markers (relative to the parent joint,
+//!     weight `marker_weight`) onto the observed markers. Every level re-anchors on
+//!     observations, so per-joint mismatches do not add up down the chain, and a segment
+//!     whose own pose is missing is still oriented by its children's centres (seen from
+//!     the children's side) or by two markers and its parent joint. The root's pose is the
+//!     same fit with a translation. The segment's pose from jointfit (or its gap fill) is a
+//!     weak prior that only settles the spin the observations leave free.
+//!   - `poses`: each segment's orientation is its marker pose from jointfit; FK chains the
+//!     poses from the root (errors add up along the chain).
 //! - Gaps: rotations are never NaN (slerp between the nearest measured poses, held at the
 //!   ends, identity when never measured). A pose gap of at most `max_gap_s` between two
-//!   measured poses is filled (slerp + linear translation) and counts as known; a joint's
-//!   position is NaN wherever a pose on its chain from the root is neither measured nor
-//!   filled.
+//!   measured poses is filled (slerp + linear translation) and counts as known. With
+//!   `poses`, a joint's position is NaN wherever a pose on its chain from the root is
+//!   neither measured nor filled. With `fitted`, a joint is known where its parent joint
+//!   is known and its parent segment's rotation is fixed by observations (two
+//!   non-parallel observed vectors, or the joint's own fitted centre) or by a measured or
+//!   filled pose.
 //!
 //! It does not fit joint centres (jointfit), choose the tree (topo) or write files (export).
 mod error;
 mod fit;
+mod horn;
 mod poses;
 mod skeleton;
 #[cfg(any(test, feature = "testkit"))]
@@ -55,6 +72,28 @@ pub enum BoneMethod {
     Paper,
 }
 
+/// How each segment's orientation per frame is chosen.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(rename_all = "lowercase")]
+pub enum RotationMethod {
+    /// Root to leaves, the rotation about the FK parent joint that best fits the fitted
+    /// child joint centres and the segment's markers (re-anchored at every level).
+    #[default]
+    Fitted,
+    /// The segment's marker pose from jointfit, chained from the root.
+    Poses,
+}
+
+impl RotationMethod {
+    /// The method's name as written in params and skeleton.json.
+    pub fn name(self) -> &'static str {
+        match self {
+            Self::Fitted => "fitted",
+            Self::Poses => "poses",
+        }
+    }
+}
+
 impl BoneMethod {
     /// The method's name as written in params and skeleton.json.
     pub fn name(self) -> &'static str {
@@ -71,6 +110,11 @@ impl BoneMethod {
 pub struct Params {
     /// Offset fit: `rigid` (default) or `paper`.
     pub method: BoneMethod,
+    /// Per-frame segment orientations: `fitted` (default) or `poses`.
+    pub rotations: RotationMethod,
+    /// Weight of each visible marker relative to a fitted joint centre in the `fitted`
+    /// rotation fit (default 0.1).
+    pub marker_weight: f64,
     /// Longest pose gap filled by interpolation, in seconds (default 0.1 s).
     pub max_gap_s: f64,
 }
@@ -79,6 +123,8 @@ impl Default for Params {
     fn default() -> Self {
         Self {
             method: BoneMethod::Rigid,
+            rotations: RotationMethod::Fitted,
+            marker_weight: 0.1,
             max_gap_s: 0.1,
         }
     }
@@ -90,6 +136,18 @@ pub const PARAM_DOCS: &[(&str, &str)] = &[
         "method",
         "bone offsets: \"rigid\" (joint centres fixed in each segment's frame; bones rigid by \
          construction) or \"paper\" (Aguiar et al. Eq. 5-6, root to leaves); default \"rigid\"",
+    ),
+    (
+        "rotations",
+        "per-frame segment orientations: \"fitted\" (root to leaves, the rotation about the \
+         FK parent joint best fitting the fitted child joint centres and the segment's markers; \
+         errors do not add up down the chain) or \"poses\" (each segment's marker pose, \
+         chained from the root); default \"fitted\"",
+    ),
+    (
+        "marker_weight",
+        "weight of each visible marker relative to a fitted child joint centre in the \
+         \"fitted\" rotation fit (dimensionless, >= 0); default 0.1",
     ),
     (
         "max_gap_s",

@@ -27,6 +27,10 @@ pub struct Skeleton {
     /// frame) or "paper" (Aguiar et al. Eq. 5–6, root to leaves).
     #[serde(default)]
     pub method: String,
+    /// How the per-frame orientations were chosen: "fitted" (rotation about the FK parent
+    /// joint fitted to the child joint centres and markers) or "poses" (marker poses).
+    #[serde(default)]
+    pub rotation_method: String,
     /// The root point in the root segment's local frame (mm): where `root_positions` sits on
     /// the root segment (mean of the root's child joint centres).
     #[serde(default)]

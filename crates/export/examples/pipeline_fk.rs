@@ -1,8 +1,10 @@
 //! Runs synthetic trials through every stage and prints, per trial, how far the
 //! skeleton's forward kinematics (constant bones) is from jointfit's fitted joint centres,
-//! and the scorer's joint error against the truth, for both bone methods.
+//! and the scorer's joint error against the truth, for each bone/rotation method.
 //!
-//! `cargo run --release -p export --example pipeline_fk [-- frames seed]`
+//! `cargo run --release -p export --example pipeline_fk [-- frames seed [methods]]`
+//! where methods is a comma list of `rigid+fitted`, `rigid+poses`, `paper+fitted`,
+//! `paper+poses` (default `rigid+fitted,rigid+poses`).
 #![allow(clippy::print_stdout)]
 
 use synth::{Preset, Subject, SynthConfig};
@@ -11,8 +13,19 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
     let args: Vec<String> = std::env::args().collect();
     let frames = args.get(1).and_then(|a| a.parse().ok()).unwrap_or(600);
     let seed = args.get(2).and_then(|a| a.parse().ok()).unwrap_or(11);
+    let methods: Vec<(bonefit::BoneMethod, bonefit::RotationMethod)> = args
+        .get(3)
+        .map_or("rigid+fitted,rigid+poses", |s| s.as_str())
+        .split(',')
+        .filter_map(|m| {
+            let (b, r) = m.split_once('+')?;
+            let b = serde_json::from_value(serde_json::Value::String(b.to_owned())).ok()?;
+            let r = serde_json::from_value(serde_json::Value::String(r.to_owned())).ok()?;
+            Some((b, r))
+        })
+        .collect();
     println!(
-        "{:<22} {:>6} {:>5} {:>5} {:>9} {:>9} {:>9} {:>7} {:>9} {:>9} {:>9}",
+        "{:<22} {:>12} {:>5} {:>5} {:>9} {:>9} {:>9} {:>7} {:>9} {:>9} {:>9}",
         "trial",
         "method",
         "segs",
@@ -31,6 +44,7 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
         Subject::Robotarm,
         Subject::Snowman,
         Subject::Hexapod,
+        Subject::Random,
     ] {
         for preset in [Preset::Clean, Preset::Hard] {
             let trial = synth::generate(&SynthConfig {
@@ -44,9 +58,10 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
             let seg = segment::run(traj, &segment::Params::default())?;
             let fits = jointfit::run(traj, &seg, &jointfit::Params::default())?;
             let topology = topo::run(&seg, &fits, &topo::Params::default())?;
-            for method in [bonefit::BoneMethod::Rigid, bonefit::BoneMethod::Paper] {
+            for &(method, rotations) in &methods {
                 let params = bonefit::Params {
                     method,
+                    rotations,
                     ..bonefit::Params::default()
                 };
                 let skeleton = bonefit::run(traj, &seg, &fits, &topology, &params)?;
@@ -89,9 +104,9 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
                 }
                 let opt = |v: Option<f64>| v.map_or("-".to_owned(), |x| format!("{x:.1}"));
                 println!(
-                    "{:<22} {:>6} {:>5} {:>5} {:>9.2} {:>9.2} {:>9} {:>7} {:>9.3} {:>9} {:>9.3}",
+                    "{:<22} {:>12} {:>5} {:>5} {:>9.2} {:>9.2} {:>9} {:>7} {:>9.3} {:>9} {:>9.3}",
                     trial.name,
-                    method.name(),
+                    format!("{}+{}", method.name(), rotations.name()),
                     seg.segments.len(),
                     score.topology_exact,
                     (sum / count.max(1.0)).sqrt(),

@@ -37,6 +37,9 @@ pub struct SkeletonJson {
     pub first_frame: i64,
     /// How the constant bones were fitted ("rigid" or "paper").
     pub bone_method: String,
+    /// How the per-frame segment orientations were chosen ("fitted" to the joint centres
+    /// and markers, or the segments' marker "poses").
+    pub rotation_method: String,
     /// The root point the BVH ROOT sits at.
     pub root: RootJson,
     /// Per marker: its segment and diagnostics, in the capture's label order.
@@ -304,6 +307,7 @@ pub(crate) fn document(input: &Inputs<'_>) -> Result<SkeletonJson, Error> {
         schema_version: crate::SCHEMA_VERSION,
         first_frame: traj.first_frame(),
         bone_method: skel.method.clone(),
+        rotation_method: skel.rotation_method.clone(),
         root: RootJson {
             name: skel.root_name.clone(),
             point_in_segment: vector(skel.root_point_in_segment),

@@ -158,15 +158,42 @@ fn json(out: &crate::Outputs) -> Value {
     serde_json::from_str(&text(out, "skeleton.json")).unwrap_or(Value::Null)
 }
 
-/// A scene with a torso pose gap (root unknown) and a long thigh gap.
+/// A scene with a torso pose gap (root unknown) and a long thigh gap: the poses, the
+/// markers and (for the thigh) the knee's fitted centre are missing there, so nothing can
+/// orient those segments.
 fn gappy_scene() -> Scene {
     let mut s = scene(120, 60.0);
     for f in 30..50 {
         s.fits.poses[0].rotations[f] = [f64::NAN; 4];
     }
+    let knee = s.topology.joints[2].pair;
     for f in 70..100 {
         s.fits.poses[1].translations[f] = [f64::NAN; 3];
+        s.fits.pairs[knee].positions[f] = [f64::NAN; 3];
     }
+    let t = &s.trajectories;
+    let markers = t.markers();
+    let mut positions = t.positions().to_vec();
+    for (m, frames) in [
+        (0, 30..50),
+        (1, 30..50),
+        (2, 30..50),
+        (3, 70..100),
+        (4, 70..100),
+        (5, 70..100),
+    ] {
+        for f in frames {
+            positions[f * markers + m] = [f64::NAN; 3];
+        }
+    }
+    s.trajectories = mocap_io::Trajectories::new(
+        t.labels().to_vec(),
+        t.frame_rate(),
+        t.first_frame(),
+        t.frames(),
+        positions,
+    )
+    .unwrap_or_else(|e| panic!("{e}"));
     s
 }
 
@@ -303,6 +330,8 @@ fn json_contract_fields_and_types() {
             .is_some_and(Vec::is_empty)
     );
     assert_eq!(doc["root_segment"].as_u64(), Some(0));
+    assert_eq!(doc["bone_method"], "rigid");
+    assert_eq!(doc["rotation_method"], "fitted");
     let joints = doc["joints"].as_array().cloned().unwrap_or_default();
     let names: Vec<&str> = joints.iter().filter_map(|j| j["name"].as_str()).collect();
     assert_eq!(names, ["j1", "j3", "j2"]);

@@ -1,0 +1,188 @@
+//! Weighted rotation about a fixed point (Horn's quaternion method without the
+//! translation), with a weak prior rotation that settles what the observations leave free.
+//!
+//! Allocation-free: this runs once per segment and frame.
+
+// Index loops read like the matrix formulas they implement.
+#![allow(clippy::needless_range_loop)]
+
+use glam::{DMat3, DQuat, DVec3};
+
+/// Weighted pairs (local vector, observed vector) for one rotation, accumulated in place.
+#[derive(Clone, Copy, Debug)]
+pub(crate) struct RotationFit {
+    /// Cross-covariance `s[a][b] = Σ w · local_a · observed_b`.
+    s: [[f64; 3]; 3],
+    /// Σ w |local| |observed|: the scale the prior's weight is measured against.
+    scale: f64,
+}
+
+/// Relative weight of the prior rotation: small enough that it never moves what the
+/// observations determine (~1e-8 of their weight), large enough that the 4×4 eigenproblem
+/// still resolves the spin they leave free (Jacobi reaches ~1e-16 relative).
+const PRIOR_WEIGHT: f64 = 1e-8;
+
+impl RotationFit {
+    /// No pairs yet.
+    pub(crate) fn new() -> Self {
+        Self {
+            s: [[0.0; 3]; 3],
+            scale: 0.0,
+        }
+    }
+
+    /// Adds `observed ≈ R · local` with weight `w` (both vectors from the fixed point, mm).
+    pub(crate) fn add(&mut self, local: DVec3, observed: DVec3, w: f64) {
+        let (l, o) = (local.to_array(), observed.to_array());
+        for a in 0..3 {
+            for b in 0..3 {
+                self.s[a][b] += w * l[a] * o[b];
+            }
+        }
+        self.scale += w * local.length() * observed.length();
+    }
+
+    /// The rotation maximising Σ w · observed·(R local), plus a weak pull towards `prior`.
+    pub(crate) fn solve(&self, prior: DQuat) -> DQuat {
+        let eps = PRIOR_WEIGHT * self.scale.max(1.0);
+        // The prior as pairs (e_a, R_p e_a): s[a][b] += eps · (R_p)_{b a}.
+        let r = DMat3::from_quat(prior);
+        let mut s = self.s;
+        for a in 0..3 {
+            let column = r.col(a).to_array();
+            for b in 0..3 {
+                s[a][b] += eps * column[b];
+            }
+        }
+        let [[sxx, sxy, sxz], [syx, syy, syz], [szx, szy, szz]] = s;
+        let m = [
+            [sxx + syy + szz, syz - szy, szx - sxz, sxy - syx],
+            [syz - szy, sxx - syy - szz, sxy + syx, szx + sxz],
+            [szx - sxz, sxy + syx, -sxx + syy - szz, syz + szy],
+            [sxy - syx, szx + sxz, syz + szy, -sxx - syy + szz],
+        ];
+        let [w, x, y, z] = top_eigenvector(m);
+        let q = DQuat::from_xyzw(x, y, z, w);
+        let len = q.length();
+        if !(len.is_finite() && len > 1e-12) {
+            return prior;
+        }
+        let q = q / len;
+        // The sign nearest the prior keeps successive frames continuous.
+        if q.dot(prior) < 0.0 { -q } else { q }
+    }
+}
+
+/// Eigenvector of the largest eigenvalue of a symmetric 4×4 matrix (cyclic Jacobi).
+fn top_eigenvector(a: [[f64; 4]; 4]) -> [f64; 4] {
+    let mut m = a;
+    let mut v = [[0.0; 4]; 4];
+    for (i, row) in v.iter_mut().enumerate() {
+        row[i] = 1.0;
+    }
+    let scale: f64 = m.iter().flatten().map(|x| x * x).sum::<f64>().sqrt();
+    if scale > 0.0 && scale.is_finite() {
+        for _sweep in 0..50 {
+            let mut off = 0.0;
+            for i in 0..4 {
+                for j in (i + 1)..4 {
+                    off += m[i][j] * m[i][j];
+                }
+            }
+            if off.sqrt() <= 1e-16 * scale {
+                break;
+            }
+            for p in 0..4 {
+                for q in (p + 1)..4 {
+                    let apq = m[p][q];
+                    if apq == 0.0 {
+                        continue;
+                    }
+                    let theta = (m[q][q] - m[p][p]) / (2.0 * apq);
+                    let t = if theta == 0.0 {
+                        1.0
+                    } else {
+                        theta.signum() / (theta.abs() + (theta * theta + 1.0).sqrt())
+                    };
+                    let c = 1.0 / (t * t + 1.0).sqrt();
+                    let s = t * c;
+                    for k in 0..4 {
+                        let (mkp, mkq) = (m[k][p], m[k][q]);
+                        m[k][p] = c * mkp - s * mkq;
+                        m[k][q] = s * mkp + c * mkq;
+                    }
+                    for k in 0..4 {
+                        let (mpk, mqk) = (m[p][k], m[q][k]);
+                        m[p][k] = c * mpk - s * mqk;
+                        m[q][k] = s * mpk + c * mqk;
+                    }
+                    for row in v.iter_mut() {
+                        let (vp, vq) = (row[p], row[q]);
+                        row[p] = c * vp - s * vq;
+                        row[q] = s * vp + c * vq;
+                    }
+                }
+            }
+        }
+    }
+    let mut best = 0;
+    for i in 1..4 {
+        if m[i][i] > m[best][best] {
+            best = i;
+        }
+    }
+    [v[0][best], v[1][best], v[2][best], v[3][best]]
+}
+
+/// Whether the vectors span a plane: two of them (each longer than `min_mm`) at least
+/// `min_sin` apart in direction. Decides whether a rotation is fixed by observations alone.
+pub(crate) fn spans_plane(vectors: &[DVec3], min_mm: f64, min_sin: f64) -> bool {
+    for (i, &u) in vectors.iter().enumerate() {
+        let lu = u.length();
+        if lu < min_mm {
+            continue;
+        }
+        for &w in &vectors[i + 1..] {
+            let lw = w.length();
+            if lw >= min_mm && u.cross(w).length() >= min_sin * lu * lw {
+                return true;
+            }
+        }
+    }
+    false
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn recovers_a_rotation_and_uses_the_prior_only_for_the_free_spin() {
+        let q = DQuat::from_euler(glam::EulerRot::ZXY, 1.0, -0.4, 2.5);
+        let local = [
+            DVec3::new(0.0, 0.0, -300.0),
+            DVec3::new(40.0, 20.0, -50.0),
+            DVec3::new(-30.0, 10.0, -120.0),
+        ];
+        let mut fit = RotationFit::new();
+        for (i, l) in local.iter().enumerate() {
+            fit.add(*l, q * *l, if i == 0 { 1.0 } else { 0.1 });
+        }
+        let got = fit.solve(DQuat::IDENTITY);
+        assert!(got.angle_between(q) < 1e-6, "{}", got.angle_between(q));
+
+        // One vector: its direction is matched; the spin about it comes from the prior.
+        let prior = q * DQuat::from_rotation_z(0.3);
+        let mut one = RotationFit::new();
+        one.add(local[0], q * local[0], 1.0);
+        let got = one.solve(prior);
+        assert!((got * local[0] - q * local[0]).length() < 1e-6);
+        assert!(got.angle_between(prior) < 1e-6);
+        // Nothing at all: the prior.
+        assert!(RotationFit::new().solve(prior).angle_between(prior) < 1e-7);
+
+        assert!(spans_plane(&local, 10.0, 0.1));
+        assert!(!spans_plane(&local[..1], 10.0, 0.1));
+        assert!(!spans_plane(&[local[0], local[0] * 0.5], 10.0, 0.1));
+    }
+}
