@@ -79,6 +79,7 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
                 ("score", Method::Score, true),
                 ("no-anch", Method::Score, false),
                 ("aguiar", Method::Aguiar, true),
+                ("score+h", Method::Score, true),
             ] {
                 let params = Params {
                     method,
@@ -86,7 +87,23 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
                     ..Params::default()
                 };
                 let start = Instant::now();
-                let fits = run_on_segments(traj, &segments, &params)?;
+                let mut fits = run_on_segments(traj, &segments, &params)?;
+                if name.ends_with("+h") {
+                    // Hinge centres placed from the TRUE tree.
+                    let edges: Vec<(usize, usize, usize)> = truth
+                        .joints
+                        .iter()
+                        .filter_map(|j| {
+                            let (a, b) = (
+                                j.parent_segment.min(j.child_segment),
+                                j.parent_segment.max(j.child_segment),
+                            );
+                            let idx = fits.pairs.iter().position(|p| p.a == a && p.b == b)?;
+                            Some((idx, j.parent_segment, j.child_segment))
+                        })
+                        .collect();
+                    jointfit::place_hinge_centres(&mut fits, &edges);
+                }
                 let secs = start.elapsed().as_secs_f64();
                 let (mut sum, mut worst, mut known, mut total, mut hinge_ok) =
                     (0.0, 0.0f64, 0, 0, 0);

@@ -24,6 +24,7 @@ mod aguiar;
 mod anchor;
 mod error;
 mod fit;
+mod hinge;
 mod horn;
 mod motion;
 mod pairfits;
@@ -33,6 +34,7 @@ mod score;
 mod small;
 
 pub use error::Error;
+pub use hinge::place_hinge_centres;
 pub use horn::{RigidFit, absolute_orientation};
 pub use pairfits::*;
 pub use params::{Method, PARAM_DOCS, Params};

@@ -419,3 +419,45 @@ fn two_visible_markers_plus_joint_fill_gaps() {
         }
     }
 }
+
+/// A chain of hinges whose axes are perpendicular to the bones (the robot arm's
+/// anatomy): placement from the tree puts every centre where the truth has it.
+#[test]
+fn hinge_centres_placed_from_the_tree() {
+    let mut rng = TestRng(34);
+    let bodies = chain(
+        &mut rng,
+        &[
+            Articulation::Hinge(DVec3::X, 50.0),
+            Articulation::Hinge(DVec3::new(1.0, 1.0, 0.0).normalize(), 50.0),
+            Articulation::Hinge(DVec3::Y, 50.0),
+        ],
+        4,
+    );
+    let trial = generate(&mut rng, &bodies, 300, 0.1, |_, _, _| false);
+    let mut fits = run_on_segments(&trial.traj, &trial.segments, &Params::default()).unwrap();
+    let index = |a: usize, b: usize| fits.pairs.iter().position(|p| p.a == a && p.b == b);
+    let edges: Vec<(usize, usize, usize)> = (1..4)
+        .map(|b| (index(b - 1, b).unwrap(), b - 1, b))
+        .collect();
+    let before: Vec<f64> = (1..4)
+        .map(|b| mean_error(pair(&fits, b - 1, b), &trial.joints[b]))
+        .collect();
+    let shifts = crate::place_hinge_centres(&mut fits, &edges);
+    assert!(shifts.iter().all(|s| s.abs() > 1.0), "{shifts:?}");
+    for b in 1..4 {
+        let fit = pair(&fits, b - 1, b);
+        assert_eq!(fit.kind, JointKind::Hinge);
+        let err = mean_error(fit, &trial.joints[b]);
+        assert!(
+            err < 1.5,
+            "joint {b}: {err} mm after placement, {} before",
+            before[b - 1]
+        );
+        let (ea, eb) = centre_errors(&fits, fit, &trial.joints[b]);
+        assert!(ea < 1.0 && eb < 1.0, "joint {b}: centre {ea} {eb} mm");
+    }
+    // A ball edge or a bad index leaves the fits alone.
+    let none = crate::place_hinge_centres(&mut fits, &[(999, 0, 1)]);
+    assert_eq!(none, vec![0.0]);
+}
