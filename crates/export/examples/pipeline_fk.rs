@@ -4,7 +4,8 @@
 //!
 //! `cargo run --release -p export --example pipeline_fk [-- frames seed [methods]]`
 //! where methods is a comma list of `rigid+fitted`, `rigid+poses`, `paper+fitted`,
-//! `paper+poses` (default `rigid+fitted,rigid+poses`).
+//! `paper+poses` (default `rigid+fitted,rigid+poses`), and an optional marker weight
+//! for the fitted rotations (default bonefit's).
 #![allow(clippy::print_stdout)]
 
 use synth::{Preset, Subject, SynthConfig};
@@ -24,6 +25,10 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
             Some((b, r))
         })
         .collect();
+    let marker_weight = args
+        .get(4)
+        .and_then(|a| a.parse().ok())
+        .unwrap_or(bonefit::Params::default().marker_weight);
     println!(
         "{:<22} {:>12} {:>5} {:>5} {:>9} {:>9} {:>9} {:>7} {:>9} {:>9} {:>9}",
         "trial",
@@ -62,6 +67,7 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
                 let params = bonefit::Params {
                     method,
                     rotations,
+                    marker_weight,
                     ..bonefit::Params::default()
                 };
                 let skeleton = bonefit::run(traj, &seg, &fits, &topology, &params)?;

@@ -12,7 +12,12 @@
 //!   every other edge, because two segments that never move relative to each other are
 //!   certainly neighbours; the topology's `notes` say so, since a rigid pair usually means
 //!   the segmentation split one body in two.
-//! - Ties in cost are broken by the lower segment ids, so the tree is deterministic.
+//! - Near-ties in cost (within `tie_absolute + tie_relative × cost` of a run's cheapest
+//!   edge) are taken in order of the pair's RMS relative rotation, smallest first: where
+//!   segments meet at one point (siblings on one parent) every pair among them fits the
+//!   point equally well, and the false sibling pair turns the most because its relative
+//!   motion composes both true joints' motions. Exact ties after that go by the lower
+//!   segment ids, so the tree is deterministic.
 //! - Root: the tree's centre (minimum eccentricity in hops), ties by most markers, then
 //!   lowest id; it lands on the pelvis or torso of a human and the body of an animal.
 //!   `topo.root` forces a segment id (its component becomes the tree).
@@ -40,6 +45,11 @@ pub struct Params {
     pub root: Option<usize>,
     /// Take `rigid` pairs before all other edges (default true); false uses their cost as is.
     pub rigid_first: bool,
+    /// Costs within this much (cost units, mm for `score`) of a run's cheapest cost are
+    /// tied and taken by smallest relative rotation (default 0.1).
+    pub tie_absolute: f64,
+    /// Plus this fraction of the run's cheapest cost (default 0.02).
+    pub tie_relative: f64,
 }
 
 impl Default for Params {
@@ -47,6 +57,8 @@ impl Default for Params {
         Self {
             root: None,
             rigid_first: true,
+            tie_absolute: 0.1,
+            tie_relative: 0.02,
         }
     }
 }
@@ -61,5 +73,17 @@ pub const PARAM_DOCS: &[(&str, &str)] = &[
     (
         "rigid_first",
         "take pairs of kind rigid (no relative motion) before all other edges; default true",
+    ),
+    (
+        "tie_absolute",
+        "pair costs within tie_absolute + tie_relative x cost of a run's cheapest cost are \
+         tied (cost units: mm for jointfit.method=score); tied pairs are taken by smallest \
+         RMS relative rotation, so siblings meeting at one point are not joined to each \
+         other; default 0.1",
+    ),
+    (
+        "tie_relative",
+        "fraction of the run's cheapest cost added to tie_absolute (dimensionless); \
+         default 0.02",
     ),
 ];

@@ -48,6 +48,7 @@ pub fn run(seg: &Segmentation, fits: &PairFits, params: &Params) -> Result<Topol
             .then(x.2.cmp(&y.2))
             .then(x.3.cmp(&y.3))
     });
+    break_near_ties(&mut edges, fits, params);
 
     let mut sets = DisjointSets::new(n);
     let mut accepted = Vec::new();
@@ -169,6 +170,41 @@ pub fn run(seg: &Segmentation, fits: &PairFits, params: &Params) -> Result<Topol
         detached_segments,
         notes,
     })
+}
+
+/// Reorders runs of near-equal costs by the pair's relative rotation, smallest first.
+///
+/// Segments meeting at one point (siblings on a common parent, e.g. two limbs on one
+/// hub) give three pairs with the same fixed point and costs equal up to noise; any two
+/// of them form a tree but the sibling pair is false. The sibling pair's relative motion
+/// is the composition of both true joints' motions, so it turns the most: among tied
+/// costs, the pair with the smaller RMS relative rotation is taken first. A run starts at
+/// its cheapest edge `c` and holds every edge of the same rank costing at most
+/// `c + tie_absolute + tie_relative · c` (anchored, not chained, so a long run of
+/// slowly rising costs is not one tie). NaN rotations go last; then cost, then ids.
+fn break_near_ties(edges: &mut [(u8, f64, usize, usize, usize)], fits: &PairFits, params: &Params) {
+    let rotation = |e: &(u8, f64, usize, usize, usize)| {
+        let r = fits.pairs[e.4].rotation_rms_deg;
+        if r.is_finite() { r } else { f64::INFINITY }
+    };
+    let mut start = 0;
+    while start < edges.len() {
+        let (rank, first) = (edges[start].0, edges[start].1);
+        let limit =
+            first + params.tie_absolute.max(0.0) + params.tie_relative.max(0.0) * first.abs();
+        let mut end = start + 1;
+        while end < edges.len() && edges[end].0 == rank && edges[end].1 <= limit {
+            end += 1;
+        }
+        edges[start..end].sort_by(|x, y| {
+            rotation(x)
+                .total_cmp(&rotation(y))
+                .then(x.1.total_cmp(&y.1))
+                .then(x.2.cmp(&y.2))
+                .then(x.3.cmp(&y.3))
+        });
+        start = end;
+    }
 }
 
 /// The tree's centre: minimum eccentricity in hops, ties by most markers, then lowest id.
@@ -435,6 +471,46 @@ mod tests {
         assert_eq!(t.detached_segments, vec![0, 1, 2]);
         assert_eq!(t.joints.len(), 1);
         assert_eq!(t.joints[0].name, "j3");
+    }
+
+    #[test]
+    fn near_tied_siblings_are_not_joined_to_each_other() {
+        // Segment 2 is a hub; 0 and 1 hang on it at one point, so all three pairs fit that
+        // point (cost ~0). The sibling pair (0, 1) turns the most and must not be an edge,
+        // even though it is the cheapest by a hair and has the lowest ids.
+        let seg = segmentation(&[3, 3, 4, 3]);
+        let mut f = fits(4, |a, b| match (a, b) {
+            (0, 1) => (1e-9, JointKind::Ball),
+            (0, 2) | (1, 2) => (2e-9, JointKind::Ball),
+            (2, 3) => (3.0, JointKind::Ball),
+            _ => (40.0, JointKind::Ball),
+        });
+        for p in &mut f.pairs {
+            p.rotation_rms_deg = if (p.a, p.b) == (0, 1) { 50.0 } else { 30.0 };
+        }
+        let t = run(&seg, &f, &Params::default()).unwrap_or_else(|e| panic!("{e}"));
+        assert_eq!(edge_set(&t), [(0, 2), (1, 2), (2, 3)]);
+        // Costs clearly apart are not ties: the cheaper pair wins whatever it turns.
+        for p in &mut f.pairs {
+            if (p.a, p.b) == (0, 1) {
+                p.cost = -5.0;
+            }
+        }
+        let t = run(&seg, &f, &Params::default()).unwrap_or_else(|e| panic!("{e}"));
+        assert!(edge_set(&t).contains(&(0, 1)));
+        // With no tolerance the cheapest pair wins again.
+        for p in &mut f.pairs {
+            if (p.a, p.b) == (0, 1) {
+                p.cost = 1e-9;
+            }
+        }
+        let exact = Params {
+            tie_absolute: 0.0,
+            tie_relative: 0.0,
+            ..Params::default()
+        };
+        let t = run(&seg, &f, &exact).unwrap_or_else(|e| panic!("{e}"));
+        assert!(edge_set(&t).contains(&(0, 1)));
     }
 
     #[test]
