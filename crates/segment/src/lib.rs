@@ -10,6 +10,10 @@
 //! nearest marker, floored at the noise), so a two-marker segment whose pair is each
 //! other's nearest stays whole; orphans rejoin only a group they slide on no more than
 //! they slide on anything; then markers move and rigid neighbours merge under a tolerance.
+//! A marker still alone takes an ambiguous partner (rigid with it and with its own group,
+//! near a joint axis) from a group that keeps three, so both sides stay poseable; if none,
+//! it is a 1-marker segment when some distance of its stays within the tolerance, else
+//! unassigned. Unassigned means too little data, or moving against every marker.
 //! Or agglomeration alone (`method = "linkage"`) or rigid cliques (`method = "cliques"`).
 //!
 //! It does not estimate poses, joints or topology (jointfit, topo) and does no I/O.
@@ -140,10 +144,21 @@ pub fn run(traj: &Trajectories, params: &Params) -> Result<Segmentation, Error> 
         ),
     };
     rigidity::normalise(&mut clusters);
+    if params.pair_orphans {
+        rigidity::pair_orphans(&mut clusters, &stats, tolerance_mm, min_overlap);
+        rigidity::normalise(&mut clusters);
+    }
 
-    // Groups too small to be a segment: their markers are unassigned, with what we saw.
+    // Groups too small to be a segment: their markers are unassigned, with what we saw;
+    // except a lone marker with a steady partner across a joint (see `singleton_steady_factor`).
+    let singleton_bound = params.singleton_steady_factor * tolerance_mm;
     clusters.retain(|c| {
         if c.len() >= params.min_segment_markers {
+            return true;
+        }
+        if let [m] = c[..]
+            && steadiest_rho(&stats, m, min_overlap).is_some_and(|(r, _)| r <= singleton_bound)
+        {
             return true;
         }
         for &m in c {
@@ -241,6 +256,15 @@ fn rejoin_orphans(
     );
 }
 
+/// Marker `m`'s smallest ρ to any other marker and that marker, mm; `None` when no pair
+/// was seen together in `min_overlap` frames.
+fn steadiest_rho(stats: &PairStats, m: usize, min_overlap: usize) -> Option<(f64, usize)> {
+    (0..stats.n)
+        .filter(|&j| j != m)
+        .filter_map(|j| stats.rho(m, j, min_overlap).map(|r| (r, j)))
+        .min_by(|a, b| a.0.total_cmp(&b.0).then(a.1.cmp(&b.1)))
+}
+
 /// Why marker `m` ended in a group of `size` < `min_segment_markers`, naming its most rigid partner.
 fn small_group_reason(
     stats: &PairStats,
@@ -249,10 +273,7 @@ fn small_group_reason(
     params: &Params,
     labels: &[String],
 ) -> String {
-    let nearest = (0..stats.n)
-        .filter_map(|j| stats.rho(m, j, params.min_overlap_frames).map(|r| (r, j)))
-        .min_by(|a, b| a.0.total_cmp(&b.0).then(a.1.cmp(&b.1)));
-    let partner = match nearest {
+    let partner = match steadiest_rho(stats, m, params.min_overlap_frames) {
         Some((r, j)) => format!(
             "; its steadiest distance is to {} (ρ = {:.2} mm)",
             labels.get(j).map_or("?", String::as_str),

@@ -79,7 +79,7 @@ pub struct Params {
     pub min_visible_fraction: f64,
     /// A pair seen together in fewer frames than this has no affinity and no ρ.
     pub min_overlap_frames: usize,
-    /// Groups with fewer markers than this are not segments; their markers are unassigned.
+    /// Groups with fewer markers than this are not segments (but see `singleton_steady_factor`).
     pub min_segment_markers: usize,
     /// After spectral clustering: split non-rigid clusters, move misplaced markers, merge rigid neighbours.
     pub rigidity_check: bool,
@@ -95,6 +95,10 @@ pub struct Params {
     pub slide_ratio: f64,
     /// ... and exceeds this, mm.
     pub slide_min_mm: f64,
+    /// A lone marker takes a marker it is rigid with (ρ ≤ tolerance) from a group that keeps ≥ 3.
+    pub pair_orphans: bool,
+    /// A lone marker is a 1-marker segment when its steadiest ρ ≤ this × the tolerance; else unassigned.
+    pub singleton_steady_factor: f64,
 }
 
 impl Default for Params {
@@ -125,6 +129,8 @@ impl Default for Params {
             tolerance_min_mm: 2.0,
             slide_ratio: 2.0,
             slide_min_mm: 1.0,
+            pair_orphans: true,
+            singleton_steady_factor: 1.0,
         }
     }
 }
@@ -195,7 +201,7 @@ pub const PARAM_DOCS: &[(&str, &str)] = &[
     ),
     (
         "min_segment_markers",
-        "groups smaller than this are not segments and their markers are unassigned; default 2",
+        "groups smaller than this rejoin a group they are rigid with or, failing that, are not segments and their markers are unassigned (a lone marker may still be a 1-marker segment, see singleton_steady_factor); default 2",
     ),
     (
         "rigidity_check",
@@ -224,6 +230,14 @@ pub const PARAM_DOCS: &[(&str, &str)] = &[
     (
         "slide_min_mm",
         "... and also exceeds slide_min_mm (mm) so noise alone never counts as sliding; default 1.0",
+    ),
+    (
+        "pair_orphans",
+        "a marker left alone (a group of one) takes the marker it keeps its distance to best (ρ ≤ tolerance) from a group of 4 or more, so a marker near a joint axis (LANK: rigid with shank and foot alike) goes where both segments stay poseable; never pairs markers whose ρ exceeds the tolerance; default true",
+    ),
+    (
+        "singleton_steady_factor",
+        "a marker still alone (rigid with no group) is a 1-marker segment when its smallest ρ to any marker is ≤ this × the tolerance (a steady partner across a joint: jointfit poses it as a swing about the neighbour's joint); otherwise, and always when 0, it is unassigned as sliding or unexplained (unassigned also covers markers with too little data); default 1.0",
     ),
 ];
 
@@ -293,6 +307,7 @@ impl Params {
         positive("tolerance_min_mm", self.tolerance_min_mm)?;
         positive("slide_ratio", self.slide_ratio)?;
         non_negative("slide_min_mm", self.slide_min_mm)?;
+        non_negative("singleton_steady_factor", self.singleton_steady_factor)?;
         Ok(())
     }
 }

@@ -268,3 +268,61 @@ fn merge_rigid(
         any = true;
     }
 }
+
+/// Fewest markers a donor keeps when it gives a marker to an orphan: three non-collinear
+/// markers still give it a full pose of its own.
+const DONOR_KEEPS: usize = 3;
+
+/// Gives each lone marker (a group of one) a partner taken from a group of four or more.
+///
+/// A marker near a joint axis (the lateral malleolus, LANK) keeps its distance to both
+/// sides of the joint, so the evidence cannot say which side it belongs to; agglomeration
+/// hands it to one side and may leave the other side's only marker (LSHN) alone. When the
+/// lone marker `m` and a marker `x` of a group keep their distance within `tol` (ρ, mm:
+/// rigid by the same standard the merges use), at least as well as `x` keeps it to its
+/// group (RMS ρ: the evidence does not favour the group), and that group keeps
+/// [`DONOR_KEEPS`] markers without `x`, `x` moves to `m`: both segments are then poseable (jointfit
+/// anchors a two-marker segment to its neighbour's joint), and no pair whose ρ exceeds the
+/// tolerance is ever put together. Steadiest pair first; each lone marker takes one, and
+/// a marker moves once.
+pub(crate) fn pair_orphans(
+    clusters: &mut [Vec<usize>],
+    stats: &PairStats,
+    tol: f64,
+    min_overlap: usize,
+) {
+    let mut offers: Vec<(f64, usize, usize)> = Vec::new();
+    for (o, orphan) in clusters.iter().enumerate() {
+        let [m] = orphan[..] else { continue };
+        for donor in clusters.iter().filter(|d| d.len() > DONOR_KEEPS) {
+            for &x in donor {
+                // Ambiguous only when x keeps its distance to m at least as well as to its
+                // own group: a marker sliding on the donor's skin is steadier with none.
+                let mates: Vec<usize> = donor.iter().copied().filter(|&y| y != x).collect();
+                let to_donor = rms_rho(stats, x, &mates, min_overlap).unwrap_or(f64::INFINITY);
+                if let Some(r) = stats.rho(m, x, min_overlap)
+                    && r <= tol
+                    && r <= to_donor
+                {
+                    offers.push((r, o, x));
+                }
+            }
+        }
+    }
+    offers.sort_by(|a, b| a.0.total_cmp(&b.0).then(a.1.cmp(&b.1)).then(a.2.cmp(&b.2)));
+    let mut moved: Vec<usize> = Vec::new();
+    for (_, o, x) in offers {
+        if clusters[o].len() != 1 || moved.contains(&x) {
+            continue;
+        }
+        let Some(d) = clusters.iter().position(|c| c.contains(&x)) else {
+            continue;
+        };
+        if clusters[d].len() <= DONOR_KEEPS {
+            continue;
+        }
+        clusters[d].retain(|&y| y != x);
+        clusters[o].push(x);
+        moved.push(x);
+    }
+}

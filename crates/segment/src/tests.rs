@@ -522,7 +522,7 @@ fn cmu_02_01_groups_the_body_parts_we_are_sure_of() {
 }
 
 #[test]
-fn cmu_02_01_keeps_two_marker_thighs_and_upper_arm() {
+fn cmu_02_01_keeps_two_marker_thighs_shanks_and_upper_arm() {
     // Thigh (LTHI, LKNE) and upper arm (LUPA, LELB) carry two markers each; local scaling
     // with k = 2 looked past the one mate and merged them into shank or forearm. The
     // rigidity split by scaled complete linkage keeps them (measured: both thighs and the
@@ -562,6 +562,33 @@ fn cmu_02_01_keeps_two_marker_thighs_and_upper_arm() {
             .map(|s| s.markers.len());
         assert_eq!(size, Some(2), "{side} thigh is LTHI + LKNE only");
     }
+    // The malleolus (ANK) sits near the ankle axis, rigid with shank and foot alike; it
+    // goes to the shank, whose only other marker would be alone, while the foot keeps 3.
+    for side in ["L", "R"] {
+        let shank = segment_of(&format!("{side}SHN"));
+        assert!(shank.is_some(), "{side}SHN unassigned");
+        assert_eq!(
+            shank,
+            segment_of(&format!("{side}ANK")),
+            "{side} shank split"
+        );
+        assert_ne!(
+            shank,
+            segment_of(&format!("{side}HEE")),
+            "{side} shank with foot"
+        );
+        let size = seg
+            .segments
+            .iter()
+            .find(|s| Some(s.id) == shank)
+            .map(|s| s.markers.len());
+        assert_eq!(size, Some(2), "{side} shank is {side}SHN + {side}ANK only");
+    }
+    assert!(
+        seg.unassigned.is_empty(),
+        "unassigned: {:?}",
+        seg.unassigned
+    );
     let upa = segment_of("LUPA");
     assert!(upa.is_some(), "LUPA unassigned");
     assert_eq!(upa, segment_of("LELB"));
