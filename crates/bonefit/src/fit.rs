@@ -53,6 +53,47 @@ pub fn run(
     if root >= segments {
         return Err(Error::BadRoot { root, segments });
     }
+    // Hinge centres placed on their axes from the tree, on a copy of the pair fits.
+    let placed;
+    let mut hinge_shifts = vec![0.0; topo.joints.len()];
+    let fits = if params.place_hinges {
+        let mut copy = fits.clone();
+        let edges: Vec<(usize, usize, usize)> = topo
+            .joints
+            .iter()
+            .map(|j| (j.pair, j.parent_segment, j.child_segment))
+            .collect();
+        let shifts = jointfit::place_hinge_centres(&mut copy, &edges);
+        for (e, ((h, s), &(pair, _, _))) in
+            hinge_shifts.iter_mut().zip(shifts).zip(&edges).enumerate()
+        {
+            if s == 0.0 {
+                continue;
+            }
+            // A true hinge's centre slides along its axis at no cost to the fit; where the
+            // slide makes the two segments disagree about the centre noticeably more, the
+            // axis is not a line of equally good centres (a ball read as a hinge, a noisy
+            // axis): keep the pair fit's centre.
+            let (Some(before), Some(after)) = (fits.pairs.get(pair), copy.pairs.get(pair)) else {
+                continue;
+            };
+            let (r0, r1) = (pair_residual(fits, before), pair_residual(fits, after));
+            // A slide that is a large part of the bone comes from an ill-conditioned
+            // system (nearly parallel neighbouring axes, a noisy axis), not from anatomy.
+            let bone = bone_length_before(fits, topo, e);
+            let short =
+                bone.is_nan() || bone <= 0.0 || s.abs() <= params.hinge_max_shift_ratio * bone;
+            if short && r1 <= r0 * (1.0 + params.hinge_residual_increase.max(0.0)) + 0.1 {
+                *h = s;
+            } else {
+                copy.pairs[pair] = before.clone();
+            }
+        }
+        placed = copy;
+        &placed
+    } else {
+        fits
+    };
     let specs = resolve_joints(fits, topo, frames)?;
 
     let rate = traj.frame_rate();
@@ -262,6 +303,7 @@ pub fn run(
                     f64::NAN
                 },
                 range_of_motion_deg: range_of_motion_deg(&relative),
+                hinge_shift_mm: hinge_shifts.get(j).copied().unwrap_or(0.0),
             }
         })
         .collect();
@@ -468,6 +510,63 @@ impl FrameFit<'_> {
             known: spans || prior.known,
             measured: spans || prior.measured,
         })
+    }
+}
+
+/// Length (mm) of topology joint `e`'s bone from its parent segment's anchor (the parent
+/// joint's centre, or for the root the mean of its child joints' centres), in the parent
+/// segment's frame, with the pair fits' centres; NaN when not computable.
+fn bone_length_before(fits: &PairFits, topo: &Topology, e: usize) -> f64 {
+    let Some(joint) = topo.joints.get(e) else {
+        return f64::NAN;
+    };
+    let p = joint.parent_segment;
+    let centre = |pair: usize| fits.pairs.get(pair).map_or(DVec3::NAN, |f| centre_in(f, p));
+    let anchor = match topo.joints.iter().find(|j| j.child_segment == p) {
+        Some(into) => centre(into.pair),
+        None => {
+            let children: Vec<DVec3> = topo
+                .joints
+                .iter()
+                .filter(|j| j.parent_segment == p)
+                .map(|j| centre(j.pair))
+                .collect();
+            children.iter().fold(DVec3::ZERO, |a, &c| a + c) / children.len().max(1) as f64
+        }
+    };
+    (centre(joint.pair) - anchor).length()
+}
+
+/// RMS over the frames where both segments are posed of the distance between the pair's
+/// centre as each segment carries it (mm); NaN when never both posed.
+fn pair_residual(fits: &PairFits, pair: &PairFit) -> f64 {
+    let (Some(pa), Some(pb)) = (fits.poses.get(pair.a), fits.poses.get(pair.b)) else {
+        return f64::NAN;
+    };
+    let (ca, cb) = (
+        DVec3::from_array(pair.centre_in_a),
+        DVec3::from_array(pair.centre_in_b),
+    );
+    let (mut sum, mut count) = (0.0, 0usize);
+    for f in 0..pa.rotations.len().min(pb.rotations.len()) {
+        let pose = |p: &jointfit::SegmentPoses, c: DVec3| {
+            let q = DQuat::from_array(p.rotations[f]);
+            let t = p
+                .translations
+                .get(f)
+                .map_or(DVec3::NAN, |&t| DVec3::from_array(t));
+            q.normalize() * c + t
+        };
+        let d = (pose(pa, ca) - pose(pb, cb)).length_squared();
+        if d.is_finite() {
+            sum += d;
+            count += 1;
+        }
+    }
+    if count == 0 {
+        f64::NAN
+    } else {
+        (sum / count as f64).sqrt()
     }
 }
 
@@ -745,7 +844,7 @@ mod tests {
         }
         let p = Params {
             method: BoneMethod::Paper,
-            ..Params::default()
+            ..as_given()
         };
         let k = fit(&s, &p);
         assert!((k.joints[2].bone_length - 300.0).abs() < 1e-6);
@@ -757,6 +856,14 @@ mod tests {
     fn poses() -> Params {
         Params {
             rotations: RotationMethod::Poses,
+            ..Params::default()
+        }
+    }
+
+    /// The pair fits' centres and positions as given (tests that edit them).
+    fn as_given() -> Params {
+        Params {
+            place_hinges: false,
             ..Params::default()
         }
     }
@@ -789,7 +896,7 @@ mod tests {
                 *q = (DQuat::from_array(*q) * tilt).to_array();
             }
         }
-        let fitted = fit(&s, &Params::default());
+        let fitted = fit(&s, &as_given());
         assert_eq!(fitted.rotation_method, "fitted");
         let chained = fit(&s, &poses());
         let mut worst_chained = 0.0f64;
@@ -827,7 +934,7 @@ mod tests {
             s.fits.poses[0].translations[f] = [f64::NAN; 3];
         }
         hide_marker(&mut s, 2, 20..30);
-        let k = fit(&s, &Params::default());
+        let k = fit(&s, &as_given());
         for (j, joint) in k.joints.iter().enumerate() {
             assert_eq!(joint.frames_known, 100, "{}", joint.name);
             assert_eq!(joint.frames_interpolated, 0, "{}", joint.name);
@@ -842,10 +949,48 @@ mod tests {
         for f in 40..70 {
             s.fits.pairs[knee].positions[f] = [f64::NAN; 3];
         }
-        let k = fit(&s, &Params::default());
+        let k = fit(&s, &as_given());
         assert_eq!(k.joints[2].frames_known, 70);
         assert!(k.joints[2].positions[55][0].is_nan());
         assert_eq!(k.joints[0].frames_known, 100);
+    }
+
+    #[test]
+    fn hinge_centres_slide_back_onto_the_bone() {
+        // The knee (hinge about local x) fitted off along its axis: any point of the axis
+        // fits the motion equally, the bone from the hip is shortest at the truth.
+        let knee_off = |off: f64| {
+            let mut s = scene(100, 100.0);
+            let knee = s.topology.joints[2].pair;
+            let pair = &mut s.fits.pairs[knee];
+            pair.centre_in_a[0] += off;
+            pair.centre_in_b[0] += off;
+            for (f, p) in pair.positions.iter_mut().enumerate() {
+                let q = DQuat::from_array(s.fits.poses[1].rotations[f]);
+                *p = (DVec3::from_array(*p) + q * DVec3::new(off, 0.0, 0.0)).to_array();
+            }
+            s
+        };
+        let s = knee_off(25.0);
+        let off = fit(&s, &as_given());
+        assert!((off.joints[2].bone_length - 300.0f64.hypot(25.0)).abs() < 1e-6);
+        assert_eq!(off.joints[2].hinge_shift_mm, 0.0);
+        let k = fit(&s, &Params::default());
+        assert!((k.joints[2].hinge_shift_mm + 25.0).abs() < 1e-6);
+        assert!((k.joints[2].bone_length - 300.0).abs() < 1e-6);
+        for f in 0..100 {
+            assert!(distance(k.joints[2].positions[f], s.truth[2][f]) < 1e-6);
+        }
+        assert_eq!(k.joints[0].hinge_shift_mm, 0.0);
+        // A slide of a fifth of the bone is refused by default (ill-conditioned systems
+        // give those), accepted when the limit allows it.
+        let s = knee_off(60.0);
+        assert_eq!(fit(&s, &Params::default()).joints[2].hinge_shift_mm, 0.0);
+        let p = Params {
+            hinge_max_shift_ratio: 0.5,
+            ..Params::default()
+        };
+        assert!((fit(&s, &p).joints[2].hinge_shift_mm + 60.0).abs() < 1e-6);
     }
 
     #[test]

@@ -85,4 +85,8 @@ pub struct SkeletonJoint {
     /// approximated by a two-sweep search); NaN when never both measured.
     #[serde(default)]
     pub range_of_motion_deg: f64,
+    /// How far the hinge centre was slid along its axis from the pair fit's centre (mm);
+    /// 0 for ball joints and when `place_hinges` is off.
+    #[serde(default)]
+    pub hinge_shift_mm: f64,
 }

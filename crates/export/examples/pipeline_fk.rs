@@ -99,6 +99,16 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
                         .collect();
                 }
                 let fitted_score = synth::score::score(&trial.truth, &fitted);
+                if std::env::var_os("SHOW_SHIFTS").is_some() {
+                    for (j, js) in skeleton.joints.iter().zip(&score.joints) {
+                        if j.hinge_shift_mm != 0.0 {
+                            println!(
+                                "  {} shift {:.1} mm, bone {:.0} mm, error {:?} mm",
+                                j.name, j.hinge_shift_mm, j.bone_length, js.mean_mm
+                            );
+                        }
+                    }
+                }
                 // RMS over all joints' frames of FK − fitted (each joint weighted by frames).
                 let (mut sum, mut count, mut worst) = (0.0, 0.0, 0.0f64);
                 for j in &skeleton.joints {

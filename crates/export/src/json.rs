@@ -90,6 +90,9 @@ pub struct JointJson {
     pub kind_evidence: String,
     /// Hinge axis in the parent segment's local frame (unit vector), for hinges.
     pub hinge_axis_in_parent: Option<[f64; 3]>,
+    /// How far bonefit slid the hinge centre along its axis towards the adjacent joints
+    /// (mm); 0 when not slid.
+    pub hinge_shift_mm: f64,
     /// Constant bone length from the parent joint (or root point) (mm).
     pub bone_length_mm: f64,
     /// Constant offset from the parent joint in the parent's rest frame (mm): the BVH OFFSET.
@@ -269,6 +272,7 @@ pub(crate) fn document(input: &Inputs<'_>) -> Result<SkeletonJson, Error> {
             range_of_motion_deg: rom,
             kind_evidence: pair.evidence.clone(),
             hinge_axis_in_parent,
+            hinge_shift_mm: round(j.hinge_shift_mm, 3).unwrap_or(0.0),
             bone_length_mm: round(j.bone_length, 3).unwrap_or(0.0),
             offset_mm: vector(j.offset),
             frames_known: j.frames_known,

@@ -159,7 +159,7 @@ fn json(out: &crate::Outputs) -> Value {
 }
 
 /// A scene with a torso pose gap (root unknown) and a long thigh gap: the poses, the
-/// markers and (for the thigh) the knee's fitted centre are missing there, so nothing can
+/// markers and (for the thigh) the knee's fitted centre and the shank's pose are missing there, so nothing can
 /// orient those segments.
 fn gappy_scene() -> Scene {
     let mut s = scene(120, 60.0);
@@ -169,6 +169,9 @@ fn gappy_scene() -> Scene {
     let knee = s.topology.joints[2].pair;
     for f in 70..100 {
         s.fits.poses[1].translations[f] = [f64::NAN; 3];
+        // The shank unposed too, so the knee is not seen from its side either (bonefit
+        // recomputes hinge positions from the poses).
+        s.fits.poses[2].rotations[f] = [f64::NAN; 4];
         s.fits.pairs[knee].positions[f] = [f64::NAN; 3];
     }
     let t = &s.trajectories;
@@ -350,6 +353,7 @@ fn json_contract_fields_and_types() {
         assert!(j["bone_length_mm"].is_f64());
         assert!(j["range_of_motion_deg"].is_f64());
         assert!(j["residual_rms_mm"].is_f64());
+        assert!(j["hinge_shift_mm"].is_f64());
         assert!(j["warnings"].is_array());
     }
     assert_eq!(joints[2]["kind"], "hinge");
