@@ -48,7 +48,8 @@ pub struct Params {
     /// Costs within this much (cost units, mm for `score`) of a run's cheapest cost are
     /// tied and taken by smallest relative rotation (default 0.1).
     pub tie_absolute: f64,
-    /// Plus this fraction of the run's cheapest cost (default 0.02).
+    /// Plus this fraction of the run's cheapest cost (default 0: on noisy data the
+    /// sibling pair's cost is already higher, and a relative tie only reshuffled wrong trees).
     pub tie_relative: f64,
 }
 
@@ -58,7 +59,7 @@ impl Default for Params {
             root: None,
             rigid_first: true,
             tie_absolute: 0.1,
-            tie_relative: 0.02,
+            tie_relative: 0.0,
         }
     }
 }
@@ -84,6 +85,6 @@ pub const PARAM_DOCS: &[(&str, &str)] = &[
     (
         "tie_relative",
         "fraction of the run's cheapest cost added to tie_absolute (dimensionless); \
-         default 0.02",
+         default 0",
     ),
 ];
