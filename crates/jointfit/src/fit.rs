@@ -85,16 +85,33 @@ pub(crate) fn fit_pair(
                 JointKind::Hinge => 1,
                 _ => 0,
             };
-            let sol = score::solve(pa, pb, &co, drop, target);
+            let mut sol = score::solve(pa, pb, &co, drop, target);
+            let mut rms = residual_rms(pa, pb, &co, sol.c_a, sol.c_b);
+            let mut kept = String::new();
+            if kind == JointKind::Hinge && params.hinge_slide_max_rise > 0.0 {
+                // A hinge's axis is a line of equally good centres only if the data say so:
+                // when sliding to the placement target makes the two segments disagree
+                // about the centre clearly more than the least-squares centre does, the
+                // axis component is determined (a ball joint moving mostly about one axis)
+                // and placement would move the centre along a spurious line.
+                let full = score::solve(pa, pb, &co, 0, target);
+                let rms_full = residual_rms(pa, pb, &co, full.c_a, full.c_b);
+                if rms > params.hinge_slide_max_rise * rms_full + 0.1 {
+                    kept = format!(
+                        " (not used: placement raised the residual {rms_full:.2} -> {rms:.2} mm)"
+                    );
+                    sol = full;
+                    rms = rms_full;
+                }
+            }
             let [l0, .., l5] = sol.eigenvalues;
             evidence.push_str(&format!(
-                "; SCoRE normal-matrix eigenvalues {:.2e}..{:.2e} (condition {:.1e}), {} direction(s) set by placement",
+                "; SCoRE normal-matrix eigenvalues {:.2e}..{:.2e} (condition {:.1e}), {} direction(s) set by placement{kept}",
                 l5,
                 l0,
                 l0 / l5.max(f64::MIN_POSITIVE),
                 drop
             ));
-            let rms = residual_rms(pa, pb, &co, sol.c_a, sol.c_b);
             (sol.c_a, sol.c_b, rms)
         }
         Method::Aguiar => {
