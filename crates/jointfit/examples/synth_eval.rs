@@ -80,6 +80,8 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
                 ("no-anch", Method::Score, false),
                 ("aguiar", Method::Aguiar, true),
                 ("score+h", Method::Score, true),
+                ("local", Method::Local, true),
+                ("local+h", Method::Local, true),
             ] {
                 let params = Params {
                     method,

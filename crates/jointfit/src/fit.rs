@@ -5,6 +5,7 @@ use glam::DVec3;
 use mocap_io::Trajectories;
 
 use crate::aguiar::{self, Cloud, EqTwo};
+use crate::local::{LocalSettings, fit_local};
 use crate::motion::relative_motion;
 use crate::pairfits::{JointKind, PairFit, SegmentPoses};
 use crate::params::{Method, Params};
@@ -152,6 +153,32 @@ pub(crate) fn fit_pair(
                 }
             }
             (min.centre, c_b / n, min.cost)
+        }
+        Method::Local => {
+            let settings = LocalSettings {
+                voxels: params.local_voxels,
+                planar_ratio: params.local_planar_ratio,
+            };
+            let local = fit_local(traj, sa, sb, &co, settings, target.0);
+            let mut c_a = local.centre_in_a;
+            match kind {
+                // The axis component of a hinge centre is not in the data (every marker's
+                // circle centre is its own foot on the axis): place it like score does.
+                JointKind::Hinge => {
+                    let axis = motion.axis_in_a;
+                    c_a += axis * axis.dot(target.0 - c_a);
+                }
+                JointKind::Rigid => c_a = target.0,
+                _ => {}
+            }
+            evidence.push_str(&format!("; {}", local.note));
+            let mut c_b = DVec3::ZERO;
+            for &f in &co {
+                if let (Some(x), Some(y)) = (&pa[f], &pb[f]) {
+                    c_b += y.inverse_apply(x.apply(c_a));
+                }
+            }
+            (c_a, c_b / n, local.cost)
         }
     };
     let residual = residual_rms(pa, pb, &co, c_a, c_b);

@@ -7,7 +7,9 @@
 //! joint centre fixed in both segments' local frames, its position per frame, a cost for
 //! the topology stage, the joint kind (ball / hinge / rigid) with its evidence, and the
 //! hinge axis. Methods (`Params::method`): `score` (symmetrical centre of rotation with
-//! SARA hinge axes, closed form; default) and `aguiar` (the paper's Eq. 2 by L-BFGS).
+//! SARA hinge axes, closed form; default), `aguiar` (the paper's Eq. 2 by L-BFGS) and
+//! `local` (per-marker density-weighted sphere/circle fits by Levenberg–Marquardt in the
+//! other segment's frame, averaged with weight attachment / radius; see `local.rs`).
 //!
 //! Segments carried by 1 or 2 markers (or collinear ones) are posed through the joint with
 //! a posed neighbour (greedy anchoring, `Params::anchor`, see `anchor.rs`): 2 markers plus
@@ -26,6 +28,7 @@ mod error;
 mod fit;
 mod hinge;
 mod horn;
+mod local;
 mod motion;
 mod pairfits;
 mod params;

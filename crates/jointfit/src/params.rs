@@ -15,6 +15,10 @@ pub enum Method {
     /// with the hinge axis (SARA, Ehrig et al. 2007) from the same system.
     #[default]
     Score,
+    /// Local fitting (the local-fitting paper, Sect. 3.3): a density-weighted sphere (or,
+    /// for planar trajectories, circle) per marker in the other segment's frame by
+    /// Levenberg–Marquardt, centres averaged with weight attachment / radius.
+    Local,
 }
 
 impl Method {
@@ -23,6 +27,7 @@ impl Method {
         match self {
             Method::Aguiar => "aguiar",
             Method::Score => "score",
+            Method::Local => "local",
         }
     }
 }
@@ -56,6 +61,11 @@ pub struct Params {
     /// When > 0, a hinge's centre is placed along its axis only if that raises the pair
     /// residual by at most this factor over the least-squares centre (+0.1 mm); 0 = always.
     pub hinge_slide_max_rise: f64,
+    /// local only: voxel divisions per axis of the sample-density grid.
+    pub local_voxels: usize,
+    /// local only: a trajectory is planar (circle fit) when its smallest RMS principal
+    /// extent is below this fraction of the middle one.
+    pub local_planar_ratio: f64,
 }
 
 impl Default for Params {
@@ -72,6 +82,8 @@ impl Default for Params {
             anchor_min_excursion_deg: 10.0,
             anchor_max_rms_mm: 25.0,
             hinge_slide_max_rise: 0.0,
+            local_voxels: 8,
+            local_planar_ratio: 0.1,
         }
     }
 }
@@ -81,7 +93,20 @@ pub const PARAM_DOCS: &[(&str, &str)] = &[
     (
         "method",
         "joint-centre estimator: \"score\" (symmetric centre of rotation, closed form, with SARA \
-         hinge axes) or \"aguiar\" (the paper's Eq. 2 by L-BFGS); default \"score\"",
+         hinge axes) or \"aguiar\" (the paper's Eq. 2 by L-BFGS) or \"local\" (per-marker density-weighted \
+         sphere/circle fits by Levenberg-Marquardt, averaged); default \"score\"",
+    ),
+    (
+        "local_voxels",
+        "local only: divisions per axis of the voxel grid over a marker trajectory's bounding \
+         box; each sample weighs 1 / (samples in its voxel), so dwelling poses do not dominate \
+         (the paper uses 5 or 10); count; default 8",
+    ),
+    (
+        "local_planar_ratio",
+        "local only: a marker trajectory whose smallest RMS principal extent is below this \
+         fraction of the middle one is fitted with a circle in its plane instead of a sphere; \
+         ratio; default 0.1",
     ),
     (
         "alpha",
@@ -187,6 +212,20 @@ impl Params {
                 "hinge_slide_max_rise",
                 self.hinge_slide_max_rise,
                 "must be a finite number ≥ 0",
+            ));
+        }
+        if !(self.local_planar_ratio.is_finite() && (0.0..1.0).contains(&self.local_planar_ratio)) {
+            return Err(bad(
+                "local_planar_ratio",
+                self.local_planar_ratio,
+                "must be in [0, 1)",
+            ));
+        }
+        if !(1..=64).contains(&self.local_voxels) {
+            return Err(bad(
+                "local_voxels",
+                self.local_voxels as f64,
+                "must be between 1 and 64",
             ));
         }
         if self.min_frames == 0 {

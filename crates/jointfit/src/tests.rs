@@ -53,11 +53,11 @@ fn mean_error(fit: &PairFit, truth: &[DVec3]) -> f64 {
 }
 
 #[test]
-fn ball_joint_recovered_by_both_methods() {
+fn ball_joint_recovered_by_every_method() {
     let mut rng = TestRng(21);
     let bodies = chain(&mut rng, &[Articulation::Ball(70.0)], 4);
     let trial = generate(&mut rng, &bodies, 400, 0.3, |_, _, _| false);
-    for method in [Method::Score, Method::Aguiar] {
+    for method in [Method::Score, Method::Aguiar, Method::Local] {
         let fits = run_on_segments(&trial.traj, &trial.segments, &params(method)).unwrap();
         let fit = pair(&fits, 0, 1);
         // The paper's α = 0.2 distance penalty biases Aguiar's centre toward the markers:
@@ -90,7 +90,7 @@ fn hinge_axis_within_one_degree() {
     let axis = DVec3::new(1.0, 0.3, 0.0).normalize();
     let bodies = chain(&mut rng, &[Articulation::Hinge(axis, 60.0)], 4);
     let trial = generate(&mut rng, &bodies, 400, 0.3, |_, _, _| false);
-    for method in [Method::Score, Method::Aguiar] {
+    for method in [Method::Score, Method::Aguiar, Method::Local] {
         let fits = run_on_segments(&trial.traj, &trial.segments, &params(method)).unwrap();
         let fit = pair(&fits, 0, 1);
         assert_eq!(fit.kind, JointKind::Hinge, "{method:?}: {}", fit.evidence);
@@ -129,7 +129,7 @@ fn rigid_pair_is_kind_rigid() {
     let mut rng = TestRng(23);
     let bodies = chain(&mut rng, &[Articulation::Rigid], 3);
     let trial = generate(&mut rng, &bodies, 200, 0.2, |_, _, _| false);
-    for method in [Method::Score, Method::Aguiar] {
+    for method in [Method::Score, Method::Aguiar, Method::Local] {
         let fits = run_on_segments(&trial.traj, &trial.segments, &params(method)).unwrap();
         let fit = pair(&fits, 0, 1);
         assert_eq!(fit.kind, JointKind::Rigid, "{method:?}: {}", fit.evidence);
@@ -150,7 +150,7 @@ fn non_adjacent_pair_costs_more() {
         4,
     );
     let trial = generate(&mut rng, &bodies, 300, 0.5, |_, _, _| false);
-    for method in [Method::Score, Method::Aguiar] {
+    for method in [Method::Score, Method::Aguiar, Method::Local] {
         let fits = run_on_segments(&trial.traj, &trial.segments, &params(method)).unwrap();
         let (c01, c12, c02) = (
             pair(&fits, 0, 1).cost,
@@ -178,7 +178,7 @@ fn gaps_are_handled() {
             || (50..80).contains(&f) && b == 1 && k < 2
             || (90..100).contains(&f)
     });
-    for method in [Method::Score, Method::Aguiar] {
+    for method in [Method::Score, Method::Aguiar, Method::Local] {
         let fits = run_on_segments(&trial.traj, &trial.segments, &params(method)).unwrap();
         let fit = pair(&fits, 0, 1);
         assert!(
@@ -225,6 +225,10 @@ fn output_is_deterministic_and_ordered() {
     let one = run_on_segments(&trial.traj, &trial.segments, &Params::default()).unwrap();
     let two = run_on_segments(&trial.traj, &trial.segments, &Params::default()).unwrap();
     assert_eq!(format!("{one:?}"), format!("{two:?}"));
+    let local = params(Method::Local);
+    let three = run_on_segments(&trial.traj, &trial.segments, &local).unwrap();
+    let four = run_on_segments(&trial.traj, &trial.segments, &local).unwrap();
+    assert_eq!(format!("{three:?}"), format!("{four:?}"));
     let order: Vec<(usize, usize)> = one.pairs.iter().map(|p| (p.a, p.b)).collect();
     assert_eq!(order, vec![(0, 1), (0, 2), (1, 2)]);
 }
