@@ -54,84 +54,12 @@ impl RotationFit {
                 s[a][b] += eps * column[b];
             }
         }
-        let [[sxx, sxy, sxz], [syx, syy, syz], [szx, szy, szz]] = s;
-        let m = [
-            [sxx + syy + szz, syz - szy, szx - sxz, sxy - syx],
-            [syz - szy, sxx - syy - szz, sxy + syx, szx + sxz],
-            [szx - sxz, sxy + syx, -sxx + syy - szz, syz + szy],
-            [sxy - syx, szx + sxz, syz + szy, -sxx - syy + szz],
-        ];
-        let [w, x, y, z] = top_eigenvector(m);
-        let q = DQuat::from_xyzw(x, y, z, w);
-        let len = q.length();
-        if !(len.is_finite() && len > 1e-12) {
+        let Some(q) = jointfit::rotation_from_cross_covariance(s) else {
             return prior;
-        }
-        let q = q / len;
+        };
         // The sign nearest the prior keeps successive frames continuous.
         if q.dot(prior) < 0.0 { -q } else { q }
     }
-}
-
-/// Eigenvector of the largest eigenvalue of a symmetric 4×4 matrix (cyclic Jacobi).
-fn top_eigenvector(a: [[f64; 4]; 4]) -> [f64; 4] {
-    let mut m = a;
-    let mut v = [[0.0; 4]; 4];
-    for (i, row) in v.iter_mut().enumerate() {
-        row[i] = 1.0;
-    }
-    let scale: f64 = m.iter().flatten().map(|x| x * x).sum::<f64>().sqrt();
-    if scale > 0.0 && scale.is_finite() {
-        for _sweep in 0..50 {
-            let mut off = 0.0;
-            for i in 0..4 {
-                for j in (i + 1)..4 {
-                    off += m[i][j] * m[i][j];
-                }
-            }
-            if off.sqrt() <= 1e-16 * scale {
-                break;
-            }
-            for p in 0..4 {
-                for q in (p + 1)..4 {
-                    let apq = m[p][q];
-                    if apq == 0.0 {
-                        continue;
-                    }
-                    let theta = (m[q][q] - m[p][p]) / (2.0 * apq);
-                    let t = if theta == 0.0 {
-                        1.0
-                    } else {
-                        theta.signum() / (theta.abs() + (theta * theta + 1.0).sqrt())
-                    };
-                    let c = 1.0 / (t * t + 1.0).sqrt();
-                    let s = t * c;
-                    for k in 0..4 {
-                        let (mkp, mkq) = (m[k][p], m[k][q]);
-                        m[k][p] = c * mkp - s * mkq;
-                        m[k][q] = s * mkp + c * mkq;
-                    }
-                    for k in 0..4 {
-                        let (mpk, mqk) = (m[p][k], m[q][k]);
-                        m[p][k] = c * mpk - s * mqk;
-                        m[q][k] = s * mpk + c * mqk;
-                    }
-                    for row in v.iter_mut() {
-                        let (vp, vq) = (row[p], row[q]);
-                        row[p] = c * vp - s * vq;
-                        row[q] = s * vp + c * vq;
-                    }
-                }
-            }
-        }
-    }
-    let mut best = 0;
-    for i in 1..4 {
-        if m[i][i] > m[best][best] {
-            best = i;
-        }
-    }
-    [v[0][best], v[1][best], v[2][best], v[3][best]]
 }
 
 /// Whether the vectors span a plane: two of them (each longer than `min_mm`) at least

@@ -51,16 +51,7 @@ pub fn absolute_orientation(pairs: &[(DVec3, DVec3)]) -> Option<RigidFit> {
             }
         }
     }
-    let [[sxx, sxy, sxz], [syx, syy, syz], [szx, szy, szz]] = s;
-    let m = [
-        [sxx + syy + szz, syz - szy, szx - sxz, sxy - syx],
-        [syz - szy, sxx - syy - szz, sxy + syx, szx + sxz],
-        [szx - sxz, sxy + syx, -sxx + syy - szz, syz + szy],
-        [sxy - syx, szx + sxz, syz + szy, -sxx - syy + szz],
-    ];
-    let (_, vecs) = sym_eigen(m);
-    let [w, x, y, z] = vecs[0];
-    let mut rotation = DQuat::from_xyzw(x, y, z, w).normalize();
+    let mut rotation = rotation_from_cross_covariance(s)?;
     // One sign per rotation keeps stored quaternions comparable across frames.
     if rotation.w < 0.0 {
         rotation = -rotation;
@@ -75,6 +66,29 @@ pub fn absolute_orientation(pairs: &[(DVec3, DVec3)]) -> Option<RigidFit> {
         translation,
         rms_mm: (sq / n).sqrt(),
     })
+}
+
+/// The rotation `R` maximising `Σ observed · (R reference)` given the cross-covariance
+/// `s[a][b] = Σ reference_a · observed_b` of centred (or fixed-point) vector pairs: the
+/// eigenvector of the largest eigenvalue of Horn's symmetric 4×4 matrix.
+///
+/// `None` when the matrix is not finite. The sign of the quaternion is arbitrary.
+pub fn rotation_from_cross_covariance(s: [[f64; 3]; 3]) -> Option<DQuat> {
+    let [[sxx, sxy, sxz], [syx, syy, syz], [szx, szy, szz]] = s;
+    let m = [
+        [sxx + syy + szz, syz - szy, szx - sxz, sxy - syx],
+        [syz - szy, sxx - syy - szz, sxy + syx, szx + sxz],
+        [szx - sxz, sxy + syx, -sxx + syy - szz, syz + szy],
+        [sxy - syx, szx + sxz, syz + szy, -sxx - syy + szz],
+    ];
+    if !m.iter().flatten().all(|x| x.is_finite()) {
+        return None;
+    }
+    let (_, vecs) = sym_eigen(m);
+    let [w, x, y, z] = vecs[0];
+    let q = DQuat::from_xyzw(x, y, z, w);
+    let len = q.length();
+    (len.is_finite() && len > 1e-12).then(|| q / len)
 }
 
 #[cfg(test)]

@@ -38,7 +38,7 @@ mod small;
 
 pub use error::Error;
 pub use hinge::place_hinge_centres;
-pub use horn::{RigidFit, absolute_orientation};
+pub use horn::{RigidFit, absolute_orientation, rotation_from_cross_covariance};
 pub use pairfits::*;
 pub use params::{Method, PARAM_DOCS, Params};
 
