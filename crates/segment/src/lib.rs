@@ -14,6 +14,10 @@
 //! near a joint axis) from a group that keeps three, so both sides stay poseable; if none,
 //! it is a 1-marker segment when some distance of its stays within the tolerance, else
 //! unassigned. Unassigned means too little data, or moving against every marker.
+//! Before that, a rigid-fit check: each cluster of 4–10 markers is fitted as one rigid body
+//! per frame and as the best two; it splits when one body explains it clearly worse (ρ sees
+//! a joint's rotation to second order near a straight limb, a fit to first order), and a
+//! split piece rejoins a cluster it fits with like an ordinary segment (`fit_split_*`).
 //! Or agglomeration alone (`method = "linkage"`) or rigid cliques (`method = "cliques"`).
 //!
 //! It does not estimate poses, joints or topology (jointfit, topo) and does no I/O.
@@ -22,6 +26,7 @@ mod affinity;
 mod cliques;
 mod eigen;
 mod error;
+mod fitsplit;
 mod kmeans;
 mod linkage;
 mod pairstats;
@@ -144,6 +149,22 @@ pub fn run(traj: &Trajectories, params: &Params) -> Result<Segmentation, Error> 
         ),
     };
     rigidity::normalise(&mut clusters);
+    if params.fit_split_ratio > 0.0 {
+        // ρ is second order in a joint's angle near a straight limb; a rigid fit of the
+        // whole cluster is first order (see `fitsplit`), so joined segments come apart here.
+        // Never below the smallest tolerance: on noiseless data every σ is rounding error.
+        let floor_mm = (params.fit_split_floor * fitsplit::typical_sigma(traj, &clusters))
+            .max(params.tolerance_min_mm);
+        clusters = fitsplit::split_and_rejoin(
+            traj,
+            &stats,
+            min_overlap,
+            clusters,
+            params.fit_split_ratio,
+            floor_mm,
+        );
+        rigidity::normalise(&mut clusters);
+    }
     if params.pair_orphans {
         rigidity::pair_orphans(&mut clusters, &stats, tolerance_mm, min_overlap);
         rigidity::normalise(&mut clusters);
@@ -186,6 +207,14 @@ pub fn run(traj: &Trajectories, params: &Params) -> Result<Segmentation, Error> 
         eigenvalues,
         eigengap_segments,
     })
+}
+
+/// Rigid-fit σ of the marker group `markers` (mm, per coordinate, degrees-of-freedom
+/// corrected) and the smallest pooled σ over its bipartitions into parts of ≥ 2 markers
+/// (NaN below 4 or above 10 markers); `None` without a reference shape. A diagnostic of the
+/// fit split (`fit_split_ratio`).
+pub fn fit_split_sigmas(traj: &Trajectories, markers: &[usize]) -> Option<(f64, f64)> {
+    fitsplit::split_sigmas(traj, markers)
 }
 
 /// Agglomerative groups of `members` (marker indices, a subset of `nodes`): complete or

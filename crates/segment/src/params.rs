@@ -99,6 +99,10 @@ pub struct Params {
     pub pair_orphans: bool,
     /// A lone marker is a 1-marker segment when its steadiest ρ ≤ this × the tolerance; else unassigned.
     pub singleton_steady_factor: f64,
+    /// A cluster of 4–10 markers splits in two when its rigid-fit σ exceeds this × the best bipartition's pooled σ; 0 = off.
+    pub fit_split_ratio: f64,
+    /// ... and exceeds this × the median fit σ of the clusters of ≥ 3 markers.
+    pub fit_split_floor: f64,
 }
 
 impl Default for Params {
@@ -131,6 +135,8 @@ impl Default for Params {
             slide_min_mm: 1.0,
             pair_orphans: true,
             singleton_steady_factor: 1.0,
+            fit_split_ratio: 2.0,
+            fit_split_floor: 2.0,
         }
     }
 }
@@ -239,6 +245,14 @@ pub const PARAM_DOCS: &[(&str, &str)] = &[
         "singleton_steady_factor",
         "a marker still alone (rigid with no group) is a 1-marker segment when its smallest ρ to any marker is ≤ this × the tolerance (a steady partner across a joint: jointfit poses it as a swing about the neighbour's joint); otherwise, and always when 0, it is unassigned as sliding or unexplained (unassigned also covers markers with too little data); default 1.0",
     ),
+    (
+        "fit_split_ratio",
+        "after clustering, each cluster of 4–10 markers is fitted as one rigid body per frame (Horn, reference shape from mean distances) and as the best two bodies (every bipartition into parts of ≥ 2); it splits when its residual σ (per coordinate, degrees-of-freedom corrected) exceeds fit_split_ratio × the two bodies' pooled σ and fit_split_floor × the typical cluster's σ, recursively. A fit sees a joint's rotation to first order where ρ sees it to second order near a straight limb; 0 = off; default 2.0",
+    ),
+    (
+        "fit_split_floor",
+        "fit split: the cluster's fit σ must also exceed this × the typical segment's (the median fit σ of the clusters of ≥ 3 markers: skin artefact sets it, not the noise), and tolerance_min_mm; a split piece rejoins a cluster whose union with it stays within this floor and within fit_split_ratio × the two bodies' pooled σ; default 2.0",
+    ),
 ];
 
 impl Params {
@@ -308,6 +322,8 @@ impl Params {
         positive("slide_ratio", self.slide_ratio)?;
         non_negative("slide_min_mm", self.slide_min_mm)?;
         non_negative("singleton_steady_factor", self.singleton_steady_factor)?;
+        non_negative("fit_split_ratio", self.fit_split_ratio)?;
+        non_negative("fit_split_floor", self.fit_split_floor)?;
         Ok(())
     }
 }

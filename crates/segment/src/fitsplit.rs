@@ -1,0 +1,491 @@
+//! Rigidity by whole-body fit: a group's markers are fitted as one rigid body in every frame
+//! (Horn's quaternion method against a reference shape from the mean pair distances), and a
+//! cluster splits in two when two bodies explain its motion clearly better than one.
+//!
+//! Why not ρ alone: the distance between a thigh and a shank marker changes only to second
+//! order in the knee angle near a straight limb (d ∝ sin of the included angle), so a joint
+//! with little motion in a short trial moves ρ by a few mm, no more than 5–15 mm of skin
+//! artefact moves a same-segment pair. A rigid fit sees the rotation to first order: the
+//! child's markers leave the parent's fitted body by lever arm × angle.
+
+use mocap_io::Trajectories;
+
+use crate::eigen::symmetric_eigen;
+use crate::pairstats::PairStats;
+use crate::rigidity::rms_rho;
+
+/// Largest cluster whose bipartitions are all tried (2^(n−1) candidates).
+const MAX_ENUMERATED: usize = 10;
+
+/// A group's rigid-fit residual: sum of squares (mm²) and degrees of freedom.
+#[derive(Clone, Copy, Debug, Default)]
+pub(crate) struct FitResidual {
+    /// Sum over frames and visible markers of the squared fit residual, mm².
+    pub sum_sq: f64,
+    /// Residual degrees of freedom: per frame 3k − 6 for k ≥ 3 visible markers, 1 for k = 2.
+    pub dof: f64,
+}
+
+impl FitResidual {
+    fn add(self, other: Self) -> Self {
+        Self {
+            sum_sq: self.sum_sq + other.sum_sq,
+            dof: self.dof + other.dof,
+        }
+    }
+}
+
+/// Median distance of every pair of `cluster` over the frames where both are seen, mm,
+/// row-major `n × n` (NaN when never seen together). The median, not the mean, so a label
+/// swap for a minority of the frames does not bend the reference shape.
+fn median_distances(traj: &Trajectories, cluster: &[usize]) -> Vec<f64> {
+    let n = cluster.len();
+    let markers = traj.markers().max(1);
+    let mut out = vec![0.0; n * n];
+    let mut d = Vec::new();
+    for a in 0..n {
+        for b in a + 1..n {
+            d.clear();
+            for frame in traj.positions().chunks_exact(markers) {
+                if let (Some(&p), Some(&q)) = (frame.get(cluster[a]), frame.get(cluster[b]))
+                    && mocap_io::is_present(p)
+                    && mocap_io::is_present(q)
+                {
+                    d.push(
+                        ((p[0] - q[0]).powi(2) + (p[1] - q[1]).powi(2) + (p[2] - q[2]).powi(2))
+                            .sqrt(),
+                    );
+                }
+            }
+            let m = median(&mut d);
+            out[a * n + b] = m;
+            out[b * n + a] = m;
+        }
+    }
+    out
+}
+
+/// Median of `v` (reordered), NaN when empty.
+fn median(v: &mut [f64]) -> f64 {
+    if v.is_empty() {
+        return f64::NAN;
+    }
+    let mid = v.len() / 2;
+    let odd = v.len() % 2 == 1;
+    let (lower, m, _) = v.select_nth_unstable_by(mid, f64::total_cmp);
+    let m = *m;
+    if odd {
+        m
+    } else {
+        0.5 * (m + lower.iter().copied().fold(f64::NEG_INFINITY, f64::max))
+    }
+}
+
+/// Reference shape (segment-local, mm) of the markers at positions `group` of a cluster with
+/// pair distances `dist` (row-major `n × n`) by classical multidimensional scaling; `None`
+/// when some pair was never seen together.
+fn reference_shape(dist: &[f64], n: usize, group: &[usize]) -> Option<Vec<[f64; 3]>> {
+    let k = group.len();
+    let mut d2 = vec![0.0; k * k];
+    for (a, &i) in group.iter().enumerate() {
+        for (b, &j) in group.iter().enumerate() {
+            if a != b {
+                let m = dist[i * n + j];
+                if !m.is_finite() {
+                    return None;
+                }
+                d2[a * k + b] = m * m;
+            }
+        }
+    }
+    let n = k;
+    // B = −½ J D² J (double centring).
+    let row: Vec<f64> = (0..n)
+        .map(|a| d2[a * n..(a + 1) * n].iter().sum::<f64>() / n as f64)
+        .collect();
+    let all = row.iter().sum::<f64>() / n as f64;
+    let mut b = vec![0.0; n * n];
+    for a in 0..n {
+        for c in 0..n {
+            b[a * n + c] = -0.5 * (d2[a * n + c] - row[a] - row[c] + all);
+        }
+    }
+    let spectrum = symmetric_eigen(&b, n).ok()?;
+    let mut shape = vec![[0.0; 3]; n];
+    for (axis, value) in spectrum.values.iter().take(3).enumerate() {
+        let scale = value.max(0.0).sqrt();
+        for (a, p) in shape.iter_mut().enumerate() {
+            p[axis] = spectrum.vectors[a * n + axis] * scale;
+        }
+    }
+    Some(shape)
+}
+
+/// Largest eigenvalue of a symmetric 4 × 4 matrix (cyclic Jacobi; allocation-free).
+fn largest_eigenvalue4(mut m: [[f64; 4]; 4]) -> f64 {
+    for _ in 0..30 {
+        let off: f64 = (0..4)
+            .flat_map(|r| (r + 1..4).map(move |c| (r, c)))
+            .map(|(r, c)| m[r][c] * m[r][c])
+            .sum();
+        let diag: f64 = (0..4).map(|r| m[r][r] * m[r][r]).sum();
+        if off <= 1e-22 * diag.max(1e-300) {
+            break;
+        }
+        for p in 0..4 {
+            for q in p + 1..4 {
+                if m[p][q].abs() < 1e-300 {
+                    continue;
+                }
+                let theta = (m[q][q] - m[p][p]) / (2.0 * m[p][q]);
+                let t = theta.signum() / (theta.abs() + (theta * theta + 1.0).sqrt());
+                let t = if theta == 0.0 { 1.0 } else { t };
+                let c = 1.0 / (t * t + 1.0).sqrt();
+                let s = t * c;
+                for row in m.iter_mut() {
+                    let (mkp, mkq) = (row[p], row[q]);
+                    row[p] = c * mkp - s * mkq;
+                    row[q] = s * mkp + c * mkq;
+                }
+                let (rp, rq) = (m[p], m[q]);
+                for k in 0..4 {
+                    m[p][k] = c * rp[k] - s * rq[k];
+                    m[q][k] = s * rp[k] + c * rq[k];
+                }
+            }
+        }
+    }
+    (0..4).map(|r| m[r][r]).fold(f64::NEG_INFINITY, f64::max)
+}
+
+/// Least-squares rigid-fit residual of `group` in every frame (zero dof where fewer than two
+/// markers are seen), against its reference shape
+/// or its mirror image, whichever fits better (MDS cannot tell handedness).
+fn fit_residual(
+    traj: &Trajectories,
+    cluster: &[usize],
+    dist: &[f64],
+    positions: &[usize],
+) -> Option<Vec<FitResidual>> {
+    let shape = reference_shape(dist, cluster.len(), positions)?;
+    let group: Vec<usize> = positions.iter().map(|&p| cluster[p]).collect();
+    let n_markers = traj.markers();
+    let mut frames: [Vec<FitResidual>; 2] = [Vec::new(), Vec::new()];
+    let mut p = [[0.0; 3]; MAX_GROUP];
+    let mut q = [[0.0; 3]; MAX_GROUP];
+    if group.len() > MAX_GROUP {
+        return None;
+    }
+    for frame in traj.positions().chunks_exact(n_markers.max(1)) {
+        let mut k = 0;
+        for (a, &m) in group.iter().enumerate() {
+            if let Some(&x) = frame.get(m)
+                && mocap_io::is_present(x)
+            {
+                p[k] = shape[a];
+                q[k] = x;
+                k += 1;
+            }
+        }
+        if k < 2 {
+            frames
+                .iter_mut()
+                .for_each(|f| f.push(FitResidual::default()));
+            continue;
+        }
+        let centre = |v: &mut [[f64; 3]]| {
+            let mut c = [0.0; 3];
+            for x in v.iter() {
+                (0..3).for_each(|i| c[i] += x[i]);
+            }
+            c.iter_mut().for_each(|x| *x /= v.len() as f64);
+            for x in v.iter_mut() {
+                (0..3).for_each(|i| x[i] -= c[i]);
+            }
+        };
+        centre(&mut p[..k]);
+        centre(&mut q[..k]);
+        let norms: f64 = (0..k)
+            .map(|i| {
+                (0..3)
+                    .map(|c| p[i][c] * p[i][c] + q[i][c] * q[i][c])
+                    .sum::<f64>()
+            })
+            .sum();
+        let dof = if k >= 3 { (3 * k - 6) as f64 } else { 1.0 };
+        for (mirror, fit) in frames.iter_mut().enumerate() {
+            let sign = if mirror == 1 { -1.0 } else { 1.0 };
+            let mut s = [[0.0; 3]; 3];
+            for i in 0..k {
+                let pi = [sign * p[i][0], p[i][1], p[i][2]];
+                for (r, row) in s.iter_mut().enumerate() {
+                    for (c, v) in row.iter_mut().enumerate() {
+                        *v += pi[r] * q[i][c];
+                    }
+                }
+            }
+            let [[sxx, sxy, sxz], [syx, syy, syz], [szx, szy, szz]] = s;
+            let n = [
+                [sxx + syy + szz, syz - szy, szx - sxz, sxy - syx],
+                [syz - szy, sxx - syy - szz, sxy + syx, szx + sxz],
+                [szx - sxz, sxy + syx, -sxx + syy - szz, syz + szy],
+                [sxy - syx, szx + sxz, syz + szy, -sxx - syy + szz],
+            ];
+            let ss = (norms - 2.0 * largest_eigenvalue4(n)).max(0.0);
+            fit.push(FitResidual { sum_sq: ss, dof });
+        }
+    }
+    let [a, b] = frames;
+    let total = |v: &[FitResidual]| v.iter().map(|f| f.sum_sq).sum::<f64>();
+    Some(if total(&a) <= total(&b) { a } else { b })
+}
+
+/// Largest group [`fit_residual`] fits.
+const MAX_GROUP: usize = 64;
+
+/// Robust residual σ of per-frame fits, mm: the square root of the median over frames of
+/// each frame's sum of squares over its degrees of freedom. The median ignores a label swap
+/// or a glitch lasting a minority of the frames, while a joint moves the fit in most frames
+/// (the reference is the mean shape).
+fn robust_sigma(frames: impl Iterator<Item = FitResidual>) -> f64 {
+    let mut v: Vec<f64> = frames
+        .filter(|f| f.dof > 0.0)
+        .map(|f| f.sum_sq / f.dof)
+        .collect();
+    quantile(&mut v, QUANTILE).sqrt()
+}
+
+/// Quantile of the per-frame residual variances that stands for a fit's σ.
+const QUANTILE: f64 = 0.75;
+
+/// The `q` quantile (nearest rank) of `v` (reordered), NaN when empty.
+fn quantile(v: &mut [f64], q: f64) -> f64 {
+    if v.is_empty() {
+        return f64::NAN;
+    }
+    let rank = ((q * v.len() as f64) as usize).min(v.len() - 1);
+    *v.select_nth_unstable_by(rank, f64::total_cmp).1
+}
+
+/// A bipartition and its pooled robust fit σ: (σ mm, part A, part B), marker indices.
+type Bipartition = (f64, Vec<usize>, Vec<usize>);
+
+/// The cluster's robust fit σ and, for 4–[`MAX_ENUMERATED`] markers, the bipartition into
+/// parts of ≥ 2 markers with the smallest pooled robust σ: (whole σ, pooled σ, A, B), mm.
+fn best_bipartition(traj: &Trajectories, cluster: &[usize]) -> Option<(f64, Option<Bipartition>)> {
+    let n = cluster.len();
+    let dist = median_distances(traj, cluster);
+    let all: Vec<usize> = (0..n).collect();
+    let whole = robust_sigma(fit_residual(traj, cluster, &dist, &all)?.into_iter());
+    if !(4..=MAX_ENUMERATED).contains(&n) {
+        return Some((whole, None));
+    }
+    let mut best: Option<(f64, Vec<usize>, Vec<usize>)> = None;
+    // Masks keep the first marker in part A, so each bipartition is seen once.
+    for mask in 0u32..(1u32 << (n - 1)) {
+        let in_a = |i: usize| i == 0 || (mask >> (i - 1)) & 1 == 0;
+        let a: Vec<usize> = (0..n).filter(|&i| in_a(i)).collect();
+        let b: Vec<usize> = (0..n).filter(|&i| !in_a(i)).collect();
+        if a.len() < 2 || b.len() < 2 {
+            continue;
+        }
+        let (Some(fa), Some(fb)) = (
+            fit_residual(traj, cluster, &dist, &a),
+            fit_residual(traj, cluster, &dist, &b),
+        ) else {
+            continue;
+        };
+        let pooled = robust_sigma(fa.into_iter().zip(fb).map(|(x, y)| x.add(y)));
+        if best.as_ref().is_none_or(|(s, _, _)| pooled < *s) {
+            let markers = |part: &[usize]| part.iter().map(|&i| cluster[i]).collect();
+            best = Some((pooled, markers(&a), markers(&b)));
+        }
+    }
+    Some((whole, best))
+}
+
+/// Splits `cluster` (marker indices) in two when its robust rigid-fit σ exceeds `ratio` ×
+/// the pooled σ of the best bipartition into parts of ≥ 2 markers, and `floor_mm`;
+/// recursively. Clusters outside 4–[`MAX_ENUMERATED`] markers or without a reference shape
+/// stay whole.
+pub(crate) fn split_by_fit(
+    traj: &Trajectories,
+    cluster: &[usize],
+    ratio: f64,
+    floor_mm: f64,
+) -> Vec<Vec<usize>> {
+    if !(4..=MAX_ENUMERATED).contains(&cluster.len()) {
+        return vec![cluster.to_vec()];
+    }
+    match best_bipartition(traj, cluster) {
+        Some((sigma, Some((pooled, a, b)))) if sigma > floor_mm && sigma > ratio * pooled => {
+            let mut out = split_by_fit(traj, &a, ratio, floor_mm);
+            out.extend(split_by_fit(traj, &b, ratio, floor_mm));
+            out
+        }
+        _ => vec![cluster.to_vec()],
+    }
+}
+
+/// Diagnostic: (robust σ of the whole group, best pooled σ of a bipartition or NaN) in mm.
+pub(crate) fn split_sigmas(traj: &Trajectories, cluster: &[usize]) -> Option<(f64, f64)> {
+    let (whole, best) = best_bipartition(traj, cluster)?;
+    Some((whole, best.map_or(f64::NAN, |b| b.0)))
+}
+
+/// Robust fit σ of `a` ∪ `b` as one body and pooled over the two as separate bodies, mm.
+fn union_and_pooled(traj: &Trajectories, a: &[usize], b: &[usize]) -> Option<(f64, f64)> {
+    let mut union = a.to_vec();
+    union.extend(b);
+    let dist = median_distances(traj, &union);
+    let all: Vec<usize> = (0..union.len()).collect();
+    let whole = robust_sigma(fit_residual(traj, &union, &dist, &all)?.into_iter());
+    let pa: Vec<usize> = (0..a.len()).collect();
+    let pb: Vec<usize> = (a.len()..union.len()).collect();
+    let fa = fit_residual(traj, &union, &dist, &pa)?;
+    let fb = fit_residual(traj, &union, &dist, &pb)?;
+    let pooled = robust_sigma(fa.into_iter().zip(fb).map(|(x, y)| x.add(y)));
+    Some((whole, pooled))
+}
+
+/// The typical rigid-fit σ of a segment in this capture, mm: the median robust σ of the
+/// clusters of three or more markers (most clusters are whole segments). Skin artefact sets
+/// it, not the measurement noise, so it is the scale a joint's motion must clearly exceed.
+pub(crate) fn typical_sigma(traj: &Trajectories, clusters: &[Vec<usize>]) -> f64 {
+    let mut v: Vec<f64> = clusters
+        .iter()
+        .filter(|c| c.len() >= 3 && c.len() <= MAX_GROUP)
+        .filter_map(|c| {
+            let dist = median_distances(traj, c);
+            let all: Vec<usize> = (0..c.len()).collect();
+            fit_residual(traj, c, &dist, &all).map(|f| robust_sigma(f.into_iter()))
+        })
+        .filter(|s| s.is_finite())
+        .collect();
+    median(&mut v)
+}
+
+/// Splits every cluster with [`split_by_fit`] (σ above `floor_mm` and `ratio` × the best
+/// bipartition's); then each piece a split produced joins the cluster, among the
+/// `REJOIN_CANDIDATES` it keeps its distances to best (RMS ρ), whose union with it passes the
+/// same test the other way, strictly (σ within the floor and within `ratio` × the two bodies'
+/// pooled σ: the union fits like one ordinary segment),
+/// smallest union σ first: markers ρ had put on the wrong side of a joint go back to their
+/// own segment rather than stand alone.
+pub(crate) fn split_and_rejoin(
+    traj: &Trajectories,
+    stats: &PairStats,
+    min_overlap: usize,
+    clusters: Vec<Vec<usize>>,
+    ratio: f64,
+    floor_mm: f64,
+) -> Vec<Vec<usize>> {
+    let mut out: Vec<Vec<usize>> = Vec::new();
+    let mut pieces: Vec<usize> = Vec::new();
+    for c in &clusters {
+        let parts = split_by_fit(traj, c, ratio, floor_mm);
+        if parts.len() > 1 {
+            pieces.extend(out.len()..out.len() + parts.len());
+        }
+        out.extend(parts);
+    }
+    for &p in &pieces {
+        if out[p].is_empty() {
+            continue;
+        }
+        let mut near: Vec<(f64, usize)> = (0..out.len())
+            .filter(|&q| q != p && out[q].len() >= 2)
+            .filter_map(|q| {
+                let (mut sum, mut count) = (0.0, 0usize);
+                for &i in &out[p] {
+                    if let Some(r) = rms_rho(stats, i, &out[q], min_overlap) {
+                        sum += r * r;
+                        count += 1;
+                    }
+                }
+                (count > 0).then(|| ((sum / count as f64).sqrt(), q))
+            })
+            .collect();
+        near.sort_by(|a, b| a.0.total_cmp(&b.0).then(a.1.cmp(&b.1)));
+        let best = near
+            .iter()
+            .take(REJOIN_CANDIDATES)
+            .filter_map(|&(_, q)| {
+                let (whole, pooled) = union_and_pooled(traj, &out[p], &out[q])?;
+                let _ = pooled;
+                (whole <= floor_mm).then_some((whole, q))
+            })
+            .min_by(|a, b| a.0.total_cmp(&b.0).then(a.1.cmp(&b.1)));
+        if let Some((_, q)) = best {
+            let taken = std::mem::take(&mut out[p]);
+            out[q].extend(taken);
+        }
+    }
+    out.retain(|c| !c.is_empty());
+    out
+}
+
+/// Clusters a split piece may rejoin: the few it keeps its distances to best.
+const REJOIN_CANDIDATES: usize = 3;
+
+#[cfg(test)]
+mod tests {
+    use mocap_io::Trajectories;
+
+    use super::split_by_fit;
+
+    /// Two 3-marker bodies joined by a hinge near a straight limb, the child swinging ±12°
+    /// about it while both translate: the cluster of all six splits into the two bodies,
+    /// and a six-marker rigid body stays whole.
+    #[test]
+    fn hinge_splits_rigid_body_stays_whole() {
+        let parent = [
+            [30.0, 0.0, 100.0],
+            [-25.0, 20.0, 200.0],
+            [10.0, -30.0, 300.0],
+        ];
+        let child = [
+            [20.0, 25.0, -100.0],
+            [-30.0, 5.0, -200.0],
+            [15.0, -25.0, -300.0],
+        ];
+        let frames = 200;
+        let mut jointed = Vec::new();
+        let mut rigid = Vec::new();
+        for f in 0..frames {
+            let t = f as f64 * 0.05;
+            let shift = [100.0 * t.sin(), 50.0 * t.cos(), 1000.0];
+            let angle = 12f64.to_radians() * (0.7 * t).sin();
+            let (s, c) = angle.sin_cos();
+            // Tiny deterministic jitter so the fits are not exact.
+            let jitter = |k: usize| 0.2 * ((f * 7 + k * 13) as f64).sin();
+            for (k, p) in parent.iter().chain(child.iter()).enumerate() {
+                let q = if k >= 3 {
+                    // Hinge about the x axis through the origin.
+                    [p[0], c * p[1] - s * p[2], s * p[1] + c * p[2]]
+                } else {
+                    *p
+                };
+                jointed.push([
+                    q[0] + shift[0] + jitter(k),
+                    q[1] + shift[1],
+                    q[2] + shift[2],
+                ]);
+                rigid.push([
+                    p[0] + shift[0] + jitter(k),
+                    p[1] + shift[1],
+                    p[2] + shift[2],
+                ]);
+            }
+        }
+        let labels: Vec<String> = (0..6).map(|m| format!("M{m}")).collect();
+        let all: Vec<usize> = (0..6).collect();
+        let traj = Trajectories::new(labels.clone(), 100.0, 1, frames, jointed).expect("capture");
+        let mut parts = split_by_fit(&traj, &all, 2.0, 1.0);
+        parts.iter_mut().for_each(|p| p.sort_unstable());
+        parts.sort();
+        assert_eq!(parts, vec![vec![0, 1, 2], vec![3, 4, 5]]);
+        let traj = Trajectories::new(labels, 100.0, 1, frames, rigid).expect("capture");
+        assert_eq!(split_by_fit(&traj, &all, 2.0, 1.0), vec![all]);
+    }
+}
