@@ -272,12 +272,17 @@ type Bipartition = (f64, Vec<usize>, Vec<usize>);
 
 /// The cluster's robust fit σ and, for 4–[`MAX_ENUMERATED`] markers, the bipartition into
 /// parts of ≥ 2 markers with the smallest pooled robust σ: (whole σ, pooled σ, A, B), mm.
-fn best_bipartition(traj: &Trajectories, cluster: &[usize]) -> Option<(f64, Option<Bipartition>)> {
+/// The search is skipped (no bipartition) when the whole σ is within `skip_below_mm`.
+fn best_bipartition(
+    traj: &Trajectories,
+    cluster: &[usize],
+    skip_below_mm: f64,
+) -> Option<(f64, Option<Bipartition>)> {
     let n = cluster.len();
     let dist = median_distances(traj, cluster);
     let all: Vec<usize> = (0..n).collect();
     let whole = robust_sigma(fit_residual(traj, cluster, &dist, &all)?.into_iter());
-    if !(4..=MAX_ENUMERATED).contains(&n) {
+    if !(4..=MAX_ENUMERATED).contains(&n) || !(whole > skip_below_mm) {
         return Some((whole, None));
     }
     let mut best: Option<(f64, Vec<usize>, Vec<usize>)> = None;
@@ -317,7 +322,8 @@ pub(crate) fn split_by_fit(
     if !(4..=MAX_ENUMERATED).contains(&cluster.len()) {
         return vec![cluster.to_vec()];
     }
-    match best_bipartition(traj, cluster) {
+    // Below the floor no bipartition can make it split: skip the 2^(n−1) fits.
+    match best_bipartition(traj, cluster, floor_mm) {
         Some((sigma, Some((pooled, a, b)))) if sigma > floor_mm && sigma > ratio * pooled => {
             let mut out = split_by_fit(traj, &a, ratio, floor_mm);
             out.extend(split_by_fit(traj, &b, ratio, floor_mm));
@@ -329,7 +335,7 @@ pub(crate) fn split_by_fit(
 
 /// Diagnostic: (robust σ of the whole group, best pooled σ of a bipartition or NaN) in mm.
 pub(crate) fn split_sigmas(traj: &Trajectories, cluster: &[usize]) -> Option<(f64, f64)> {
-    let (whole, best) = best_bipartition(traj, cluster)?;
+    let (whole, best) = best_bipartition(traj, cluster, f64::NEG_INFINITY)?;
     Some((whole, best.map_or(f64::NAN, |b| b.0)))
 }
 
