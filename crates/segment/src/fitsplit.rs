@@ -282,7 +282,7 @@ fn best_bipartition(
     let dist = median_distances(traj, cluster);
     let all: Vec<usize> = (0..n).collect();
     let whole = robust_sigma(fit_residual(traj, cluster, &dist, &all)?.into_iter());
-    if !(4..=MAX_ENUMERATED).contains(&n) || !(whole > skip_below_mm) {
+    if !(4..=MAX_ENUMERATED).contains(&n) || whole.is_nan() || whole <= skip_below_mm {
         return Some((whole, None));
     }
     let mut best: Option<(f64, Vec<usize>, Vec<usize>)> = None;
