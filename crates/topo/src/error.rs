@@ -4,8 +4,17 @@
 #[derive(Debug, thiserror::Error)]
 pub enum Error {
     /// The segmentation holds no segment, so there is nothing to connect.
-    #[error("topo: the segmentation has no segments; nothing to build a tree from")]
-    NoSegments,
+    #[error(
+        "topo: the segmentation has no segments, so there is nothing to build a tree from \
+         ({unassigned} markers unassigned{first_reason}); a capture needs enough frames in which \
+         markers are seen together (see segment.min_visible_frames)"
+    )]
+    NoSegments {
+        /// Markers the segment stage left unassigned.
+        unassigned: usize,
+        /// The first unassigned marker's reason, as ", e.g. marker 3: …", or empty.
+        first_reason: String,
+    },
     /// The pair fits and the segmentation disagree on the number of segments.
     #[error(
         "topo: the pair fits hold poses for {poses} segments but the segmentation has {segments}; \

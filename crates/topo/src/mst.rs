@@ -14,7 +14,15 @@ use crate::{Error, Params, Topology, TreeJoint};
 pub fn run(seg: &Segmentation, fits: &PairFits, params: &Params) -> Result<Topology, Error> {
     let n = seg.segments.len();
     if n == 0 {
-        return Err(Error::NoSegments);
+        let first_reason = seg
+            .unassigned
+            .first()
+            .map(|u| format!(", e.g. marker {}: {}", u.marker, u.reason))
+            .unwrap_or_default();
+        return Err(Error::NoSegments {
+            unassigned: seg.unassigned.len(),
+            first_reason,
+        });
     }
     if fits.poses.len() != n {
         return Err(Error::SegmentCountMismatch {
@@ -563,7 +571,7 @@ mod tests {
                 &fits(0, tree_costs(&[])),
                 &Params::default()
             ),
-            Err(Error::NoSegments)
+            Err(Error::NoSegments { unassigned: 0, .. })
         ));
         // A single segment is a tree with no joints.
         let t = run(
