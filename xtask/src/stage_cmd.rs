@@ -1,11 +1,11 @@
 //! `cargo xtask stage NAME --in A --in B --out C`: one stage alone, for outside schedulers.
 
 use std::collections::BTreeMap;
-use std::path::PathBuf;
+use std::path::{Path, PathBuf};
 use std::time::Instant;
 
 use anyhow::{Context as _, Result, bail};
-use mocap_io::artifact::{self, InputHash};
+use mocap_io::artifact::{self, ArtifactHeader, InputHash};
 
 use crate::cache;
 use crate::pipeline::{self, CAPTURE_ROLE, Params, Products, StageId};
@@ -93,6 +93,7 @@ pub fn execute(args: &Args) -> Result<Vec<PathBuf>> {
         (vec![hash], Some(file.as_path()))
     } else {
         let mut hashes = BTreeMap::new();
+        let mut headers = BTreeMap::new();
         for path in &args.inputs {
             let bytes =
                 std::fs::read(path).with_context(|| format!("{}: cannot read", path.display()))?;
@@ -114,7 +115,9 @@ pub fn execute(args: &Args) -> Result<Vec<PathBuf>> {
             let (_, payload) = pipeline::decode_payload(from, &bytes, path)?;
             products.put(payload);
             hashes.insert(from, artifact::content_hash(&bytes));
+            headers.insert(from, (path.as_path(), header));
         }
+        check_consistent(&headers, &hashes)?;
         let missing: Vec<StageId> = stage
             .inputs()
             .iter()
@@ -161,10 +164,97 @@ pub fn execute(args: &Args) -> Result<Vec<PathBuf>> {
     Ok(vec![args.out.clone()])
 }
 
+/// Checks that the inputs belong together: every upstream hash an input's header recorded
+/// must be the hash of the artifact passed for that role, when that role was passed too.
+///
+/// Without this, a capture of one trial and a segmentation of another would run (or fail
+/// obscurely) and write an artifact whose header claims inputs it was never made from.
+fn check_consistent(
+    headers: &BTreeMap<StageId, (&Path, ArtifactHeader)>,
+    hashes: &BTreeMap<StageId, String>,
+) -> Result<()> {
+    for (path, header) in headers.values() {
+        for recorded in &header.inputs {
+            // Roles that are not stages ("capture") are never passed to `stage` here.
+            let Ok(role) = StageId::from_name(&recorded.role) else {
+                continue;
+            };
+            let (Some(actual), Some((other, _))) = (hashes.get(&role), headers.get(&role)) else {
+                continue;
+            };
+            if *actual != recorded.blake3 {
+                bail!(
+                    "{} was made from a different {} artifact than {}: the inputs do not \
+                     belong together (recorded {} blake3 {}, given {})",
+                    path.display(),
+                    recorded.role,
+                    other.display(),
+                    recorded.role,
+                    recorded.blake3,
+                    actual
+                );
+            }
+        }
+    }
+    Ok(())
+}
+
 fn stage_list(stages: &[StageId]) -> String {
     stages
         .iter()
         .map(|s| s.name())
         .collect::<Vec<_>>()
         .join(", ")
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::tempdir::TempDir;
+
+    /// A small synthetic capture (C3D) of one trial, named by its seed.
+    fn capture(dir: &Path, seed: u64) -> PathBuf {
+        let config = synth::SynthConfig {
+            subject: synth::Subject::Snowman,
+            frames: 120,
+            seed,
+            ..synth::SynthConfig::default()
+        };
+        let trial = synth::generate(&config).unwrap();
+        let path = dir.join(format!("trial{seed}.c3d"));
+        mocap_io::write_c3d(&path, &trial.trajectories).unwrap();
+        path
+    }
+
+    fn stage(name: &str, inputs: &[&Path], out: PathBuf) -> Result<PathBuf> {
+        execute(&Args {
+            name: name.into(),
+            inputs: inputs.iter().map(|p| p.to_path_buf()).collect(),
+            out: out.clone(),
+            set: Vec::new(),
+        })?;
+        Ok(out)
+    }
+
+    #[test]
+    fn inputs_from_different_trials_are_refused() {
+        let dir = TempDir::new("stage-mix").unwrap();
+        let d = dir.path();
+        let (a, b) = (capture(d, 11), capture(d, 12));
+        let cap_a = stage("mocap-io", &[&a], d.join("a-mocap-io.cbor")).unwrap();
+        let cap_b = stage("mocap-io", &[&b], d.join("b-mocap-io.cbor")).unwrap();
+        let seg_b = stage("segment", &[&cap_b], d.join("b-segment.cbor")).unwrap();
+
+        // Same trial: accepted.
+        stage("jointfit", &[&cap_b, &seg_b], d.join("b-jointfit.cbor")).unwrap();
+
+        // Capture of trial a, segmentation of trial b: refused, naming both and the role.
+        let out = d.join("mixed-jointfit.cbor");
+        let err = stage("jointfit", &[&cap_a, &seg_b], out.clone()).unwrap_err();
+        let text = format!("{err:#}");
+        assert!(text.contains("b-segment.cbor"), "{text}");
+        assert!(text.contains("a-mocap-io.cbor"), "{text}");
+        assert!(text.contains("different mocap-io artifact"), "{text}");
+        assert!(!out.exists());
+    }
 }
