@@ -76,12 +76,16 @@ pub fn parse(bytes: &[u8], _options: &ReadOptions) -> Result<Capture, FormatErro
         let key = comment[..colon].trim_ascii();
         let value = comment[colon + 1..].trim_ascii();
         if key.eq_ignore_ascii_case(b"frame_rate") {
+            // Outside 0.001 Hz – 1 MHz no capture system records; such a value is a typo.
             let rate = parse_number(value)
-                .filter(|r| r.is_finite() && *r > 0.0)
+                .filter(|r| (1e-3..=1e6).contains(r))
                 .ok_or_else(|| {
                     FormatError::new(
                         format!("line {no}"),
-                        format!("frame_rate `{}` is not a positive number (Hz)", show(value)),
+                        format!(
+                            "frame_rate `{}` is not a rate between 0.001 and 1000000 Hz",
+                            show(value)
+                        ),
                     )
                 })?;
             frame_rate = Some(rate);

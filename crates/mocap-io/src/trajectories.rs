@@ -28,8 +28,14 @@ pub struct Trajectories {
 /// The marker of this value stands for a missing sample.
 pub const MISSING: [f64; 3] = [f64::NAN, f64::NAN, f64::NAN];
 
+/// A coordinate this large (mm, i.e. 1000 km) is no measurement: vendors write such values
+/// (SIMI's ±1e9) as gap fill, and squaring larger ones overflows the distance statistics.
+/// Samples with a coordinate beyond it, or non-finite, are missing.
+pub const ABSURD_MM: f64 = 1e9;
+
 impl Trajectories {
-    /// Builds trajectories, checking the invariants above; partial NaN samples become missing.
+    /// Builds trajectories, checking the invariants above; samples with a non-finite or
+    /// absurd (beyond [`ABSURD_MM`]) coordinate become missing.
     pub fn new(
         labels: Vec<String>,
         frame_rate: f64,
@@ -52,7 +58,7 @@ impl Trajectories {
             )));
         }
         for p in &mut positions {
-            if !p.iter().all(|c| c.is_finite()) {
+            if !p.iter().all(|c| c.abs() <= ABSURD_MM) {
                 *p = MISSING;
             }
         }
@@ -117,4 +123,34 @@ impl Trajectories {
 #[inline]
 pub fn is_present(p: [f64; 3]) -> bool {
     p[0].is_finite() && p[1].is_finite() && p[2].is_finite()
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn absurd_and_partial_samples_are_missing() {
+        let t = Trajectories::new(
+            vec!["A".into()],
+            100.0,
+            1,
+            4,
+            vec![
+                [1.0, 2.0, 3.0],
+                [1e308, 0.0, 0.0],
+                [-2e9, 0.0, 0.0],
+                [f64::NAN, 1.0, 1.0],
+            ],
+        )
+        .unwrap();
+        assert_eq!(t.get(0, 0), Some([1.0, 2.0, 3.0]));
+        assert_eq!(t.missing_samples(), 3);
+    }
+
+    #[test]
+    fn inconsistent_shapes_are_errors() {
+        assert!(Trajectories::new(vec!["A".into()], 100.0, 1, 2, vec![[0.0; 3]]).is_err());
+        assert!(Trajectories::new(vec![], f64::NAN, 1, 0, vec![]).is_err());
+    }
 }
