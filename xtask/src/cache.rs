@@ -19,12 +19,10 @@
 //! and recomputes (with a warning) when that fails. Bumping a stage's schema version
 //! starts a new bucket; `cargo xtask cache prune` drops buckets no stage uses any more.
 
-use std::io::Write as _;
 use std::path::{Path, PathBuf};
-use std::sync::atomic::{AtomicU64, Ordering};
 
 use anyhow::{Context as _, Result};
-use mocap_io::artifact::InputHash;
+use mocap_io::artifact::{InputHash, write_atomic};
 use serde::Serialize;
 
 /// Environment variable naming the cache folder.
@@ -127,7 +125,7 @@ impl Cache {
             .with_context(|| format!("{}: cannot create the cache folder", root.display()))?;
         let tag = root.join("CACHEDIR.TAG");
         if !tag.is_file() {
-            atomic_write(&tag, CACHEDIR_TAG.as_bytes())?;
+            write_atomic(&tag, CACHEDIR_TAG.as_bytes())?;
         }
         Ok(Self {
             root: root.to_path_buf(),
@@ -163,7 +161,10 @@ impl Cache {
 
     /// Stores bytes under a key, atomically.
     pub fn store(&self, stage: &str, schema_version: u32, key: &str, bytes: &[u8]) -> Result<()> {
-        atomic_write(&self.entry_path(stage, schema_version, key), bytes)
+        Ok(write_atomic(
+            &self.entry_path(stage, schema_version, key),
+            bytes,
+        )?)
     }
 
     /// Removes buckets not in `known` (`<stage>-v<schema>` names), or every bucket with
@@ -194,37 +195,6 @@ impl Cache {
         removed.sort();
         Ok(removed)
     }
-}
-
-/// Writes bytes atomically: a uniquely named temporary file beside `path`, then a rename.
-///
-/// The temporary name carries the process id and a counter, so threads of one process
-/// and concurrent runs never write the same temporary file.
-pub fn atomic_write(path: &Path, bytes: &[u8]) -> Result<()> {
-    static COUNTER: AtomicU64 = AtomicU64::new(0);
-    let dir = path
-        .parent()
-        .filter(|p| !p.as_os_str().is_empty())
-        .unwrap_or(Path::new("."));
-    std::fs::create_dir_all(dir)
-        .with_context(|| format!("{}: cannot create folder", dir.display()))?;
-    let name = path
-        .file_name()
-        .map(|n| n.to_string_lossy().into_owned())
-        .unwrap_or_default();
-    let n = COUNTER.fetch_add(1, Ordering::Relaxed);
-    let tmp = dir.join(format!(".{name}.tmp-{}-{n}", std::process::id()));
-    let result = (|| {
-        let mut f = std::fs::File::create(&tmp)?;
-        f.write_all(bytes)?;
-        f.sync_all()?;
-        std::fs::rename(&tmp, path)
-    })();
-    if let Err(e) = result {
-        let _ = std::fs::remove_file(&tmp);
-        return Err(e).with_context(|| format!("{}: cannot write", path.display()));
-    }
-    Ok(())
 }
 
 /// A value as canonical CBOR: serialized, then every map sorted by its keys' encoded bytes.

@@ -614,17 +614,67 @@ pub fn check_output_name(name: &str) -> Result<()> {
     }
 }
 
-/// Writes output files into a folder, each atomically; only called once every stage succeeded.
+/// Writes output files into a folder as a set; only called once every stage succeeded.
+///
+/// Every file goes to a temporary first and the renames follow, so a failure leaves the
+/// previous set (or none), never a new skeleton.json next to an old skeleton.bvh.
 pub fn write_outputs(outputs: &export::Outputs, dir: &Path) -> Result<Vec<std::path::PathBuf>> {
     for name in outputs.files.keys() {
         check_output_name(name)?;
     }
     std::fs::create_dir_all(dir).with_context(|| format!("{}: cannot create", dir.display()))?;
-    let mut written = Vec::new();
-    for (name, bytes) in &outputs.files {
-        let path = dir.join(name);
-        cache::atomic_write(&path, bytes)?;
-        written.push(path);
-    }
+    let written: Vec<std::path::PathBuf> = outputs.files.keys().map(|n| dir.join(n)).collect();
+    let files: Vec<(&Path, &[u8])> = written
+        .iter()
+        .zip(outputs.files.values())
+        .map(|(p, b)| (p.as_path(), b.as_slice()))
+        .collect();
+    artifact::write_atomic_all(&files)?;
     Ok(written)
+}
+
+#[cfg(test)]
+mod tests {
+    use std::collections::BTreeMap;
+
+    use super::*;
+    use crate::tempdir::TempDir;
+
+    fn outputs(tag: &str) -> export::Outputs {
+        let files: BTreeMap<String, Vec<u8>> = ["joints.csv", "skeleton.bvh", "skeleton.json"]
+            .into_iter()
+            .map(|n| (n.to_string(), format!("{tag} {n}").into_bytes()))
+            .collect();
+        export::Outputs { files }
+    }
+
+    #[test]
+    fn outputs_are_replaced_as_a_set_or_not_at_all() {
+        let dir = TempDir::new("outputs").unwrap();
+        let out = dir.path().join("out");
+        write_outputs(&outputs("old"), &out).unwrap();
+        let read = |n: &str| std::fs::read_to_string(out.join(n)).unwrap();
+        assert_eq!(read("skeleton.bvh"), "old skeleton.bvh");
+
+        // skeleton.json (last in name order) cannot be written: a folder is in the way.
+        std::fs::remove_file(out.join("skeleton.json")).unwrap();
+        std::fs::create_dir(out.join("skeleton.json")).unwrap();
+        let err = write_outputs(&outputs("new"), &out).unwrap_err();
+        assert!(format!("{err:#}").contains("skeleton.json"), "{err:#}");
+        // Nothing of the new set landed, and no temporary file is left behind.
+        assert_eq!(read("joints.csv"), "old joints.csv");
+        assert_eq!(read("skeleton.bvh"), "old skeleton.bvh");
+        let mut names: Vec<String> = std::fs::read_dir(&out)
+            .unwrap()
+            .map(|e| e.unwrap().file_name().to_string_lossy().into_owned())
+            .collect();
+        names.sort();
+        assert_eq!(names, ["joints.csv", "skeleton.bvh", "skeleton.json"]);
+
+        // With the folder gone the new set is written whole.
+        std::fs::remove_dir(out.join("skeleton.json")).unwrap();
+        write_outputs(&outputs("new"), &out).unwrap();
+        assert_eq!(read("skeleton.bvh"), "new skeleton.bvh");
+        assert_eq!(read("skeleton.json"), "new skeleton.json");
+    }
 }

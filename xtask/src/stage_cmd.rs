@@ -7,7 +7,6 @@ use std::time::Instant;
 use anyhow::{Context as _, Result, bail};
 use mocap_io::artifact::{self, ArtifactHeader, InputHash};
 
-use crate::cache;
 use crate::pipeline::{self, CAPTURE_ROLE, Params, Products, StageId};
 use crate::set_param;
 
@@ -160,7 +159,7 @@ pub fn execute(args: &Args) -> Result<Vec<PathBuf>> {
         return pipeline::write_outputs(outputs, &args.out);
     }
     let bytes = payload.encode(&header)?;
-    cache::atomic_write(&args.out, &bytes)?;
+    artifact::write_atomic(&args.out, &bytes)?;
     Ok(vec![args.out.clone()])
 }
 

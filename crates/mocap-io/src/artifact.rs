@@ -6,7 +6,8 @@
 //! `HashMap`s, so the same value always encodes to the same bytes.
 
 use std::io::Write as _;
-use std::path::Path;
+use std::path::{Path, PathBuf};
+use std::sync::atomic::{AtomicU64, Ordering};
 
 use serde::{Deserialize, Serialize, de::DeserializeOwned};
 
@@ -104,14 +105,22 @@ pub fn read_any(path: &Path) -> Result<(ArtifactHeader, ciborium::Value), IoErro
     decode(&bytes, path)
 }
 
-/// Writes bytes atomically: a temporary file beside `path`, then a rename.
+/// Writes bytes into a uniquely named temporary file beside `path`; returns its path.
 ///
-/// A crash or error leaves either the old file or none, never a half-written one.
-pub fn write_atomic(path: &Path, bytes: &[u8]) -> Result<(), IoError> {
+/// The name carries the process id and a process-wide counter, so threads of one process
+/// and concurrent runs never write the same temporary file.
+fn write_temp(path: &Path, bytes: &[u8]) -> Result<PathBuf, IoError> {
+    static COUNTER: AtomicU64 = AtomicU64::new(0);
     let err = |source| IoError::Write {
         path: path.to_path_buf(),
         source,
     };
+    if path.is_dir() {
+        return Err(err(std::io::Error::new(
+            std::io::ErrorKind::IsADirectory,
+            "a folder is in the way",
+        )));
+    }
     let dir = path
         .parent()
         .filter(|p| !p.as_os_str().is_empty())
@@ -121,16 +130,56 @@ pub fn write_atomic(path: &Path, bytes: &[u8]) -> Result<(), IoError> {
         .file_name()
         .map(|n| n.to_string_lossy().into_owned())
         .unwrap_or_default();
-    let tmp = dir.join(format!(".{name}.tmp-{}", std::process::id()));
+    let n = COUNTER.fetch_add(1, Ordering::Relaxed);
+    let tmp = dir.join(format!(".{name}.tmp-{}-{n}", std::process::id()));
     let result = (|| {
         let mut f = std::fs::File::create(&tmp)?;
         f.write_all(bytes)?;
-        f.sync_all()?;
-        std::fs::rename(&tmp, path)
+        f.sync_all()
     })();
     if let Err(source) = result {
         let _ = std::fs::remove_file(&tmp);
         return Err(err(source));
+    }
+    Ok(tmp)
+}
+
+/// Writes bytes atomically: a uniquely named temporary file beside `path`, then a rename.
+///
+/// A crash or error leaves either the old file or none, never a half-written one.
+pub fn write_atomic(path: &Path, bytes: &[u8]) -> Result<(), IoError> {
+    write_atomic_all(&[(path, bytes)])
+}
+
+/// Writes several files as a set: every temporary file first, then every rename.
+///
+/// If any file cannot be written, every temporary file is removed and no destination is
+/// touched, so a failure never leaves a new file of the set next to an old one. (A rename
+/// failing after earlier renames succeeded can still mix; renames within one folder
+/// practically fail only when the folder itself goes away.)
+pub fn write_atomic_all(files: &[(&Path, &[u8])]) -> Result<(), IoError> {
+    let mut temps: Vec<PathBuf> = Vec::with_capacity(files.len());
+    for (path, bytes) in files {
+        match write_temp(path, bytes) {
+            Ok(tmp) => temps.push(tmp),
+            Err(e) => {
+                temps.iter().for_each(|t| {
+                    let _ = std::fs::remove_file(t);
+                });
+                return Err(e);
+            }
+        }
+    }
+    for (i, ((path, _), tmp)) in files.iter().zip(&temps).enumerate() {
+        if let Err(source) = std::fs::rename(tmp, path) {
+            temps.iter().skip(i).for_each(|t| {
+                let _ = std::fs::remove_file(t);
+            });
+            return Err(IoError::Write {
+                path: path.to_path_buf(),
+                source,
+            });
+        }
     }
     Ok(())
 }
@@ -223,6 +272,54 @@ mod tests {
             .map(|e| e.unwrap().file_name())
             .collect();
         assert_eq!(names.len(), 1, "{names:?}");
+        std::fs::remove_dir_all(&dir).unwrap();
+    }
+
+    #[test]
+    fn threads_writing_one_path_do_not_collide() {
+        let dir = std::env::temp_dir().join(format!("ossify-art-race-{}", std::process::id()));
+        let path = dir.join("same.bin");
+        let contents: Vec<Vec<u8>> = (0..4u8).map(|t| vec![t; 4096]).collect();
+        std::thread::scope(|s| {
+            for bytes in &contents {
+                let path = &path;
+                s.spawn(move || {
+                    for _ in 0..200 {
+                        // With a pid-only temp name, one thread renames another's temp
+                        // away and the other's rename fails (or writes mixed bytes).
+                        write_atomic(path, bytes).unwrap();
+                    }
+                });
+            }
+        });
+        let last = std::fs::read(&path).unwrap();
+        assert!(contents.contains(&last), "mixed bytes");
+        let names: Vec<_> = std::fs::read_dir(&dir)
+            .unwrap()
+            .map(|e| e.unwrap().file_name())
+            .collect();
+        assert_eq!(names.len(), 1, "{names:?}");
+        std::fs::remove_dir_all(&dir).unwrap();
+    }
+
+    #[test]
+    fn a_set_is_written_whole_or_not_at_all() {
+        let dir = std::env::temp_dir().join(format!("ossify-art-set-{}", std::process::id()));
+        let (a, b) = (dir.join("a.txt"), dir.join("b.txt"));
+        write_atomic_all(&[(&a, b"old a"), (&b, b"old b")]).unwrap();
+        // b is now a folder: its temp cannot replace it, so a must stay old.
+        std::fs::remove_file(&b).unwrap();
+        std::fs::create_dir(&b).unwrap();
+        std::fs::write(b.join("keep"), b"x").unwrap();
+        let err = write_atomic_all(&[(&a, b"new a"), (&b, b"new b")]).unwrap_err();
+        assert!(err.to_string().contains("b.txt"), "{err}");
+        assert_eq!(std::fs::read(&a).unwrap(), b"old a");
+        let mut names: Vec<_> = std::fs::read_dir(&dir)
+            .unwrap()
+            .map(|e| e.unwrap().file_name().to_string_lossy().into_owned())
+            .collect();
+        names.sort();
+        assert_eq!(names, ["a.txt", "b.txt"]);
         std::fs::remove_dir_all(&dir).unwrap();
     }
 }
