@@ -16,6 +16,28 @@ pub enum Error {
         /// Frames in that input.
         found: usize,
     },
+    /// The pair fits and the segmentation disagree on the number of segments.
+    #[error(
+        "bonefit: the pair fits hold poses for {poses} segments but the segmentation has \
+         {segments}; rerun jointfit on this segmentation"
+    )]
+    SegmentCountMismatch {
+        /// Segments in the segmentation.
+        segments: usize,
+        /// Segment pose tracks in the pair fits.
+        poses: usize,
+    },
+    /// The topology's tree and detached segments do not cover the segmentation's segments.
+    #[error(
+        "bonefit: the topology covers {topology} segments (root, joints' children, detached) \
+         but the segmentation has {segments}; rerun topo on this segmentation"
+    )]
+    TopologyMismatch {
+        /// Segments in the segmentation.
+        segments: usize,
+        /// Segments the topology places: 1 root + one per joint + detached ones.
+        topology: usize,
+    },
     /// A topology joint refers to a segment or pair that the pair fits do not hold.
     #[error("bonefit: joint {joint}: {reason}; rerun topo on these pair fits")]
     BadJoint {

@@ -7,7 +7,7 @@ use segment::Segmentation;
 use topo::Topology;
 
 use crate::horn::{RotationFit, spans_plane};
-use crate::poses::{FilledPoses, fill};
+use crate::poses::{FilledPoses, fill, fill_rotations};
 use crate::{BoneMethod, Error, Params, RotationMethod, Skeleton, SkeletonJoint};
 
 /// Name of the root node in animation files.
@@ -35,6 +35,20 @@ pub fn run(
 ) -> Result<Skeleton, Error> {
     let frames = traj.frames();
     let segments = fits.poses.len();
+    if seg.segments.len() != segments {
+        return Err(Error::SegmentCountMismatch {
+            segments: seg.segments.len(),
+            poses: segments,
+        });
+    }
+    // Every segment is the root, one joint's child or detached, exactly once.
+    let placed_segments = 1 + topo.joints.len() + topo.detached_segments.len();
+    if placed_segments != segments {
+        return Err(Error::TopologyMismatch {
+            segments,
+            topology: placed_segments,
+        });
+    }
     for (s, p) in fits.poses.iter().enumerate() {
         for (what, found) in [
             ("rotations", p.rotations.len()),
@@ -149,6 +163,7 @@ pub fn run(
     // segment's orientation is chosen (fitted or from its pose) once its parent joint is
     // placed, so the fit can anchor on it.
     let models = segment_models(traj, seg, fits, &specs, &offsets, root, root_point);
+    let fitted = params.rotations == RotationMethod::Fitted;
     let mut frame_fit = FrameFit {
         traj,
         root,
@@ -159,7 +174,6 @@ pub fn run(
         scratch_observed: Vec::new(),
         scratch_weights: Vec::new(),
     };
-    let fitted = params.rotations == RotationMethod::Fitted;
     let n = specs.len();
     let mut local_rotations = vec![vec![[0.0; 4]; frames]; n];
     let mut positions = vec![vec![[f64::NAN; 3]; frames]; n];
@@ -179,6 +193,30 @@ pub fn run(
     let mut seg_known = vec![false; segments];
     let mut seg_measured = vec![false; segments];
     let offset_arrays: Vec<[f64; 3]> = offsets.iter().map(|o| o.to_array()).collect();
+    // The root's orientation where neither its pose nor the observations fix it (a point,
+    // a line or nothing seen): the nearest fixed one, slerped between and held at the ends,
+    // so the root does not snap to identity where its pose track was never measured.
+    let root_hold = {
+        let root_track = track(root);
+        let determined: Vec<Option<DQuat>> = (0..frames)
+            .map(|f| {
+                let pose = root_track.filter(|t| t.measured[f]).map(|t| t.rotations[f]);
+                if !fitted || pose.is_some() {
+                    return pose;
+                }
+                let prior = Prior {
+                    rotation: root_track.map_or(DQuat::IDENTITY, |t| t.rotations[f]),
+                    known: false,
+                    measured: false,
+                };
+                frame_fit
+                    .root(f, prior)
+                    .filter(|e| e.measured)
+                    .map(|e| e.rotation)
+            })
+            .collect();
+        fill_rotations(&determined)
+    };
     for f in 0..frames {
         let prior = |s: usize| match track(s) {
             Some(t) => Prior {
@@ -192,7 +230,10 @@ pub fn run(
                 measured: false,
             },
         };
-        let root_prior = prior(root);
+        let mut root_prior = prior(root);
+        if !root_prior.measured {
+            root_prior.rotation = root_hold[f];
+        }
         let root_pose_point = match track(root) {
             Some(t) => t.rotations[f] * root_point + t.translations[f],
             None => DVec3::NAN,
@@ -1101,6 +1142,115 @@ mod tests {
             &Params::default(),
         );
         assert!(matches!(r, Err(Error::BadJoint { .. })));
+    }
+
+    #[test]
+    fn topology_and_fits_must_match_the_segmentation() {
+        let s = scene(10, 100.0);
+        // A 2-segment tree (torso → thigh) against the 4-segment segmentation.
+        let mut topo = s.topology.clone();
+        topo.joints.truncate(1);
+        let r = run(
+            &s.trajectories,
+            &s.segmentation,
+            &s.fits,
+            &topo,
+            &Params::default(),
+        );
+        match r {
+            Err(e @ Error::TopologyMismatch { .. }) => {
+                let text = e.to_string();
+                assert!(
+                    text.contains("covers 2 segments") && text.contains("has 4"),
+                    "{text}"
+                );
+            }
+            other => panic!("{:?}", other.map(|_| ())),
+        }
+        let mut fits = s.fits.clone();
+        fits.poses.pop();
+        let r = run(
+            &s.trajectories,
+            &s.segmentation,
+            &fits,
+            &s.topology,
+            &Params::default(),
+        );
+        match r {
+            Err(e @ Error::SegmentCountMismatch { .. }) => {
+                let text = e.to_string();
+                assert!(
+                    text.contains("3 segments") && text.contains("has 4"),
+                    "{text}"
+                );
+            }
+            other => panic!("{:?}", other.map(|_| ())),
+        }
+        // With the rest of the tree detached it runs.
+        topo.detached_segments = vec![2, 3];
+        assert!(
+            run(
+                &s.trajectories,
+                &s.segmentation,
+                &s.fits,
+                &topo,
+                &Params::default()
+            )
+            .is_ok()
+        );
+    }
+
+    #[test]
+    fn leading_root_gap_holds_the_first_known_rotation() {
+        // The root (torso) is unseen at frames 0..10: no pose, no markers, no centres
+        // through it. Its rotation there is held at frame 10's, not identity.
+        // Also with one of its markers still seen (a point: the rotation it leaves free
+        // comes from the held one).
+        for (rotations, hidden) in [
+            (RotationMethod::Fitted, 3),
+            (RotationMethod::Fitted, 2),
+            (RotationMethod::Poses, 3),
+        ] {
+            let mut s = scene(40, 100.0);
+            // Fitted: the root's pose track is never measured, only its markers orient it.
+            let unposed = if rotations == RotationMethod::Fitted {
+                40
+            } else {
+                10
+            };
+            for f in 0..unposed {
+                s.fits.poses[0].rotations[f] = [f64::NAN; 4];
+                s.fits.poses[0].translations[f] = [f64::NAN; 3];
+            }
+            for f in 0..10 {
+                for e in &s.topology.joints {
+                    if e.parent_segment == 0 {
+                        s.fits.pairs[e.pair].positions[f] = [f64::NAN; 3];
+                    }
+                }
+            }
+            for m in 0..hidden {
+                hide_marker(&mut s, m, 0..10);
+            }
+            let p = Params {
+                rotations,
+                ..Params::default()
+            };
+            let k = fit(&s, &p);
+            let at10 = DQuat::from_array(k.root_rotations[10]);
+            assert!(at10.angle_between(DQuat::IDENTITY) > 0.05);
+            for f in 0..10 {
+                let q = DQuat::from_array(k.root_rotations[f]);
+                // (1e-6 rad: the weak prior moves frame 10's fit by ~1e-7.)
+                assert!(
+                    q.angle_between(at10) < 1e-6,
+                    "{rotations:?} {hidden} hidden, frame {f}: {:?} vs {:?}",
+                    q,
+                    at10
+                );
+                assert!(k.root_positions[f][0].is_nan());
+            }
+        }
     }
 
     #[test]

@@ -87,6 +87,38 @@ pub(crate) fn fill(poses: &SegmentPoses, max_gap: usize) -> FilledPoses {
     }
 }
 
+/// Rotations where given, slerped between the nearest given ones, held at the ends;
+/// identity when none is given.
+pub(crate) fn fill_rotations(given: &[Option<DQuat>]) -> Vec<DQuat> {
+    let mut out = vec![DQuat::IDENTITY; given.len()];
+    let mut last: Option<(usize, DQuat)> = None;
+    for (f, q) in given.iter().enumerate() {
+        let Some(q) = q.filter(|q| q.is_finite() && q.length() > 1e-6) else {
+            continue;
+        };
+        let mut q = q.normalize();
+        // Continuous signs so slerp takes the short way.
+        if last.is_some_and(|(_, p)| p.dot(q) < 0.0) {
+            q = -q;
+        }
+        match last {
+            Some((a, p)) => {
+                let span = (f - a) as f64;
+                for (g, r) in out.iter_mut().enumerate().take(f).skip(a + 1) {
+                    *r = p.slerp(q, (g - a) as f64 / span).normalize();
+                }
+            }
+            None => out[..f].fill(q),
+        }
+        out[f] = q;
+        last = Some((f, q));
+    }
+    if let Some((a, q)) = last {
+        out[a + 1..].fill(q);
+    }
+    out
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -143,5 +175,20 @@ mod tests {
         let none = fill(&track(vec![nan4; 3], vec![nan3; 3]), 5);
         assert!(none.known.iter().all(|k| !k));
         assert!(none.rotations.iter().all(|q| *q == DQuat::IDENTITY));
+    }
+
+    #[test]
+    fn fill_rotations_holds_the_ends_and_slerps_between() {
+        let q = DQuat::from_rotation_z(1.0);
+        let r = fill_rotations(&[None, None, Some(DQuat::IDENTITY), None, Some(-q), None]);
+        assert!(r[0].angle_between(DQuat::IDENTITY) < 1e-12);
+        assert!(r[1].angle_between(DQuat::IDENTITY) < 1e-12);
+        assert!((r[3].angle_between(DQuat::IDENTITY) - 0.5).abs() < 1e-9);
+        assert!(r[5].angle_between(q) < 1e-12);
+        assert!(
+            fill_rotations(&[None, None])
+                .iter()
+                .all(|q| *q == DQuat::IDENTITY)
+        );
     }
 }

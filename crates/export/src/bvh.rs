@@ -74,6 +74,17 @@ pub(crate) fn write(input: &Inputs<'_>, params: &Params) -> Result<Vec<u8>, Erro
         out,
         "\tCHANNELS 6 Xposition Yposition Zposition {ROTATION_CHANNELS}"
     );
+    if children[n].is_empty() {
+        // Strict readers want every branch to end in a joint or an End Site: a root
+        // without joints ends at its own segment's marker centroid (the frame's origin).
+        let end = -DVec3::from_array(skel.root_point_in_segment);
+        let end = if end.is_finite() { end } else { DVec3::ZERO };
+        let _ = writeln!(
+            out,
+            "\tEnd Site\n\t{{\n\t\tOFFSET {}\n\t}}",
+            triple(vector(end))
+        );
+    }
     let mut order = Vec::with_capacity(n);
     // Depth-first, children in skeleton order: the MOTION column order.
     let mut stack: Vec<(usize, usize)> = children[n].iter().rev().map(|&c| (c, 1)).collect();

@@ -542,3 +542,29 @@ fn end_to_end_synthetic_robot_arm_bvh_reproduces_json() {
     let score = synth::score::score(&trial.truth, &estimate);
     assert!(score.topology_exact, "{score}");
 }
+
+#[test]
+fn single_segment_bvh_ends_the_root_in_an_end_site_and_parses_back() {
+    let mut s = scene(12, 100.0);
+    s.topology = topo::Topology {
+        root_segment: 2,
+        joints: Vec::new(),
+        detached_segments: vec![0, 1, 3],
+        notes: Vec::new(),
+    };
+    let out = files(&s, &Params::default());
+    let text = text(&out, "skeleton.bvh");
+    let bvh = parse_bvh(&text);
+    let names: Vec<&str> = bvh.nodes.iter().map(|n| n.name.as_str()).collect();
+    // Strict readers reject a ROOT with neither a JOINT nor an End Site.
+    assert_eq!(names, ["root", "End Site"]);
+    assert_eq!(bvh.nodes[1].parent, Some(0));
+    assert!(bvh.nodes[1].offset.is_finite());
+    assert!(bvh.nodes[1].channels.is_empty());
+    assert_eq!(bvh.frames, 12);
+    assert!(bvh.motion.iter().all(|m| m.len() == 6));
+    // The root moves with the segment's pose: its point is the segment's origin.
+    let fk = bvh_fk(&bvh, 3);
+    let want = DVec3::from_array(s.fits.poses[2].translations[3]);
+    assert!((fk[0] - want).length() < 1e-5, "{} vs {want}", fk[0]);
+}
