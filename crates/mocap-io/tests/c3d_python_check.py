@@ -1,6 +1,6 @@
 """Reads the C3D files our writer made with ezc3d and py-c3d (pip install ezc3d c3d).
 
-Not run by cargo test. First: cargo test -p mocap-io --lib python_export -- --ignored
+Not run by cargo test. First: OSSIFY_PYTHON_CHECK=1 cargo test -p mocap-io --lib python_export
 Then: python3 crates/mocap-io/tests/c3d_python_check.py
 """
 import os, tempfile, sys, numpy as np, ezc3d, c3d, warnings
