@@ -35,7 +35,8 @@
 //!   - `poses`: each segment's orientation is its marker pose from jointfit; FK chains the
 //!     poses from the root (errors add up along the chain).
 //! - Gaps: rotations are never NaN (slerp between the nearest measured poses, held at the
-//!   ends, identity when never measured). A pose gap of at most `max_gap_s` between two
+//!   ends; the root is interpolated between the frames its pose or observations fix it,
+//!   other segments fall back to identity when never measured). A pose gap of at most `max_gap_s` between two
 //!   measured poses is filled (slerp + linear translation) and counts as known. With
 //!   `poses`, a joint's position is NaN wherever a pose on its chain from the root is
 //!   neither measured nor filled. With `fitted`, a joint is known where its parent joint
