@@ -39,9 +39,6 @@ use crate::trc::{
 };
 use crate::{Capture, CaptureInfo, Format, FormatError, ReadOptions, Trajectories};
 
-/// Decimals written for positions (millimetres).
-const POSITION_DECIMALS: usize = 5;
-
 /// Parses CSV bytes in ossify's layout (see the module docs) into a capture in millimetres.
 pub fn parse(bytes: &[u8], _options: &ReadOptions) -> Result<Capture, FormatError> {
     let mut lines = Lines::new(bytes);
@@ -305,20 +302,7 @@ pub fn write(t: &Trajectories) -> String {
     out.push('\n');
     for f in 0..t.frames() {
         let _ = write!(out, "{}", t.first_frame().saturating_add(f as i64));
-        for p in t.frame(f) {
-            if crate::is_present(*p) {
-                let _ = write!(
-                    out,
-                    ",{:.d$},{:.d$},{:.d$}",
-                    p[0],
-                    p[1],
-                    p[2],
-                    d = POSITION_DECIMALS
-                );
-            } else {
-                out.push_str(",,,");
-            }
-        }
+        crate::trc::push_samples(&mut out, t.frame(f), ',');
         out.push('\n');
     }
     out

@@ -354,20 +354,7 @@ pub fn write(t: &Trajectories) -> String {
             "{}\t{time:.TIME_DECIMALS$}",
             t.first_frame().saturating_add(f as i64)
         );
-        for p in t.frame(f) {
-            if crate::is_present(*p) {
-                let _ = write!(
-                    out,
-                    "\t{:.d$}\t{:.d$}\t{:.d$}",
-                    p[0],
-                    p[1],
-                    p[2],
-                    d = POSITION_DECIMALS
-                );
-            } else {
-                out.push_str("\t\t\t");
-            }
-        }
+        push_samples(&mut out, t.frame(f), '\t');
         out.push_str("\t\n");
     }
     out
@@ -384,6 +371,25 @@ fn format_rate(rate: f64) -> String {
 }
 
 /// A label safe inside a tab-separated line, never empty.
+/// Appends one frame's samples as `sep x sep y sep z` per marker (mm, fixed decimals),
+/// with empty fields for missing samples: the row body both text writers share.
+pub(crate) fn push_samples(out: &mut String, samples: &[[f64; 3]], sep: char) {
+    for p in samples {
+        if crate::is_present(*p) {
+            let _ = write!(
+                out,
+                "{sep}{:.d$}{sep}{:.d$}{sep}{:.d$}",
+                p[0],
+                p[1],
+                p[2],
+                d = POSITION_DECIMALS
+            );
+        } else {
+            out.extend([sep, sep, sep]);
+        }
+    }
+}
+
 pub(crate) fn clean_label(label: &str, index: usize) -> String {
     let cleaned: String = label
         .trim()
