@@ -477,23 +477,11 @@ impl Drop for Scratch {
     }
 }
 
-/// The placeholder mocap-io returned before its C3D writer landed.
-fn writer_missing(err: &crate::Error) -> bool {
-    matches!(err, crate::Error::Capture(mocap_io::IoError::Invalid(m)) if m == "C3D writer not written yet")
-}
-
 #[test]
 fn written_trial_reads_back_unchanged_and_byte_identical() {
     let t = trial(Subject::Human, Preset::Hard, 1);
     let dir = Scratch::new("roundtrip");
-    let paths = match write_trial(&dir.0, &t, false) {
-        Ok(p) => p,
-        Err(e) if writer_missing(&e) => {
-            eprintln!("SKIPPED C3D round trip: mocap-io's C3D writer has not landed ({e})");
-            return;
-        }
-        Err(e) => panic!("{e}"),
-    };
+    let paths = write_trial(&dir.0, &t, false).unwrap_or_else(|e| panic!("{e}"));
     assert_eq!(paths.len(), 2);
     let capture = mocap_io::read_capture(&paths[0], &mocap_io::ReadOptions::default()).unwrap();
     let back = &capture.trajectories;
@@ -559,10 +547,8 @@ fn committed_fixtures_are_reproducible() {
         (Subject::Robotarm, Preset::Clean, (3, 6)),
     ] {
         let stem = format!("{}-{}", subject.name(), preset.name());
-        let Ok(committed) = std::fs::read_to_string(dir.join(format!("{stem}.truth.json"))) else {
-            eprintln!("SKIPPED fixture check: fixtures/{stem}.truth.json is absent");
-            continue;
-        };
+        let committed = std::fs::read_to_string(dir.join(format!("{stem}.truth.json")))
+            .unwrap_or_else(|e| panic!("fixtures/{stem}.truth.json is committed: {e}"));
         let mut t = generate(&SynthConfig {
             subject,
             preset,
