@@ -50,6 +50,9 @@ pub(crate) struct Anchor {
     pub fit: CentreFit,
     /// Frames filled or posed through the anchor.
     pub frames_posed: usize,
+    /// Gap filling only (`posed_by_anchor` false): per frame, whether S's pose there was
+    /// filled through N's centre (empty otherwise).
+    pub filled: Vec<bool>,
 }
 
 /// A common centre of S's markers in N's local frame.
@@ -151,6 +154,7 @@ pub(crate) fn anchor_segments(
             posed_by_anchor: true,
             fit,
             frames_posed: count,
+            filled: Vec::new(),
         });
     }
     // Gap filling for segments posed by their own markers.
@@ -195,13 +199,15 @@ pub(crate) fn anchor_segments(
             &fit,
             params,
         );
-        if filled > 0 {
+        let frames_posed = filled.iter().filter(|&&x| x).count();
+        if frames_posed > 0 {
             tracks[s] = pose_track(&poses[s]);
             anchors[s] = Some(Anchor {
                 neighbour: nb,
                 posed_by_anchor: false,
                 fit,
-                frames_posed: filled,
+                frames_posed,
+                filled,
             });
         }
     }
@@ -426,7 +432,7 @@ fn anchored_poses(
 }
 
 /// Fills frames where `poses` (S's own, ≥ 3 markers) is missing from S's visible markers
-/// plus the anchor's centre; returns the number of frames filled.
+/// plus the anchor's centre; returns which frames were filled.
 fn fill_gaps(
     traj: &Trajectories,
     markers: &[usize],
@@ -435,7 +441,8 @@ fn fill_gaps(
     n_track: &[Option<Pose>],
     fit: &CentreFit,
     params: &Params,
-) -> usize {
+) -> Vec<bool> {
+    let mut filled = vec![false; traj.frames()];
     // The centre in S's local frame: the mean of where N carries it, seen from S.
     let (mut sum, mut count) = (DVec3::ZERO, 0usize);
     for (s, nb) in s_track.iter().zip(n_track) {
@@ -445,7 +452,7 @@ fn fill_gaps(
         }
     }
     if count < params.min_frames {
-        return 0;
+        return filled;
     }
     let centre_in_s = sum / count as f64;
     let reference: Vec<DVec3> = poses
@@ -454,7 +461,6 @@ fn fill_gaps(
         .map(|r| DVec3::from_array(*r))
         .collect();
     let mut buf = Vec::with_capacity(markers.len() + 1);
-    let mut filled = 0;
     for f in 0..traj.frames() {
         let (None, Some(nb)) = (&s_track[f], &n_track[f]) else {
             continue;
@@ -475,7 +481,7 @@ fn fill_gaps(
             poses.rotations[f] = rf.rotation.to_array();
             poses.translations[f] = rf.translation.to_array();
             poses.rms_mm[f] = rf.rms_mm;
-            filled += 1;
+            filled[f] = true;
         }
     }
     filled

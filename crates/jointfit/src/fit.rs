@@ -20,6 +20,28 @@ pub(crate) struct SegmentView<'a> {
     pub poses: &'a SegmentPoses,
     /// Poses per frame.
     pub track: &'a [Option<Pose>],
+    /// For a segment with its own poses whose gaps were filled through an anchor: the
+    /// anchor neighbour and, per frame, whether the pose there was filled through it.
+    pub filled_through: Option<(usize, &'a [bool])>,
+}
+
+impl SegmentView<'_> {
+    /// The poses a fit with `partner` may learn from: frames filled through a third
+    /// segment's joint carry that joint by construction (its centre was one of the three
+    /// points), so they would bias this pair's centre and cost towards the anchor's.
+    fn fit_track(&self, partner: usize) -> Option<Vec<Option<Pose>>> {
+        let (neighbour, filled) = self.filled_through?;
+        if neighbour == partner {
+            return None;
+        }
+        Some(
+            self.track
+                .iter()
+                .zip(filled)
+                .map(|(pose, &f)| if f { None } else { *pose })
+                .collect(),
+        )
+    }
 }
 
 /// Fits the joint between segments `a < b`.
@@ -32,7 +54,32 @@ pub(crate) fn fit_pair(
     params: &Params,
 ) -> PairFit {
     let frames = traj.frames();
-    let (pa, pb) = (sa.track, sb.track);
+    // Positions come from every pose (`sa.track`, `sb.track`); the fit only from the
+    // poses not filled through a third segment's joint.
+    let (mut fit_a, mut fit_b) = (sa.fit_track(b), sb.fit_track(a));
+    let common = |x: &[Option<Pose>], y: &[Option<Pose>]| {
+        x.iter()
+            .zip(y)
+            .filter(|(p, q)| p.is_some() && q.is_some())
+            .count()
+    };
+    if (fit_a.is_some() || fit_b.is_some())
+        && common(
+            fit_a.as_deref().unwrap_or(sa.track),
+            fit_b.as_deref().unwrap_or(sb.track),
+        ) < params.min_frames
+    {
+        // Too few frames of their own: a fit through the filled ones beats none.
+        (fit_a, fit_b) = (None, None);
+    }
+    let (pa, pb) = (
+        fit_a.as_deref().unwrap_or(sa.track),
+        fit_b.as_deref().unwrap_or(sb.track),
+    );
+    let (va, vb) = (
+        SegmentView { track: pa, ..*sa },
+        SegmentView { track: pb, ..*sb },
+    );
     let co: Vec<usize> = (0..frames)
         .filter(|&f| pa[f].is_some() && pb[f].is_some())
         .collect();
@@ -159,7 +206,7 @@ pub(crate) fn fit_pair(
                 voxels: params.local_voxels,
                 planar_ratio: params.local_planar_ratio,
             };
-            let local = fit_local(traj, sa, sb, &co, settings, target.0);
+            let local = fit_local(traj, &va, &vb, &co, settings, target.0);
             let mut c_a = local.centre_in_a;
             match kind {
                 // The axis component of a hinge centre is not in the data (every marker's
@@ -183,7 +230,7 @@ pub(crate) fn fit_pair(
     };
     let residual = residual_rms(pa, pb, &co, c_a, c_b);
     let positions = (0..frames)
-        .map(|f| match (&pa[f], &pb[f]) {
+        .map(|f| match (&sa.track[f], &sb.track[f]) {
             (Some(x), Some(y)) => (0.5 * (x.apply(c_a) + y.apply(c_b))).to_array(),
             (Some(x), None) => x.apply(c_a).to_array(),
             (None, Some(y)) => y.apply(c_b).to_array(),

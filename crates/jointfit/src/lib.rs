@@ -89,10 +89,15 @@ pub fn run_on_segments(
         .iter()
         .zip(&poses)
         .zip(&tracks)
-        .map(|((markers, poses), track)| fit::SegmentView {
+        .zip(&anchors)
+        .map(|(((markers, poses), track), anchor)| fit::SegmentView {
             markers,
             poses,
             track,
+            filled_through: anchor
+                .as_ref()
+                .filter(|a| !a.posed_by_anchor)
+                .map(|a| (a.neighbour, a.filled.as_slice())),
         })
         .collect();
     let pairs: Vec<(usize, usize)> = (0..views.len())
