@@ -465,3 +465,56 @@ fn hinge_centres_placed_from_the_tree() {
     let none = crate::place_hinge_centres(&mut fits, &[(999, 0, 1)]);
     assert_eq!(none, vec![0.0]);
 }
+
+/// Chain 0–1–2 whose middle segment shows only 2 of its 4 markers in frames 100..220:
+/// those frames are filled through the 0–1 joint, so they carry that joint by
+/// construction. The 1–2 fit must learn from the other frames only (its centre, kind and
+/// cost would otherwise lean towards the 0–1 joint), while its per-frame positions still
+/// use the filled poses; the 0–1 fit, whose joint did the filling, keeps every frame.
+#[test]
+fn frames_filled_through_one_joint_stay_out_of_the_other() {
+    let mut rng = TestRng(35);
+    let bodies = chain(
+        &mut rng,
+        &[Articulation::Ball(60.0), Articulation::Ball(60.0)],
+        4,
+    );
+    let hidden = 100..220;
+    let trial = generate(&mut rng, &bodies, 400, 0.3, |f, b, k| {
+        hidden.contains(&f) && b == 1 && k >= 2
+    });
+    let fits = run_on_segments(&trial.traj, &trial.segments, &Params::default()).unwrap();
+    assert!(
+        hidden
+            .clone()
+            .all(|f| fits.poses[1].rotations[f][0].is_finite())
+    );
+    let anchor = pair(&fits, 0, 1);
+    assert!(
+        anchor
+            .evidence
+            .contains("segment 1 2-marker frames filled through this joint in 120 frames"),
+        "{}",
+        anchor.evidence
+    );
+    assert_eq!(anchor.frames_used, 400);
+    let other = pair(&fits, 1, 2);
+    assert!(!other.evidence.contains("filled"), "{}", other.evidence);
+    assert_eq!(other.frames_used, 400 - hidden.len(), "{}", other.evidence);
+    assert_eq!(other.kind, JointKind::Ball, "{}", other.evidence);
+    let (ea, eb) = centre_errors(&fits, other, &trial.joints[2]);
+    assert!(ea < 1.0 && eb < 1.0, "1-2 centre off by {ea}, {eb} mm");
+    // Positions still come from every pose, the filled ones included.
+    assert!(hidden.clone().all(|f| other.positions[f][0].is_finite()));
+    let filled: Vec<DVec3> = hidden.clone().map(|f| trial.joints[2][f]).collect();
+    let err = hidden
+        .clone()
+        .zip(&filled)
+        .map(|(f, t)| (DVec3::from_array(other.positions[f]) - *t).length())
+        .sum::<f64>()
+        / filled.len() as f64;
+    assert!(
+        err < 2.0,
+        "1-2 mean position error in filled frames {err} mm"
+    );
+}
