@@ -21,17 +21,7 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
         ..SynthConfig::default()
     })?;
     let traj = &trial.trajectories;
-    let segments: Vec<Vec<usize>> = trial
-        .truth
-        .segments
-        .iter()
-        .map(|s| {
-            s.markers
-                .iter()
-                .filter_map(|l| traj.labels().iter().position(|x| x == l))
-                .collect()
-        })
-        .collect();
+    let segments: Vec<Vec<usize>> = trial.true_segment_markers();
     let n = segments.len();
     println!(
         "{}: {frames} frames, {} markers, {n} segments, {} pairs, {} threads",

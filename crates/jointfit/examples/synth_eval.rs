@@ -55,16 +55,7 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
             })?;
             let truth = &trial.truth;
             let traj = &trial.trajectories;
-            let segments: Vec<Vec<usize>> = truth
-                .segments
-                .iter()
-                .map(|s| {
-                    s.markers
-                        .iter()
-                        .filter_map(|l| traj.labels().iter().position(|x| x == l))
-                        .collect()
-                })
-                .collect();
+            let segments: Vec<Vec<usize>> = trial.true_segment_markers();
             let true_edges: BTreeSet<(usize, usize)> = truth
                 .joints
                 .iter()

@@ -261,17 +261,7 @@ fn synthetic_human_clean_score() {
     })
     .expect("synthetic trial");
     let traj = &trial.trajectories;
-    let segments: Vec<Vec<usize>> = trial
-        .truth
-        .segments
-        .iter()
-        .map(|s| {
-            s.markers
-                .iter()
-                .filter_map(|l| traj.labels().iter().position(|x| x == l))
-                .collect()
-        })
-        .collect();
+    let segments: Vec<Vec<usize>> = trial.true_segment_markers();
     let fits = run_on_segments(traj, &segments, &Params::default()).unwrap();
     let mut true_edges = Vec::new();
     for j in &trial.truth.joints {

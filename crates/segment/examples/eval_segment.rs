@@ -167,16 +167,10 @@ fn main() {
                 };
                 let trial = synth::generate(&config).expect("synthetic trial");
                 let traj = &trial.trajectories;
-                let index: BTreeMap<&str, usize> = traj
-                    .labels()
-                    .iter()
-                    .enumerate()
-                    .map(|(i, l)| (l.as_str(), i))
-                    .collect();
                 let mut truth = vec![usize::MAX; traj.markers()];
-                for (s, seg) in trial.truth.segments.iter().enumerate() {
-                    for l in &seg.markers {
-                        truth[index[l.as_str()]] = s;
+                for (s, markers) in trial.true_segment_markers().iter().enumerate() {
+                    for &m in markers {
+                        truth[m] = s;
                     }
                 }
                 let mut line = format!(

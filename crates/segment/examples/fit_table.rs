@@ -5,8 +5,6 @@
 //! `cargo run --release -p segment --example fit_table SUBJECT PRESET SEED [frames]`
 #![allow(clippy::print_stdout)]
 
-use std::collections::BTreeMap;
-
 use synth::{Preset, Subject, SynthConfig};
 
 fn main() {
@@ -30,18 +28,7 @@ fn main() {
     };
     let trial = synth::generate(&config).expect("trial");
     let traj = &trial.trajectories;
-    let index: BTreeMap<&str, usize> = traj
-        .labels()
-        .iter()
-        .enumerate()
-        .map(|(i, l)| (l.as_str(), i))
-        .collect();
-    let members: Vec<Vec<usize>> = trial
-        .truth
-        .segments
-        .iter()
-        .map(|s| s.markers.iter().map(|l| index[l.as_str()]).collect())
-        .collect();
+    let members = trial.true_segment_markers();
     println!("{}", trial.name);
     for (s, seg) in trial.truth.segments.iter().enumerate() {
         if let Some((w, b)) = segment::fit_split_sigmas(traj, &members[s]) {

@@ -4,8 +4,6 @@
 //! `cargo run --release -p segment --example inspect_segment SUBJECT PRESET SEED [frames] [key=value ...]`
 #![allow(clippy::print_stdout)]
 
-use std::collections::BTreeMap;
-
 use synth::{Preset, Subject, SynthConfig};
 
 fn main() {
@@ -44,15 +42,10 @@ fn main() {
     let traj = &trial.trajectories;
     let labels = traj.labels();
     let n = traj.markers();
-    let index: BTreeMap<&str, usize> = labels
-        .iter()
-        .enumerate()
-        .map(|(i, l)| (l.as_str(), i))
-        .collect();
-    let mut truth = vec![usize::MAX; n];
-    for (s, seg) in trial.truth.segments.iter().enumerate() {
-        for l in &seg.markers {
-            truth[index[l.as_str()]] = s;
+    let mut truth = vec![usize::MAX; traj.markers()];
+    for (s, markers) in trial.true_segment_markers().iter().enumerate() {
+        for &m in markers {
+            truth[m] = s;
         }
     }
     // ρ by brute force (this is a diagnostic, not the stage).

@@ -50,6 +50,24 @@ pub struct Trial {
     pub truth: Truth,
 }
 
+impl Trial {
+    /// The true segments as marker indices into `trajectories.labels()`, in truth order:
+    /// the segmentation a perfect segment stage would return.
+    pub fn true_segment_markers(&self) -> Vec<Vec<usize>> {
+        let labels = self.trajectories.labels();
+        self.truth
+            .segments
+            .iter()
+            .map(|s| {
+                s.markers
+                    .iter()
+                    .filter_map(|l| labels.iter().position(|x| x == l))
+                    .collect()
+            })
+            .collect()
+    }
+}
+
 /// Independent random streams, so that changing the preset leaves body, markers and
 /// motion unchanged.
 #[derive(Clone, Copy)]

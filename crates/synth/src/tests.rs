@@ -568,3 +568,23 @@ fn committed_fixtures_are_reproducible() {
         );
     }
 }
+
+#[test]
+fn true_segment_markers_cover_every_marker_once() {
+    let t = trial(Subject::Quadruped, Preset::Gaps, 4);
+    let segments = t.true_segment_markers();
+    assert_eq!(segments.len(), t.truth.segments.len());
+    let mut seen: Vec<usize> = segments.iter().flatten().copied().collect();
+    seen.sort_unstable();
+    assert_eq!(seen, (0..t.trajectories.markers()).collect::<Vec<_>>());
+    for (markers, truth) in segments.iter().zip(&t.truth.segments) {
+        let labels: Vec<&str> = markers
+            .iter()
+            .map(|&m| t.trajectories.labels()[m].as_str())
+            .collect();
+        assert_eq!(
+            labels,
+            truth.markers.iter().map(String::as_str).collect::<Vec<_>>()
+        );
+    }
+}
