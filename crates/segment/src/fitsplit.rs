@@ -9,6 +9,7 @@
 //! child's markers leave the parent's fitted body by lever arm × angle.
 
 use mocap_io::Trajectories;
+use rayon::prelude::*;
 
 use crate::eigen::symmetric_eigen;
 use crate::pairstats::PairStats;
@@ -386,10 +387,15 @@ pub(crate) fn split_and_rejoin(
     ratio: f64,
     floor_mm: f64,
 ) -> Vec<Vec<usize>> {
+    // Each cluster's split search is independent (and integer-valued): run them in
+    // parallel, then assemble in cluster order so the result does not depend on threads.
+    let split: Vec<Vec<Vec<usize>>> = clusters
+        .par_iter()
+        .map(|c| split_by_fit(traj, c, ratio, floor_mm))
+        .collect();
     let mut out: Vec<Vec<usize>> = Vec::new();
     let mut pieces: Vec<usize> = Vec::new();
-    for c in &clusters {
-        let parts = split_by_fit(traj, c, ratio, floor_mm);
+    for parts in split {
         if parts.len() > 1 {
             pieces.extend(out.len()..out.len() + parts.len());
         }
@@ -417,8 +423,7 @@ pub(crate) fn split_and_rejoin(
             .iter()
             .take(REJOIN_CANDIDATES)
             .filter_map(|&(_, q)| {
-                let (whole, pooled) = union_and_pooled(traj, &out[p], &out[q])?;
-                let _ = pooled;
+                let (whole, _) = union_and_pooled(traj, &out[p], &out[q])?;
                 (whole <= floor_mm).then_some((whole, q))
             })
             .min_by(|a, b| a.0.total_cmp(&b.0).then(a.1.cmp(&b.1)));
