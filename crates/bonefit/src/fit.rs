@@ -8,7 +8,7 @@ use topo::Topology;
 
 use crate::horn::{RotationFit, spans_plane};
 use crate::poses::{FilledPoses, fill, fill_rotations};
-use crate::{BoneMethod, Error, Params, RotationMethod, Skeleton, SkeletonJoint};
+use crate::{BoneMethod, Error, HingePlacement, Params, RotationMethod, Skeleton, SkeletonJoint};
 
 /// Name of the root node in animation files.
 const ROOT_NAME: &str = "root";
@@ -77,7 +77,26 @@ pub fn run(
             .iter()
             .map(|j| (j.pair, j.parent_segment, j.child_segment))
             .collect();
-        let shifts = jointfit::place_hinge_centres(&mut copy, &edges);
+        let shifts = match params.hinge_placement {
+            HingePlacement::Tree => jointfit::place_hinge_centres(&mut copy, &edges),
+            mode => {
+                // The joint solve, capped, for hinges with no ball joint below them.
+                let mut tree = fits.clone();
+                let mut tree_shifts = jointfit::place_hinge_centres(&mut tree, &edges);
+                for (e, s) in tree_shifts.iter_mut().enumerate() {
+                    let bone = bone_length_before(fits, topo, e);
+                    let short = bone.is_nan()
+                        || bone <= 0.0
+                        || s.abs() <= params.hinge_max_shift_ratio * bone;
+                    if !short {
+                        *s = 0.0;
+                    }
+                }
+                let chain = mode == HingePlacement::Chain;
+                place_hinges_on_child(&mut copy, topo, &tree_shifts, chain)
+            }
+        };
+        let capped = params.hinge_placement == HingePlacement::Tree;
         for (e, ((h, s), &(pair, _, _))) in
             hinge_shifts.iter_mut().zip(shifts).zip(&edges).enumerate()
         {
@@ -95,8 +114,10 @@ pub fn run(
             // A slide that is a large part of the bone comes from an ill-conditioned
             // system (nearly parallel neighbouring axes, a noisy axis), not from anatomy.
             let bone = bone_length_before(fits, topo, e);
-            let short =
-                bone.is_nan() || bone <= 0.0 || s.abs() <= params.hinge_max_shift_ratio * bone;
+            let short = !capped
+                || bone.is_nan()
+                || bone <= 0.0
+                || s.abs() <= params.hinge_max_shift_ratio * bone;
             if short && r1 <= r0 * (1.0 + params.hinge_residual_increase.max(0.0)) + 0.1 {
                 *h = s;
             } else {
@@ -552,6 +573,129 @@ impl FrameFit<'_> {
             measured: spans || prior.measured,
         })
     }
+}
+
+/// Slides each hinge centre of the tree along its axis, by itself, to the point nearest
+/// the far end of its child bone, seen in the child segment's frame: the mean of the
+/// child segment's ball (non-hinge) child joints; with `chain`, else of its hinge child
+/// joints as already placed (leaves first). A hinge axis runs across the bone it moves
+/// (a knee's across the shank, an elbow's across the forearm) and a ball child is a
+/// well-determined point, so this is the centre; unlike the joint solve over all hinges,
+/// no hinge is pulled by a parent bone its axis need not cross, and nearly parallel
+/// neighbouring axes cannot couple into a long common slide, so no length cap is needed.
+/// Hinges with no such target take `tree_shifts[e]` (the capped joint solve). Recomputes
+/// the moved pairs' centres and positions in `fits`; returns each topology joint's shift
+/// along its axis (mm, 0 where nothing moved).
+fn place_hinges_on_child(
+    fits: &mut PairFits,
+    topo: &Topology,
+    tree_shifts: &[f64],
+    chain: bool,
+) -> Vec<f64> {
+    let joints = &topo.joints;
+    let mut shifts = vec![0.0; joints.len()];
+    // Depth of each joint below the root, so children are placed before their parents.
+    let depth = |mut e: usize| {
+        let mut d = 0usize;
+        while let Some(up) = joints
+            .iter()
+            .position(|j| j.child_segment == joints[e].parent_segment)
+        {
+            d += 1;
+            e = up;
+            if d > joints.len() {
+                break;
+            }
+        }
+        d
+    };
+    let mut order: Vec<usize> = (0..joints.len()).collect();
+    order.sort_by_key(|&e| std::cmp::Reverse(depth(e)));
+    for e in order {
+        let joint = &joints[e];
+        let x = joint.child_segment;
+        let Some(fit) = fits.pairs.get(joint.pair) else {
+            continue;
+        };
+        if fit.kind != jointfit::JointKind::Hinge || !(fit.a == x || fit.b == x) {
+            continue;
+        }
+        let (Some(ua), Some(ub)) = (fit.axis_in_a, fit.axis_in_b) else {
+            continue;
+        };
+        let u = DVec3::from_array(if fit.a == x { ua } else { ub });
+        let c = centre_in(fit, x);
+        if !c.is_finite() || !u.is_finite() || u.length_squared() < 1e-12 {
+            continue;
+        }
+        let (mut balls, mut hinges) = (Vec::new(), Vec::new());
+        for child in joints.iter().filter(|j| j.parent_segment == x) {
+            let Some(f) = fits.pairs.get(child.pair) else {
+                continue;
+            };
+            let t = centre_in(f, x);
+            if !t.is_finite() {
+                continue;
+            }
+            if f.kind == jointfit::JointKind::Hinge {
+                hinges.push(t);
+            } else {
+                balls.push(t);
+            }
+        }
+        let targets = if balls.is_empty() && chain {
+            hinges
+        } else {
+            balls
+        };
+        let shift = if targets.is_empty() {
+            tree_shifts.get(e).copied().unwrap_or(0.0)
+        } else {
+            let target = targets.iter().fold(DVec3::ZERO, |a, &t| a + t) / targets.len() as f64;
+            u.dot(target - c) / u.length_squared()
+        };
+        if !shift.is_finite() || shift == 0.0 {
+            continue;
+        }
+        shifts[e] = shift;
+        slide_hinge(fits, joint.pair, shift);
+    }
+    shifts
+}
+
+/// Moves pair `pair`'s centre by `shift` (mm) along its hinge axis in both segments and
+/// recomputes its positions (the mean of both segments' view where both are posed).
+fn slide_hinge(fits: &mut PairFits, pair: usize, shift: f64) {
+    let Some(fit) = fits.pairs.get(pair) else {
+        return;
+    };
+    let (Some(ua), Some(ub)) = (fit.axis_in_a, fit.axis_in_b) else {
+        return;
+    };
+    let c_a = DVec3::from_array(fit.centre_in_a) + shift * DVec3::from_array(ua);
+    let c_b = DVec3::from_array(fit.centre_in_b) + shift * DVec3::from_array(ub);
+    let (a, b) = (fit.a, fit.b);
+    let view = |s: usize, f: usize, c: DVec3| {
+        let p = fits.poses.get(s)?;
+        let q = DQuat::from_array(*p.rotations.get(f)?);
+        let t = DVec3::from_array(*p.translations.get(f)?);
+        let v = q.normalize() * c + t;
+        v.is_finite().then_some(v)
+    };
+    let positions: Vec<[f64; 3]> = (0..fit.positions.len())
+        .map(|f| match (view(a, f, c_a), view(b, f, c_b)) {
+            (Some(x), Some(y)) => (0.5 * (x + y)).to_array(),
+            (Some(x), None) | (None, Some(x)) => x.to_array(),
+            (None, None) => [f64::NAN; 3],
+        })
+        .collect();
+    let fit = &mut fits.pairs[pair];
+    fit.centre_in_a = c_a.to_array();
+    fit.centre_in_b = c_b.to_array();
+    fit.positions = positions;
+    fit.evidence.push_str(&format!(
+        "; centre moved {shift:.1} mm along the hinge axis toward its child bone's far end"
+    ));
 }
 
 /// Length (mm) of topology joint `e`'s bone from its parent segment's anchor (the parent

@@ -45,12 +45,17 @@
 //!   filled pose.
 //!
 //! - Hinges: with `place_hinges`, every hinge centre of the tree first slides along its
-//!   axis to the adjacent joints (`jointfit::place_hinge_centres`, on a copy of the pair
-//!   fits); the shift is `SkeletonJoint::hinge_shift_mm`. A slide is kept only where it
-//!   is at most `hinge_max_shift_ratio` of the bone and barely changes the pair's residual
-//!   (`hinge_residual_increase`). Measured (`cargo xtask eval`, seeds 3001/3002 not tuned
-//!   on): clean mean 0.38 % → 0.20 % of height (robot arm, quadruped, snowman, hexapod
-//!   exact), hard 1.76 % → 1.81 %.
+//!   axis (on a copy of the pair fits); the shift is `SkeletonJoint::hinge_shift_mm`.
+//!   `hinge_placement = child` (default): a hinge with ball joints on its child segment
+//!   goes, by itself, nearest their mean (its axis crosses the bone it moves), with no
+//!   length cap; the others take the joint solve of all hinges
+//!   (`jointfit::place_hinge_centres`) where that slide is at most
+//!   `hinge_max_shift_ratio` of the bone (that solve couples nearly parallel axes, e.g.
+//!   the human knee and ankle, into long common slides). Every slide is kept only if it
+//!   barely changes the pair's residual (`hinge_residual_increase`). Measured (`cargo
+//!   xtask eval`, tree → child): seeds 1001/1002 clean 0.15 % → 0.13 %, hard 1.68 % →
+//!   1.68 %; seeds 7001/7002 clean 0.38 % → 0.31 % (random-clean-s7001 2.52 % → 1.65 %),
+//!   hard 2.21 % → 2.21 %.
 //!
 //! It does not fit joint centres (jointfit), choose the tree (topo) or write files (export).
 mod error;
@@ -79,6 +84,22 @@ pub enum BoneMethod {
     Rigid,
     /// Aguiar et al. Eq. 5–6: root-to-leaf least squares on the fitted joint positions.
     Paper,
+}
+
+/// Where a hinge centre goes on its axis (a hinge fixes a line, not a point).
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(rename_all = "lowercase")]
+pub enum HingePlacement {
+    /// `jointfit::place_hinge_centres`: every hinge of the tree at once, bones to all
+    /// adjacent joints as short as possible, slides capped by `hinge_max_shift_ratio`.
+    Tree,
+    /// Each hinge by itself, nearest the mean of its child segment's ball child joints;
+    /// hinges with none take the capped `tree` slide.
+    #[default]
+    Child,
+    /// As `child`, and a hinge with no ball child joint goes nearest its (already
+    /// placed) hinge child joints.
+    Chain,
 }
 
 /// How each segment's orientation per frame is chosen.
@@ -135,6 +156,8 @@ pub struct Params {
     /// A hinge keeps its slid centre only if the slide is at most this fraction of its
     /// bone from the parent joint (default 0.1).
     pub hinge_max_shift_ratio: f64,
+    /// Where hinge centres go on their axes: `child` (default) or `tree`.
+    pub hinge_placement: HingePlacement,
 }
 
 impl Default for Params {
@@ -147,6 +170,7 @@ impl Default for Params {
             place_hinges: true,
             hinge_residual_increase: 0.1,
             hinge_max_shift_ratio: 0.1,
+            hinge_placement: HingePlacement::Child,
         }
     }
 }
@@ -192,6 +216,15 @@ pub const PARAM_DOCS: &[(&str, &str)] = &[
         "hinge_max_shift_ratio",
         "a slid hinge centre is kept only if the slide is at most this fraction of the \
          joint's bone from its parent joint (dimensionless); larger slides come from \
-         nearly parallel neighbouring axes or a noisy axis; default 0.1",
+         nearly parallel neighbouring axes or a noisy axis; applies to the \"tree\" \
+         slides only; default 0.1",
+    ),
+    (
+        "hinge_placement",
+        "where a hinge centre goes on its axis: \"child\" (each hinge by itself, nearest \
+         the mean of its child segment's ball child joints, no length cap; hinges with none \
+         take the capped \"tree\" slide), \"chain\" (as child, else nearest its placed \
+         hinge child joints) or \"tree\" (jointfit::place_hinge_centres, all hinges at \
+         once toward every adjacent joint, capped by hinge_max_shift_ratio); default \"child\"",
     ),
 ];
