@@ -1179,6 +1179,123 @@ mod tests {
     }
 
     #[test]
+    fn hinge_with_a_ball_child_slides_uncapped_to_the_point_nearest_it() {
+        // The scene's head becomes a foot hanging from the shank by a ball ankle, so the
+        // knee hinge (axis local x) has a ball joint on its child segment. The knee is
+        // fitted 80 mm off along its axis; the ankle sits at x = 20 mm in the shank, so
+        // the point of the knee axis nearest it is 60 mm from the fitted centre, a fifth
+        // of the 310 mm thigh bone: `child` goes there, `tree` is refused by the 10 % cap.
+        let (frames, rate) = (100, 100.0);
+        let mut s = scene(frames, rate);
+        let (ankle_in_shank, ankle_in_foot) =
+            (DVec3::new(20.0, 0.0, -100.0), DVec3::new(0.0, 0.0, 40.0));
+        let mut positions = s.trajectories.positions().to_vec();
+        let markers = s.trajectories.markers();
+        let mut ankle = Vec::with_capacity(frames);
+        for f in 0..frames {
+            let t = f as f64 / rate;
+            let shank = &s.fits.poses[2];
+            let (q2, t2) = (
+                DQuat::from_array(shank.rotations[f]),
+                DVec3::from_array(shank.translations[f]),
+            );
+            let centre = q2 * ankle_in_shank + t2;
+            let q = q2
+                * DQuat::from_rotation_y(0.5 * (2.0 * t).sin())
+                * DQuat::from_rotation_z(0.4 * (1.7 * t).cos());
+            let origin = centre - q * ankle_in_foot;
+            let foot = &mut s.fits.poses[3];
+            foot.rotations[f] = q.to_array();
+            foot.translations[f] = origin.to_array();
+            for (m, r) in foot.reference.iter().enumerate() {
+                positions[f * markers + 9 + m] = (q * DVec3::from_array(*r) + origin).to_array();
+            }
+            ankle.push(centre.to_array());
+        }
+        s.trajectories = match Trajectories::new(
+            s.trajectories.labels().to_vec(),
+            rate,
+            s.trajectories.first_frame(),
+            frames,
+            positions,
+        ) {
+            Ok(t) => t,
+            Err(e) => panic!("trajectories: {e}"),
+        };
+        let shank_foot = s.fits.pairs.iter().position(|p| (p.a, p.b) == (2, 3));
+        let Some(shank_foot) = shank_foot else {
+            panic!("no shank-foot pair");
+        };
+        let pair = &mut s.fits.pairs[shank_foot];
+        pair.centre_in_a = ankle_in_shank.to_array();
+        pair.centre_in_b = ankle_in_foot.to_array();
+        pair.positions = ankle;
+        pair.cost = 3.0;
+        // Tree 0→1→2→3: hip (ball), knee (hinge), ankle (ball).
+        s.topology.joints[1].parent_segment = 2;
+        s.topology.joints[1].pair = shank_foot;
+        s.topology.joints[1].parent_joint = Some(2);
+        s.topology.joints.swap(1, 2);
+        s.topology.joints[2].parent_joint = Some(1);
+
+        let off = 80.0;
+        let knee = s.topology.joints[1].pair;
+        let pair = &mut s.fits.pairs[knee];
+        pair.centre_in_a[0] += off;
+        pair.centre_in_b[0] += off;
+        for (f, p) in pair.positions.iter_mut().enumerate() {
+            let q = DQuat::from_array(s.fits.poses[1].rotations[f]);
+            *p = (DVec3::from_array(*p) + q * DVec3::new(off, 0.0, 0.0)).to_array();
+        }
+        // The point of the knee axis nearest the ankle, globally per frame.
+        let nearest: Vec<[f64; 3]> = (0..frames)
+            .map(|f| {
+                let shank = &s.fits.poses[2];
+                let q = DQuat::from_array(shank.rotations[f]);
+                (q * DVec3::new(ankle_in_shank.x, 0.0, 120.0)
+                    + DVec3::from_array(shank.translations[f]))
+                .to_array()
+            })
+            .collect();
+        let knee_joint = |k: &Skeleton| match k.joints.iter().find(|j| j.name == "j2") {
+            Some(j) => j.clone(),
+            None => panic!("no knee joint"),
+        };
+
+        let child = Params::default();
+        assert_eq!(child.hinge_placement, HingePlacement::Child);
+        let k = knee_joint(&fit(&s, &child));
+        assert!(
+            (k.hinge_shift_mm + 60.0).abs() < 0.1,
+            "shift {}",
+            k.hinge_shift_mm
+        );
+        assert_eq!(k.positions.len(), frames);
+        for (f, (&p, &n)) in k.positions.iter().zip(&nearest).enumerate() {
+            let d = distance(p, n);
+            assert!(
+                d < 0.1,
+                "child: frame {f} knee {d} mm from the nearest point"
+            );
+        }
+
+        let tree = Params {
+            hinge_placement: HingePlacement::Tree,
+            ..Params::default()
+        };
+        let k = knee_joint(&fit(&s, &tree));
+        assert_eq!(k.hinge_shift_mm, 0.0);
+        assert_eq!(k.positions.len(), frames);
+        for (f, (&p, &n)) in k.positions.iter().zip(&nearest).enumerate() {
+            let d = distance(p, n);
+            assert!(
+                d > 10.0,
+                "tree: frame {f} knee {d} mm from the nearest point"
+            );
+        }
+    }
+
+    #[test]
     fn pose_gaps_short_filled_long_unknown_rotations_never_nan() {
         let mut s = scene(100, 100.0);
         let thigh = &mut s.fits.poses[1];
