@@ -5,5 +5,6 @@
 
 mod accuracy;
 mod cli;
+mod expect;
 mod real;
 mod support;
