@@ -34,7 +34,7 @@
 use std::fmt::Write as _;
 
 use crate::trc::{
-    GapCounts, Lines, clean_label, parse_frame, parse_number, sample_limit, show, units_to_mm,
+    FrameColumn, GapCounts, Lines, clean_label, parse_number, sample_limit, show, units_to_mm,
     warn_duplicates,
 };
 use crate::{Capture, CaptureInfo, Format, FormatError, ReadOptions, Trajectories};
@@ -179,9 +179,7 @@ pub fn parse(bytes: &[u8], _options: &ReadOptions) -> Result<Capture, FormatErro
     let columns = cells.len();
     let limit = sample_limit(bytes.len());
     let mut positions: Vec<[f64; 3]> = Vec::new();
-    let mut first_frame: Option<i64> = None;
-    let mut previous_frame: Option<i64> = None;
-    let mut frame_jumps = 0usize;
+    let mut frame_column = FrameColumn::default();
     let mut rows = 0usize;
     let mut counts = GapCounts::default();
     let mut row = vec![[f64::NAN; 3]; markers];
@@ -212,19 +210,7 @@ pub fn parse(bytes: &[u8], _options: &ReadOptions) -> Result<Capture, FormatErro
                 ));
             }
             if index == 0 {
-                let frame = parse_frame(field).ok_or_else(|| {
-                    FormatError::new(
-                        at(),
-                        format!("frame number `{}` is not an integer", show(field)),
-                    )
-                })?;
-                if first_frame.is_none() {
-                    first_frame = Some(frame);
-                }
-                if previous_frame.is_some_and(|p| p.checked_add(1) != Some(frame)) {
-                    frame_jumps += 1;
-                }
-                previous_frame = Some(frame);
+                frame_column.record(field, at)?;
                 continue;
             }
             if field.is_empty() {
@@ -255,12 +241,13 @@ pub fn parse(bytes: &[u8], _options: &ReadOptions) -> Result<Capture, FormatErro
         positions.extend_from_slice(&row);
         rows += 1;
     }
-    let Some(first_frame) = first_frame else {
+    let Some(first_frame) = frame_column.first else {
         return Err(FormatError::new(
             format!("line {}", lines.line_count() + 1),
             "no data rows after the header row",
         ));
     };
+    let frame_jumps = frame_column.jumps;
     if frame_jumps > 0 {
         warnings.push(format!(
             "frame numbers are not consecutive at {frame_jumps} rows; rows are read in file order as consecutive frames"

@@ -189,9 +189,7 @@ pub fn parse(bytes: &[u8], _options: &ReadOptions) -> Result<Capture, FormatErro
     let limit = sample_limit(bytes.len());
     let columns = 2 + 3 * markers;
     let mut positions: Vec<[f64; 3]> = Vec::new();
-    let mut first_frame: Option<i64> = None;
-    let mut previous_frame: Option<i64> = None;
-    let mut frame_jumps = 0usize;
+    let mut frame_column = FrameColumn::default();
     let mut times: Vec<(usize, f64)> = Vec::new();
     let mut rows = 0usize;
     let mut counts = GapCounts::default();
@@ -214,21 +212,7 @@ pub fn parse(bytes: &[u8], _options: &ReadOptions) -> Result<Capture, FormatErro
             seen = index + 1;
             let at = || format!("line {line_no}, field {}", index + 1);
             match index {
-                0 => {
-                    let frame = parse_frame(field).ok_or_else(|| {
-                        FormatError::new(
-                            at(),
-                            format!("frame number `{}` is not an integer", show(field)),
-                        )
-                    })?;
-                    if first_frame.is_none() {
-                        first_frame = Some(frame);
-                    }
-                    if previous_frame.is_some_and(|p| p.checked_add(1) != Some(frame)) {
-                        frame_jumps += 1;
-                    }
-                    previous_frame = Some(frame);
-                }
+                0 => frame_column.record(field, at)?,
                 1 => {
                     if !field.is_empty() {
                         let t = parse_number(field).ok_or_else(|| {
@@ -279,7 +263,7 @@ pub fn parse(bytes: &[u8], _options: &ReadOptions) -> Result<Capture, FormatErro
         pending = lines.next_nonblank();
     }
 
-    let Some(first_frame) = first_frame else {
+    let Some(first_frame) = frame_column.first else {
         return Err(FormatError::new(
             format!("line {}", lines.line_count() + 1),
             "no data rows after the header",
@@ -290,6 +274,7 @@ pub fn parse(bytes: &[u8], _options: &ReadOptions) -> Result<Capture, FormatErro
             "line {values_no}: NumFrames says {declared} but the file has {rows} data rows; reading {rows}"
         ));
     }
+    let frame_jumps = frame_column.jumps;
     if frame_jumps > 0 {
         warnings.push(format!(
             "Frame# is not consecutive at {frame_jumps} rows; rows are read in file order as consecutive frames"
@@ -371,6 +356,44 @@ fn format_rate(rate: f64) -> String {
 }
 
 /// A label safe inside a tab-separated line, never empty.
+/// The frame-number column of a text capture: the first number and how often it jumps.
+///
+/// Rows are read in file order as consecutive frames whatever their numbers say; jumps
+/// are only counted, for a warning.
+#[derive(Default)]
+pub(crate) struct FrameColumn {
+    /// Number of the first data row.
+    pub(crate) first: Option<i64>,
+    previous: Option<i64>,
+    /// Rows whose number is not the previous one plus one.
+    pub(crate) jumps: usize,
+}
+
+impl FrameColumn {
+    /// Reads one row's frame number; `at` names the field for the error.
+    pub(crate) fn record(
+        &mut self,
+        field: &[u8],
+        at: impl Fn() -> String,
+    ) -> Result<(), FormatError> {
+        let frame = parse_frame(field).ok_or_else(|| {
+            FormatError::new(
+                at(),
+                format!("frame number `{}` is not an integer", show(field)),
+            )
+        })?;
+        self.first.get_or_insert(frame);
+        if self
+            .previous
+            .is_some_and(|p| p.checked_add(1) != Some(frame))
+        {
+            self.jumps += 1;
+        }
+        self.previous = Some(frame);
+        Ok(())
+    }
+}
+
 /// Appends one frame's samples as `sep x sep y sep z` per marker (mm, fixed decimals),
 /// with empty fields for missing samples: the row body both text writers share.
 pub(crate) fn push_samples(out: &mut String, samples: &[[f64; 3]], sep: char) {
