@@ -5,28 +5,11 @@
 //! `cargo run --release -p segment --example fit_table SUBJECT PRESET SEED [frames]`
 #![allow(clippy::print_stdout)]
 
-use synth::{Preset, Subject, SynthConfig};
+mod common;
 
 fn main() {
     let args: Vec<String> = std::env::args().skip(1).collect();
-    let subject: Subject = args
-        .first()
-        .and_then(|s| s.parse().ok())
-        .unwrap_or(Subject::Human);
-    let preset: Preset = args
-        .get(1)
-        .and_then(|s| s.parse().ok())
-        .unwrap_or(Preset::Hard);
-    let seed: u64 = args.get(2).and_then(|s| s.parse().ok()).unwrap_or(1);
-    let frames: usize = args.get(3).and_then(|s| s.parse().ok()).unwrap_or(480);
-    let config = SynthConfig {
-        subject,
-        preset,
-        frames,
-        seed,
-        ..SynthConfig::default()
-    };
-    let trial = synth::generate(&config).expect("trial");
+    let trial = common::trial_from_args(&args, 480);
     let traj = &trial.trajectories;
     let members = trial.true_segment_markers();
     println!("{}", trial.name);
@@ -57,19 +40,7 @@ fn main() {
             );
         }
     }
-    let overrides: serde_json::Map<String, serde_json::Value> = args
-        .iter()
-        .skip(4)
-        .filter_map(|kv| kv.split_once('='))
-        .map(|(k, v)| {
-            (
-                k.to_string(),
-                serde_json::from_str(v).unwrap_or(serde_json::Value::String(v.to_string())),
-            )
-        })
-        .collect();
-    let params: segment::Params =
-        serde_json::from_value(serde_json::Value::Object(overrides)).expect("params");
+    let params = common::params_from_overrides(args.iter().skip(4));
     let seg = segment::run(traj, &params).expect("segmentation");
     let truth_of = |m: usize| {
         members

@@ -4,41 +4,12 @@
 //! `cargo run --release -p segment --example inspect_segment SUBJECT PRESET SEED [frames] [key=value ...]`
 #![allow(clippy::print_stdout)]
 
-use synth::{Preset, Subject, SynthConfig};
+mod common;
 
 fn main() {
     let args: Vec<String> = std::env::args().skip(1).collect();
-    let subject: Subject = args
-        .first()
-        .and_then(|s| s.parse().ok())
-        .unwrap_or(Subject::Human);
-    let preset: Preset = args
-        .get(1)
-        .and_then(|s| s.parse().ok())
-        .unwrap_or(Preset::Hard);
-    let seed: u64 = args.get(2).and_then(|s| s.parse().ok()).unwrap_or(1);
-    let frames: usize = args.get(3).and_then(|s| s.parse().ok()).unwrap_or(600);
-    let overrides: serde_json::Map<String, serde_json::Value> = args
-        .iter()
-        .skip(4)
-        .filter_map(|kv| kv.split_once('='))
-        .map(|(k, v)| {
-            (
-                k.to_string(),
-                serde_json::from_str(v).unwrap_or(serde_json::Value::String(v.to_string())),
-            )
-        })
-        .collect();
-    let params: segment::Params =
-        serde_json::from_value(serde_json::Value::Object(overrides)).expect("params");
-    let config = SynthConfig {
-        subject,
-        preset,
-        frames,
-        seed,
-        ..SynthConfig::default()
-    };
-    let trial = synth::generate(&config).expect("trial");
+    let trial = common::trial_from_args(&args, 600);
+    let params = common::params_from_overrides(args.iter().skip(4));
     let traj = &trial.trajectories;
     let labels = traj.labels();
     let n = traj.markers();

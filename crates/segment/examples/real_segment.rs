@@ -5,25 +5,15 @@
 
 use std::path::Path;
 
+mod common;
+
 fn main() {
     let args: Vec<String> = std::env::args().skip(1).collect();
     let Some(path) = args.first() else {
         println!("usage: real_segment PATH [key=value ...]");
         return;
     };
-    let overrides: serde_json::Map<String, serde_json::Value> = args
-        .iter()
-        .skip(1)
-        .filter_map(|kv| kv.split_once('='))
-        .map(|(k, v)| {
-            (
-                k.to_string(),
-                serde_json::from_str(v).unwrap_or(serde_json::Value::String(v.to_string())),
-            )
-        })
-        .collect();
-    let params: segment::Params =
-        serde_json::from_value(serde_json::Value::Object(overrides)).expect("params");
+    let params = common::params_from_overrides(args.iter().skip(1));
     let capture =
         mocap_io::read_capture(Path::new(path), &Default::default()).expect("readable capture");
     let traj = &capture.trajectories;

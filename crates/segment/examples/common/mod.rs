@@ -1,0 +1,43 @@
+//! What the segment probes share: a synthetic trial and parameter overrides from argv.
+
+// Each example compiles this module on its own and uses only part of it.
+#![allow(dead_code)]
+
+use synth::{Preset, Subject, SynthConfig, Trial};
+
+/// The trial named by `SUBJECT PRESET SEED [FRAMES]` (defaults: human, hard, 1, `frames`).
+pub fn trial_from_args(args: &[String], frames: usize) -> Trial {
+    let subject: Subject = args
+        .first()
+        .and_then(|s| s.parse().ok())
+        .unwrap_or(Subject::Human);
+    let preset: Preset = args
+        .get(1)
+        .and_then(|s| s.parse().ok())
+        .unwrap_or(Preset::Hard);
+    let seed: u64 = args.get(2).and_then(|s| s.parse().ok()).unwrap_or(1);
+    let frames: usize = args.get(3).and_then(|s| s.parse().ok()).unwrap_or(frames);
+    synth::generate(&SynthConfig {
+        subject,
+        preset,
+        frames,
+        seed,
+        ..SynthConfig::default()
+    })
+    .expect("synthetic trial")
+}
+
+/// `segment::Params` from `key=value` words (values parsed as JSON, else strings).
+pub fn params_from_overrides<'a>(words: impl IntoIterator<Item = &'a String>) -> segment::Params {
+    let overrides: serde_json::Map<String, serde_json::Value> = words
+        .into_iter()
+        .filter_map(|kv| kv.split_once('='))
+        .map(|(k, v)| {
+            (
+                k.to_string(),
+                serde_json::from_str(v).unwrap_or(serde_json::Value::String(v.to_string())),
+            )
+        })
+        .collect();
+    serde_json::from_value(serde_json::Value::Object(overrides)).expect("segment params")
+}
