@@ -256,13 +256,7 @@ fn inline_leaf_arrays(pretty: &str) -> String {
     for c in pretty.chars() {
         if in_string {
             out.push(c);
-            if escaped {
-                escaped = false;
-            } else if c == '\\' {
-                escaped = true;
-            } else if c == '"' {
-                in_string = false;
-            }
+            in_string = still_in_string(c, &mut escaped);
             continue;
         }
         match c {
@@ -290,6 +284,20 @@ fn inline_leaf_arrays(pretty: &str) -> String {
     out
 }
 
+/// After character `c` inside a JSON string: whether the string goes on (`escaped`
+/// carries a pending backslash between calls).
+fn still_in_string(c: char, escaped: &mut bool) -> bool {
+    if *escaped {
+        *escaped = false;
+        true
+    } else if c == '\\' {
+        *escaped = true;
+        true
+    } else {
+        c != '"'
+    }
+}
+
 /// Removes whitespace outside strings and puts one space after each comma.
 fn compact(text: &str) -> String {
     let mut out = String::with_capacity(text.len());
@@ -298,13 +306,7 @@ fn compact(text: &str) -> String {
     for c in text.chars() {
         if in_string {
             out.push(c);
-            if escaped {
-                escaped = false;
-            } else if c == '\\' {
-                escaped = true;
-            } else if c == '"' {
-                in_string = false;
-            }
+            in_string = still_in_string(c, &mut escaped);
             continue;
         }
         match c {
