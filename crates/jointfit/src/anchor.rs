@@ -4,13 +4,19 @@
 //! A segment S without its own poses (1 or 2 markers, or collinear markers) is anchored to
 //! the posed segment N whose frame sees S's markers move most like points at constant
 //! distances from one common centre: in N's local frame every marker m of S satisfies
-//! `|q − c|² = r_m²`, i.e. `|q|² = 2 c·q + k_m` with one `k_m` per marker, linear in `c`.
-//! A hinge leaves the component of `c` along its axis undetermined: when dropping that
-//! direction does not raise the radial residual, `c` is put on the axis nearest the
-//! midpoint of N's origin and S's markers (any point on the axis is fixed in both
-//! segments, so the resulting pose does not depend on where). The cost is the RMS of the
-//! radial residual `|q − c| − r_m` (mm); pairs with too few samples, too little angular
-//! excursion about `c` (no identifiable joint) or too large a residual are not candidates.
+//! `|q − c|² = r_m²`, i.e. `|q|² = 2 c·q + k_m` with one `k_m` per marker, linear in `c`;
+//! that algebraic fit starts a geometric one (Gauss–Newton on `|q − c| − r_m`), because the
+//! algebraic fit shortens radii on short arcs. A hinge leaves the component of `c` along
+//! its axis undetermined. The axis is the markers' least-spread direction — but not the
+//! radial one: a ball joint swinging a limb through a modest arc (a hip in a walk) moves
+//! the markers least along the limb, and sliding the centre there changes the bone length
+//! (CMU 02_01 femurs were 24–28 % short that way). When sliding along the axis does not
+//! raise the radial residual, `c` is put on the axis nearest the midpoint of N's origin and
+//! S's markers (any point on a true axis is fixed in both segments, so the resulting pose
+//! does not depend on where). The cost is the RMS of the radial residual (mm); pairs with
+//! too few samples, too little angular excursion about `c` (no identifiable joint) or too
+//! large a residual are not candidates. Optionally (`Params::anchor_line_prior`) a
+//! two-marker S's line adds a first-order cue for the centre's coordinate along the limb.
 //! Greedily, the cheapest (S, N) over all unposed S and posed N is taken, S becomes posed,
 //! and the search repeats until no candidate is left.
 //!
@@ -31,7 +37,7 @@
 // Index loops read like the matrix formulas they implement.
 #![allow(clippy::needless_range_loop)]
 
-use glam::{DQuat, DVec3};
+use glam::{DMat3, DQuat, DVec3};
 use mocap_io::Trajectories;
 
 use crate::pairfits::SegmentPoses;
@@ -287,18 +293,6 @@ pub(crate) fn centre_fit(
     if values[0].is_nan() || values[0] <= 0.0 {
         return None;
     }
-    let solve = |keep: usize, target: DVec3| {
-        let mut c = DVec3::ZERO;
-        for k in 0..3 {
-            let v = DVec3::from_array(vectors[k]);
-            if k < keep && values[k] > 1e-12 * values[0] {
-                c += v * (v.dot(b) / values[k]);
-            } else {
-                c += v * v.dot(target - origin);
-            }
-        }
-        c + origin
-    };
     // Placement target for an undetermined direction: midway between N's origin and S's
     // markers' mean position in N's frame.
     let markers_mean = means
@@ -309,13 +303,60 @@ pub(crate) fn centre_fit(
         .sum::<DVec3>()
         / used.iter().filter(|u| **u).count() as f64;
     let target = 0.5 * markers_mean;
-    let full = solve(3, target);
-    let planar = solve(2, target);
+    let mut full = origin;
+    for k in 0..3 {
+        let v = DVec3::from_array(vectors[k]);
+        if values[k] > 1e-12 * values[0] {
+            full += v * (v.dot(b) / values[k]);
+        } else {
+            full += v * v.dot(target - origin);
+        }
+    }
+    // The algebraic fit shortens radii on short arcs; the geometric one is the estimate.
+    let sphere = geometric_centre(&clouds, &used, full, &[], None);
+    let (rms_sphere, _) = radial(&clouds, &used, sphere);
+    // Along the limb (centre → markers) distances fix the centre only to second order in
+    // the swing angle (an arc's curvature): with noise that coordinate drifts (on a real
+    // walk, hips 60 mm too far from the knee). With two markers the point of their line
+    // that moves least fixes it to first order; it is combined with the distances as a
+    // prior whose variance is its own noise plus its bias when the centre is off the line.
+    let line = params
+        .anchor_line_prior
+        .then(|| MarkerLine::new(traj, markers, track))
+        .flatten();
+    let noise = rms_sphere.max(1e-3);
+    // Skin artefact is smooth, so neighbouring frames' residuals are not independent
+    // evidence: the distances' weight is their effective sample count.
+    let effective = effective_fraction(&clouds, &used, sphere);
+    let prior = |c: DVec3, across: Option<DVec3>| {
+        let line = line.as_ref()?;
+        let mut dir = line.dir;
+        if let Some(axis) = across {
+            dir = (dir - axis * axis.dot(dir)).try_normalize()?;
+        }
+        let bias = line.bias_bound(c);
+        let variance = bias * bias + noise * noise / (line.turn_var * line.count() * effective);
+        Some(Prior {
+            dir,
+            value: dir.dot(line.foot),
+            weight: noise * noise / (variance * effective),
+        })
+    };
+    let full = geometric_centre(&clouds, &used, sphere, &[], prior(sphere, None));
+    let radial_dir = line
+        .as_ref()
+        .map(|l| l.dir)
+        .or_else(|| (markers_mean - full).try_normalize());
+    let planar = hinge_axis(&clouds, &used, &means, radial_dir).map(|axis| {
+        let on_axis = full + axis * axis.dot(target - full);
+        geometric_centre(&clouds, &used, on_axis, &[axis], prior(on_axis, Some(axis)))
+    });
     let (rms_full, _) = radial(&clouds, &used, full);
-    let (rms_planar, _) = radial(&clouds, &used, planar);
-    // The dropped direction bought nothing: it is a hinge axis (or near it).
-    let hinge = rms_planar <= 1.05 * rms_full + 1e-3;
-    let centre = if hinge { planar } else { full };
+    // Sliding along the axis bought nothing: it is a hinge axis (or near it).
+    let (centre, hinge) = match planar {
+        Some(p) if radial(&clouds, &used, p).0 <= 1.05 * rms_full + 1e-3 => (p, true),
+        _ => (full, false),
+    };
     let (rms_mm, radii) = radial(&clouds, &used, centre);
     let excursion_deg = clouds
         .iter()
@@ -342,6 +383,259 @@ pub(crate) fn centre_fit(
         hinge,
         radii,
     })
+}
+
+/// The direction a hinge would turn S's markers about, in N's frame, or `None` when no
+/// direction qualifies. A hinge keeps each marker in a plane ⟂ its axis, so the axis is
+/// the least-spread direction of the markers' displacements about their own means —
+/// unless that direction is the radial one (from the centre to the markers): a ball joint
+/// swinging a limb through a modest arc moves it least along the limb (the arc's sagitta),
+/// and sliding the centre along the limb is a change of bone length, not a free choice.
+/// Then the axis is the least-spread direction across the limb (the swing's minor axis).
+fn hinge_axis(
+    clouds: &[Vec<DVec3>],
+    used: &[bool],
+    means: &[DVec3],
+    radial_dir: Option<DVec3>,
+) -> Option<DVec3> {
+    let mut scatter = [[0.0f64; 3]; 3];
+    for ((cloud, &u), mean) in clouds.iter().zip(used).zip(means) {
+        if !u {
+            continue;
+        }
+        for q in cloud {
+            let d = (*q - *mean).to_array();
+            for i in 0..3 {
+                for j in 0..3 {
+                    scatter[i][j] += d[i] * d[j];
+                }
+            }
+        }
+    }
+    let (_, vectors) = sym_eigen(scatter);
+    let normal = DVec3::from_array(vectors[2]).try_normalize()?;
+    let Some(radial_dir) = radial_dir else {
+        return Some(normal);
+    };
+    // 60° from the radial direction: beyond that the plane normal is not a swing axis.
+    if normal.dot(radial_dir).abs() < 0.5 {
+        return Some(normal);
+    }
+    let e1 = radial_dir.any_orthonormal_vector();
+    let e2 = radial_dir.cross(e1);
+    let m = DMat3::from_cols_array_2d(&scatter);
+    let across = [
+        [e1.dot(m * e1), e1.dot(m * e2)],
+        [e2.dot(m * e1), e2.dot(m * e2)],
+    ];
+    let (_, v2) = sym_eigen(across);
+    (e1 * v2[1][0] + e2 * v2[1][1]).try_normalize()
+}
+
+/// A two-marker S's line seen from N: per frame the markers' midpoint and unit direction.
+struct MarkerLine {
+    samples: Vec<(DVec3, DVec3)>,
+    dir_mean: DVec3,
+    /// Unit mean direction.
+    dir: DVec3,
+    /// The point of the line that moves least, mean position (N-local, mm).
+    foot: DVec3,
+    /// Mean squared change of the direction, `Σ|d − d̄|² / n` (radians², small angles).
+    turn_var: f64,
+}
+
+impl MarkerLine {
+    /// `None` unless S has exactly two markers and the line turns (≳ 1° RMS) in N's frame.
+    /// A point fixed in both segments projects onto S's line at a constant distance along
+    /// it, and that projection is where the line's points move least (exactly when the
+    /// point is on the line, to first order in the swing otherwise).
+    fn new(traj: &Trajectories, markers: &[usize], track: &[Option<Pose>]) -> Option<Self> {
+        let &[m1, m2] = markers else { return None };
+        let samples: Vec<(DVec3, DVec3)> = track
+            .iter()
+            .enumerate()
+            .filter_map(|(f, pose)| {
+                let pose = pose.as_ref()?;
+                let p1 = pose.inverse_apply(DVec3::from_array(traj.get(f, m1)?));
+                let p2 = pose.inverse_apply(DVec3::from_array(traj.get(f, m2)?));
+                Some((0.5 * (p1 + p2), (p2 - p1).try_normalize()?))
+            })
+            .collect();
+        if samples.len() < 3 {
+            return None;
+        }
+        let n = samples.len() as f64;
+        let mid_mean = samples.iter().map(|(a, _)| *a).sum::<DVec3>() / n;
+        let dir_mean = samples.iter().map(|(_, d)| *d).sum::<DVec3>() / n;
+        let (mut cov, mut var) = (0.0, 0.0);
+        for (a, d) in &samples {
+            cov += (*a - mid_mean).dot(*d - dir_mean);
+            var += (*d - dir_mean).length_squared();
+        }
+        if var / n < 3e-4 {
+            return None;
+        }
+        let along = -cov / var;
+        Some(Self {
+            dir_mean,
+            dir: dir_mean.try_normalize()?,
+            foot: mid_mean + along * dir_mean,
+            turn_var: var / n,
+            samples,
+        })
+    }
+
+    /// Samples (frames) on the line.
+    fn count(&self) -> f64 {
+        self.samples.len() as f64
+    }
+
+    /// A bound (mm) on how far the least-moving point sits along the line from the
+    /// projection of a centre `c` fixed in both segments. That offset is
+    /// `h Cov(d, n) / Var(d)` (`h` the centre's distance from the line, `n` the unit
+    /// direction to it); it vanishes when the line swings in one plane (a hinge) and is at
+    /// most about `h` for an even two-way swing, so `h` × (minor / major variance of the
+    /// direction's swing) bounds it.
+    fn bias_bound(&self, c: DVec3) -> f64 {
+        let n = self.count();
+        let h = self
+            .samples
+            .iter()
+            .map(|(a, d)| {
+                let v = c - *a;
+                (v - *d * d.dot(v)).length()
+            })
+            .sum::<f64>()
+            / n;
+        let mut scatter = [[0.0f64; 3]; 3];
+        for (_, d) in &self.samples {
+            let e = (*d - self.dir_mean).to_array();
+            for i in 0..3 {
+                for j in 0..3 {
+                    scatter[i][j] += e[i] * e[j];
+                }
+            }
+        }
+        let (values, _) = sym_eigen(scatter);
+        if values[0] <= 0.0 {
+            return h;
+        }
+        h * (values[1].max(0.0) / values[0])
+    }
+}
+
+/// `n_eff / n` of the radial residuals about `c`, from their lag-1 autocorrelation ρ:
+/// `(1 − ρ) / (1 + ρ)`, clamped to [1e-3, 1].
+fn effective_fraction(clouds: &[Vec<DVec3>], used: &[bool], c: DVec3) -> f64 {
+    let (mut lag, mut sq) = (0.0, 0.0);
+    for (cloud, &u) in clouds.iter().zip(used) {
+        if !u || cloud.is_empty() {
+            continue;
+        }
+        let r = cloud.iter().map(|q| (*q - c).length()).sum::<f64>() / cloud.len() as f64;
+        let e: Vec<f64> = cloud.iter().map(|q| (*q - c).length() - r).collect();
+        sq += e.iter().map(|x| x * x).sum::<f64>();
+        lag += e.windows(2).map(|w| w[0] * w[1]).sum::<f64>();
+    }
+    if sq <= 0.0 {
+        return 1.0;
+    }
+    let rho = (lag / sq).clamp(0.0, 0.999);
+    ((1.0 - rho) / (1.0 + rho)).clamp(1e-3, 1.0)
+}
+
+/// A soft constraint `weight · (dir · c − value)²` added to the squared radial residuals.
+#[derive(Clone, Copy)]
+struct Prior {
+    dir: DVec3,
+    value: f64,
+    weight: f64,
+}
+
+/// Gauss–Newton on the geometric radial residual `|q − c| − r_m` (each `r_m` at its
+/// optimum, the mean distance, eliminated), from `start`; `c` does not move along the
+/// orthonormal directions `fixed`; `prior` adds a soft constraint on one coordinate.
+/// Keeps `start` if no step lowers the objective.
+fn geometric_centre(
+    clouds: &[Vec<DVec3>],
+    used: &[bool],
+    start: DVec3,
+    fixed: &[DVec3],
+    prior: Option<Prior>,
+) -> DVec3 {
+    let count = clouds
+        .iter()
+        .zip(used)
+        .filter(|(_, u)| **u)
+        .map(|(c, _)| c.len())
+        .sum::<usize>()
+        .max(1) as f64;
+    let objective = |c: DVec3| {
+        let rms = radial(clouds, used, c).0;
+        let pen = prior.map_or(0.0, |p| p.weight * (p.dir.dot(c) - p.value).powi(2));
+        rms * rms * count + pen
+    };
+    let mut c = start;
+    let mut best = objective(c);
+    for _ in 0..20 {
+        let mut jtj = DMat3::ZERO;
+        let mut jte = DVec3::ZERO;
+        for (cloud, &u) in clouds.iter().zip(used) {
+            if !u || cloud.is_empty() {
+                continue;
+            }
+            let len = cloud.len() as f64;
+            let (mut r, mut mean_dir) = (0.0, DVec3::ZERO);
+            for q in cloud {
+                let d = *q - c;
+                r += d.length();
+                mean_dir += d.normalize_or_zero();
+            }
+            r /= len;
+            mean_dir /= len;
+            for q in cloud {
+                let d = *q - c;
+                // ∂(|q − c| − mean_m |q − c|)/∂c, variable projection of r_m.
+                let mut j = mean_dir - d.normalize_or_zero();
+                for axis in fixed {
+                    j -= *axis * axis.dot(j);
+                }
+                jtj += DMat3::from_cols(j * j.x, j * j.y, j * j.z);
+                jte += j * (d.length() - r);
+            }
+        }
+        if let Some(p) = prior {
+            let mut j = p.dir;
+            for axis in fixed {
+                j -= *axis * axis.dot(j);
+            }
+            jtj += DMat3::from_cols(j * j.x, j * j.y, j * j.z) * p.weight;
+            jte += j * (p.weight * (p.dir.dot(c) - p.value));
+        }
+        for axis in fixed {
+            // A fixed direction has no data; keep the system solvable without moving along it.
+            jtj += DMat3::from_cols(*axis * axis.x, *axis * axis.y, *axis * axis.z);
+        }
+        if jtj.determinant().abs() < 1e-300 {
+            break;
+        }
+        let step = -(jtj.inverse() * jte);
+        if !step.is_finite() {
+            break;
+        }
+        let next = c + step;
+        let next_value = objective(next);
+        if next_value.partial_cmp(&best) != Some(std::cmp::Ordering::Less) {
+            break;
+        }
+        let small = step.length() < 1e-6;
+        c = next;
+        best = next_value;
+        if small {
+            break;
+        }
+    }
+    c
 }
 
 /// RMS radial residual about `c` and every marker's (mean radius, mean unit direction).
