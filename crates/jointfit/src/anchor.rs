@@ -15,7 +15,7 @@
 //! S's markers (any point on a true axis is fixed in both segments, so the resulting pose
 //! does not depend on where). The cost is the RMS of the radial residual (mm); pairs with
 //! too few samples, too little angular excursion about `c` (no identifiable joint) or too
-//! large a residual are not candidates. Optionally (`Params::anchor_line_prior`) a
+//! large a residual are not candidates. For a ball joint (`Params::anchor_line_prior`) a
 //! two-marker S's line adds a first-order cue for the centre's coordinate along the limb.
 //! Greedily, the cheapest (S, N) over all unposed S and posed N is taken, S becomes posed,
 //! and the search repeats until no candidate is left.
@@ -317,9 +317,10 @@ pub(crate) fn centre_fit(
     let (rms_sphere, _) = radial(&clouds, &used, sphere);
     // Along the limb (centre → markers) distances fix the centre only to second order in
     // the swing angle (an arc's curvature): with noise that coordinate drifts (on a real
-    // walk, hips 60 mm too far from the knee). With two markers the point of their line
-    // that moves least fixes it to first order; it is combined with the distances as a
-    // prior whose variance is its own noise plus its bias when the centre is off the line.
+    // walk, hips 60 mm too far from the knee). With two markers, the point nearest all
+    // their lines fixes it to first order (and ignores markers sliding along the limb); it
+    // is combined with the distances as a prior whose variance is its own noise plus a
+    // bound on its bias when the centre is off the line.
     let line = params
         .anchor_line_prior
         .then(|| MarkerLine::new(traj, markers, track))
@@ -328,34 +329,29 @@ pub(crate) fn centre_fit(
     // Skin artefact is smooth, so neighbouring frames' residuals are not independent
     // evidence: the distances' weight is their effective sample count.
     let effective = effective_fraction(&clouds, &used, sphere);
-    let prior = |c: DVec3, across: Option<DVec3>| {
+    let prior = || {
         let line = line.as_ref()?;
-        let mut dir = line.dir;
-        if let Some(axis) = across {
-            dir = (dir - axis * axis.dot(dir)).try_normalize()?;
-        }
-        let bias = line.bias_bound(c);
+        let bias = line.bias_bound();
         let variance = bias * bias + noise * noise / (line.turn_var * line.count() * effective);
         Some(Prior {
-            dir,
-            value: dir.dot(line.foot),
+            dir: line.dir,
+            value: line.dir.dot(line.foot),
             weight: noise * noise / (variance * effective),
         })
     };
-    let full = geometric_centre(&clouds, &used, sphere, &[], prior(sphere, None));
-    let radial_dir = line
-        .as_ref()
-        .map(|l| l.dir)
-        .or_else(|| (markers_mean - full).try_normalize());
+    let radial_dir = (markers_mean - sphere).try_normalize();
     let planar = hinge_axis(&clouds, &used, &means, radial_dir).map(|axis| {
-        let on_axis = full + axis * axis.dot(target - full);
-        geometric_centre(&clouds, &used, on_axis, &[axis], prior(on_axis, Some(axis)))
+        let on_axis = sphere + axis * axis.dot(target - sphere);
+        geometric_centre(&clouds, &used, on_axis, &[axis], None)
     });
-    let (rms_full, _) = radial(&clouds, &used, full);
-    // Sliding along the axis bought nothing: it is a hinge axis (or near it).
+    // Sliding along the axis bought nothing: it is a hinge axis (or near it). Otherwise
+    // the prior applies to the full centre (on a true axis it would only slide it along).
     let (centre, hinge) = match planar {
-        Some(p) if radial(&clouds, &used, p).0 <= 1.05 * rms_full + 1e-3 => (p, true),
-        _ => (full, false),
+        Some(p) if radial(&clouds, &used, p).0 <= 1.05 * rms_sphere + 1e-3 => (p, true),
+        _ => (
+            geometric_centre(&clouds, &used, sphere, &[], prior()),
+            false,
+        ),
     };
     let (rms_mm, radii) = radial(&clouds, &used, centre);
     let excursion_deg = clouds
@@ -438,7 +434,7 @@ struct MarkerLine {
     dir_mean: DVec3,
     /// Unit mean direction.
     dir: DVec3,
-    /// The point of the line that moves least, mean position (N-local, mm).
+    /// The point nearest every frame's line, least squares (N-local, mm).
     foot: DVec3,
     /// Mean squared change of the direction, `Σ|d − d̄|² / n` (radians², small angles).
     turn_var: f64,
@@ -446,9 +442,9 @@ struct MarkerLine {
 
 impl MarkerLine {
     /// `None` unless S has exactly two markers and the line turns (≳ 1° RMS) in N's frame.
-    /// A point fixed in both segments projects onto S's line at a constant distance along
-    /// it, and that projection is where the line's points move least (exactly when the
-    /// point is on the line, to first order in the swing otherwise).
+    /// A centre fixed in both segments on (or near) S's line is where (or near where) all
+    /// the frames' lines meet; that point is found to first order in the swing, where the
+    /// markers' distances find the centre's coordinate along the limb only to second.
     fn new(traj: &Trajectories, markers: &[usize], track: &[Option<Pose>]) -> Option<Self> {
         let &[m1, m2] = markers else { return None };
         let samples: Vec<(DVec3, DVec3)> = track
@@ -465,21 +461,24 @@ impl MarkerLine {
             return None;
         }
         let n = samples.len() as f64;
-        let mid_mean = samples.iter().map(|(a, _)| *a).sum::<DVec3>() / n;
         let dir_mean = samples.iter().map(|(_, d)| *d).sum::<DVec3>() / n;
-        let (mut cov, mut var) = (0.0, 0.0);
+        let (mut normal, mut rhs, mut var) = (DMat3::ZERO, DVec3::ZERO, 0.0);
         for (a, d) in &samples {
-            cov += (*a - mid_mean).dot(*d - dir_mean);
+            // Projector across the line: the point nearest every line does not care where
+            // along its line a marker sits (skin slides markers along a limb).
+            let across = DMat3::IDENTITY - DMat3::from_cols(*d * d.x, *d * d.y, *d * d.z);
+            normal += across;
+            rhs += across * *a;
             var += (*d - dir_mean).length_squared();
         }
-        if var / n < 3e-4 {
+        if var / n < 3e-4 || normal.determinant().abs() < 1e-12 {
             return None;
         }
-        let along = -cov / var;
+        let foot = normal.inverse() * rhs;
         Some(Self {
             dir_mean,
             dir: dir_mean.try_normalize()?,
-            foot: mid_mean + along * dir_mean,
+            foot,
             turn_var: var / n,
             samples,
         })
@@ -490,23 +489,24 @@ impl MarkerLine {
         self.samples.len() as f64
     }
 
-    /// A bound (mm) on how far the least-moving point sits along the line from the
-    /// projection of a centre `c` fixed in both segments. That offset is
-    /// `h Cov(d, n) / Var(d)` (`h` the centre's distance from the line, `n` the unit
-    /// direction to it); it vanishes when the line swings in one plane (a hinge) and is at
-    /// most about `h` for an even two-way swing, so `h` × (minor / major variance of the
-    /// direction's swing) bounds it.
-    fn bias_bound(&self, c: DVec3) -> f64 {
+    /// A bound (mm) on how far `foot` sits along the line from the projection of the
+    /// centre. Lines that pass through the centre meet there exactly; lines at distance
+    /// `h` from it meet off it by up to about `h` when the limb swings evenly both ways,
+    /// and not at all along the line when it swings in one plane (a hinge), so
+    /// `h` × (minor / major variance of the line's swing) bounds it. `h` is the RMS
+    /// distance of `foot` from the lines, which does not depend on any sphere fit.
+    fn bias_bound(&self) -> f64 {
         let n = self.count();
-        let h = self
+        let h = (self
             .samples
             .iter()
             .map(|(a, d)| {
-                let v = c - *a;
-                (v - *d * d.dot(v)).length()
+                let v = self.foot - *a;
+                (v - *d * d.dot(v)).length_squared()
             })
             .sum::<f64>()
-            / n;
+            / n)
+            .sqrt();
         let mut scatter = [[0.0f64; 3]; 3];
         for (_, d) in &self.samples {
             let e = (*d - self.dir_mean).to_array();

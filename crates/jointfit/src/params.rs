@@ -160,14 +160,15 @@ pub const PARAM_DOCS: &[(&str, &str)] = &[
     ),
     (
         "anchor_line_prior",
-        "anchoring of a 2-marker segment: besides the markers' constant distances to the \
-         centre (which fix the centre along the limb only through the arc's curvature), use \
-         the point of the marker line that moves least in the neighbour's frame, as a prior \
-         weighted by its noise, a bound on its bias (the swing's minor/major variance × the \
-         centre's distance from the line) and the residuals' effective sample count (CMU \
-         02_01 femurs 385/383 -> 413/423 mm, Vicon 429/428; synthetic hard 2-3-marker trials \
-         mixed: human 26.2 -> 26.1 mm, quadruped 73.6 -> 73.8, hexapod 23.4 -> 23.8, and one \
-         clean quadruped loses its anchoring chain); bool; default false",
+        "anchoring of a 2-marker segment through a ball joint: besides the markers' constant \
+         distances to the centre (which fix the centre along the limb only through the arc's \
+         curvature), use the point nearest all the marker lines (first order, blind to markers \
+         sliding along the limb) as a prior weighted by its noise, a bias bound (its distance \
+         from the lines x the swing's minor/major variance) and the residuals' effective \
+         sample count. CMU 02_01: femurs 385/383 -> 449/425 mm (Vicon 429/428), tibias \
+         431/425 -> 393/419 (Vicon 411/407), all four within 5 %; but synthetic hard trials \
+         with 2-3 markers per segment get worse (synth_eval 404: robot arm 45 -> 99 mm, \
+         random 40 -> 53), so it is off; bool; default false",
     ),
     (
         "hinge_slide_max_rise",
