@@ -110,6 +110,28 @@ fn main() {
             );
         }
     }
+    // Each marker whose found segment mixes truths: its fit scatter in its found segment and
+    // in its true segment's markers (both posed without it).
+    for s in &seg.segments {
+        let mut parts: Vec<usize> = s.markers.iter().map(|&m| truth[m]).collect();
+        parts.sort_unstable();
+        parts.dedup();
+        if parts.len() < 2 {
+            continue;
+        }
+        for &m in &s.markers {
+            let own: Vec<usize> = (0..n).filter(|&x| truth[x] == truth[m]).collect();
+            let fmt = |v: Option<f64>| v.map_or("-".to_string(), |x| format!("{x:.2}"));
+            println!(
+                "  marker {m} ({}) truth {} in found {}: σ found {} σ truth {}",
+                labels[m],
+                truth[m],
+                s.id,
+                fmt(segment::marker_fit_sigma(traj, &s.markers, m)),
+                fmt(segment::marker_fit_sigma(traj, &own, m)),
+            );
+        }
+    }
     let slides: Vec<usize> = (0..n).filter(|&m| seg.markers[m].slides).collect();
     println!("sliding markers: {slides:?}");
 }

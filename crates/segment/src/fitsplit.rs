@@ -39,7 +39,7 @@ impl FitResidual {
 /// Median distance of every pair of `cluster` over the frames where both are seen, mm,
 /// row-major `n × n` (NaN when never seen together). The median, not the mean, so a label
 /// swap for a minority of the frames does not bend the reference shape.
-fn median_distances(traj: &Trajectories, cluster: &[usize]) -> Vec<f64> {
+pub(crate) fn median_distances(traj: &Trajectories, cluster: &[usize]) -> Vec<f64> {
     let n = cluster.len();
     let markers = traj.markers().max(1);
     let mut out = vec![0.0; n * n];
@@ -67,7 +67,7 @@ fn median_distances(traj: &Trajectories, cluster: &[usize]) -> Vec<f64> {
 }
 
 /// Median of `v` (reordered), NaN when empty.
-fn median(v: &mut [f64]) -> f64 {
+pub(crate) fn median(v: &mut [f64]) -> f64 {
     if v.is_empty() {
         return f64::NAN;
     }
@@ -85,7 +85,7 @@ fn median(v: &mut [f64]) -> f64 {
 /// Reference shape (segment-local, mm) of the markers at positions `group` of a cluster with
 /// pair distances `dist` (row-major `n × n`) by classical multidimensional scaling; `None`
 /// when some pair was never seen together.
-fn reference_shape(dist: &[f64], n: usize, group: &[usize]) -> Option<Vec<[f64; 3]>> {
+pub(crate) fn reference_shape(dist: &[f64], n: usize, group: &[usize]) -> Option<Vec<[f64; 3]>> {
     let k = group.len();
     let mut d2 = vec![0.0; k * k];
     for (a, &i) in group.iter().enumerate() {
@@ -257,10 +257,10 @@ fn robust_sigma(frames: impl Iterator<Item = FitResidual>) -> f64 {
 }
 
 /// Quantile of the per-frame residual variances that stands for a fit's σ.
-const QUANTILE: f64 = 0.75;
+pub(crate) const QUANTILE: f64 = 0.75;
 
 /// The `q` quantile (nearest rank) of `v` (reordered), NaN when empty.
-fn quantile(v: &mut [f64], q: f64) -> f64 {
+pub(crate) fn quantile(v: &mut [f64], q: f64) -> f64 {
     if v.is_empty() {
         return f64::NAN;
     }

@@ -18,6 +18,9 @@
 //! per frame and as the best two; it splits when one body explains it clearly worse (ρ sees
 //! a joint's rotation to second order near a straight limb, a fit to first order), and a
 //! split piece rejoins a cluster it fits with like an ordinary segment (`fit_split_*`).
+//! Then each marker of a cluster of ≥ 4 is weighed in its own body posed without it against
+//! the other bodies of ≥ 3 (its trajectory's scatter in each body's frame, less the pose's
+//! own error) and moves where it is held clearly stiller (`reassign_ratio`).
 //! Or agglomeration alone (`method = "linkage"`) or rigid cliques (`method = "cliques"`).
 //!
 //! It does not estimate poses, joints or topology (jointfit, topo) and does no I/O.
@@ -31,6 +34,7 @@ mod kmeans;
 mod linkage;
 mod pairstats;
 mod params;
+mod reassign;
 mod rigidity;
 mod segmentation;
 mod spectral;
@@ -165,6 +169,16 @@ pub fn run(traj: &Trajectories, params: &Params) -> Result<Segmentation, Error> 
         );
         rigidity::normalise(&mut clusters);
     }
+    if params.reassign_ratio > 0.0 {
+        reassign::reassign(
+            traj,
+            &mut clusters,
+            params.reassign_ratio,
+            params.tolerance_min_mm,
+            min_overlap,
+        );
+        rigidity::normalise(&mut clusters);
+    }
     if params.pair_orphans {
         rigidity::pair_orphans(&mut clusters, &stats, tolerance_mm, min_overlap);
         rigidity::normalise(&mut clusters);
@@ -215,6 +229,13 @@ pub fn run(traj: &Trajectories, params: &Params) -> Result<Segmentation, Error> 
 /// fit split (`fit_split_ratio`).
 pub fn fit_split_sigmas(traj: &Trajectories, markers: &[usize]) -> Option<(f64, f64)> {
     fitsplit::split_sigmas(traj, markers)
+}
+
+/// Scatter of marker `marker` in the rigid body of `group` posed per frame without it, mm
+/// per coordinate (the reassignment's measure, `reassign_ratio`); `None` with fewer than 3
+/// other markers. A diagnostic.
+pub fn marker_fit_sigma(traj: &Trajectories, group: &[usize], marker: usize) -> Option<f64> {
+    reassign::sigma_in(traj, group, marker)
 }
 
 /// Agglomerative groups of `members` (marker indices, a subset of `nodes`): complete or

@@ -103,6 +103,8 @@ pub struct Params {
     pub fit_split_ratio: f64,
     /// ... and exceeds this × the median fit σ of the clusters of ≥ 3 markers.
     pub fit_split_floor: f64,
+    /// A marker moves to another cluster of ≥ 3 when that body holds it this many times stiller than its own does; 0 = off.
+    pub reassign_ratio: f64,
 }
 
 impl Default for Params {
@@ -137,6 +139,7 @@ impl Default for Params {
             singleton_steady_factor: 1.0,
             fit_split_ratio: 2.0,
             fit_split_floor: 2.0,
+            reassign_ratio: 2.0,
         }
     }
 }
@@ -253,6 +256,10 @@ pub const PARAM_DOCS: &[(&str, &str)] = &[
         "fit_split_floor",
         "fit split: the cluster's fit σ must also exceed this × the typical segment's (the median fit σ of the clusters of ≥ 3 markers: skin artefact sets it, not the noise), and tolerance_min_mm; a split piece rejoins a cluster whose union with it stays within this floor and within fit_split_ratio × the two bodies' pooled σ; default 2.0",
     ),
+    (
+        "reassign_ratio",
+        "after the fit split, every cluster of ≥ 3 markers is posed per frame (Horn) and each marker's trajectory is expressed in each body's frame; its scatter there (per coordinate, 75th-percentile frame) is skin and noise on its own body but lever arm × angle on a neighbour's, first order in the joint angle. A marker moves when another body holds it this many times stiller than its own body posed without it, and its own scatter exceeds tolerance_min_mm; the donor keeps ≥ 2 markers; 0 = off; default 2.0",
+    ),
 ];
 
 impl Params {
@@ -324,6 +331,7 @@ impl Params {
         non_negative("singleton_steady_factor", self.singleton_steady_factor)?;
         non_negative("fit_split_ratio", self.fit_split_ratio)?;
         non_negative("fit_split_floor", self.fit_split_floor)?;
+        non_negative("reassign_ratio", self.reassign_ratio)?;
         Ok(())
     }
 }

@@ -1,0 +1,510 @@
+//! Marker reassignment by rigid fit: each marker goes to the body whose motion explains its
+//! trajectory clearly best.
+//!
+//! Why: ρ compares two markers at a time, and a joint with little motion changes a
+//! cross-joint distance by no more than skin artefact changes a same-segment one, so a
+//! single marker near a joint (a paw marker, a hand marker) can sit on the wrong side of it
+//! after clustering; the fit split cannot move it (its parts have ≥ 2 markers). Here every
+//! cluster of ≥ 3 markers is posed in every frame (Horn's quaternion method against its
+//! reference shape), and a marker's trajectory is expressed in each body's frame: on its
+//! own body it stays put up to skin and noise; on a neighbour it swings about the joint by
+//! lever arm × angle, first order in the angle. A marker moves when another body holds it
+//! still `ratio` times better than its own body does without it (leave-one-out).
+
+use mocap_io::Trajectories;
+use rayon::prelude::*;
+
+use crate::fitsplit::{QUANTILE, median, median_distances, quantile, reference_shape};
+
+/// Most reassignment sweeps (pose every body, then move); moves only ever follow a clear
+/// improvement, so a few do.
+const MAX_SWEEPS: usize = 4;
+
+/// At most this many frames, evenly strided, are used to pose bodies: motion is smooth at
+/// capture rates, so a stride keeps the statistics and bounds the time on long captures.
+const MAX_FRAMES: usize = 1500;
+
+/// A body's pose in one frame: position ≈ r · (shape point) + t, mm.
+#[derive(Clone, Copy, Debug)]
+pub(crate) struct Pose {
+    /// Rotation, row-major.
+    pub r: [[f64; 3]; 3],
+    /// Translation, mm.
+    pub t: [f64; 3],
+}
+
+/// A cluster posed as one rigid body: its reference shape (segment-local, mm; the
+/// handedness that fits) and its pose per strided frame (`None` with < 3 visible markers).
+struct Body {
+    shape: Vec<[f64; 3]>,
+    poses: Vec<Option<Pose>>,
+    /// Residual variance of the fit per coordinate (sum of squares over dof), mm².
+    var: f64,
+}
+
+/// How much a pose fitted to `shape` (≥ 3 points, mm) misplaces a point at `x` (same frame),
+/// per unit of the markers' residual variance: the leverage 1/k + mean over axes of
+/// [r]× J⁻¹ [r]×ᵀ (r = x − centroid, J the points' inertia tensor), the variance of the
+/// predicted position over the marker noise (linearised least squares). Infinite when the
+/// points are collinear (the rotation about their line is not determined).
+fn leverage(shape: &[[f64; 3]], x: [f64; 3]) -> f64 {
+    let k = shape.len() as f64;
+    let mut c = [0.0; 3];
+    shape
+        .iter()
+        .for_each(|p| (0..3).for_each(|i| c[i] += p[i] / k));
+    let mut j = [[0.0; 3]; 3];
+    for p in shape {
+        let d = [p[0] - c[0], p[1] - c[1], p[2] - c[2]];
+        let n2 = d[0] * d[0] + d[1] * d[1] + d[2] * d[2];
+        for (a, row) in j.iter_mut().enumerate() {
+            for (b, v) in row.iter_mut().enumerate() {
+                *v += if a == b { n2 } else { 0.0 } - d[a] * d[b];
+            }
+        }
+    }
+    let det = j[0][0] * (j[1][1] * j[2][2] - j[1][2] * j[2][1])
+        - j[0][1] * (j[1][0] * j[2][2] - j[1][2] * j[2][0])
+        + j[0][2] * (j[1][0] * j[2][1] - j[1][1] * j[2][0]);
+    let scale = (j[0][0] + j[1][1] + j[2][2]).max(1e-300);
+    if det.abs() <= 1e-9 * scale * scale * scale {
+        return f64::INFINITY;
+    }
+    // Inverse by cofactors (J is symmetric).
+    let inv = [
+        [
+            (j[1][1] * j[2][2] - j[1][2] * j[2][1]) / det,
+            (j[0][2] * j[2][1] - j[0][1] * j[2][2]) / det,
+            (j[0][1] * j[1][2] - j[0][2] * j[1][1]) / det,
+        ],
+        [
+            (j[1][2] * j[2][0] - j[1][0] * j[2][2]) / det,
+            (j[0][0] * j[2][2] - j[0][2] * j[2][0]) / det,
+            (j[0][2] * j[1][0] - j[0][0] * j[1][2]) / det,
+        ],
+        [
+            (j[1][0] * j[2][1] - j[1][1] * j[2][0]) / det,
+            (j[0][1] * j[2][0] - j[0][0] * j[2][1]) / det,
+            (j[0][0] * j[1][1] - j[0][1] * j[1][0]) / det,
+        ],
+    ];
+    let r = [x[0] - c[0], x[1] - c[1], x[2] - c[2]];
+    let cross = [[0.0, -r[2], r[1]], [r[2], 0.0, -r[0]], [-r[1], r[0], 0.0]];
+    // trace(C J⁻¹ Cᵀ) = Σ_a Σ_b Σ_c C[a][b] J⁻¹[b][c] C[a][c].
+    let mut tr = 0.0;
+    for row in &cross {
+        for b in 0..3 {
+            for c2 in 0..3 {
+                tr += row[b] * inv[b][c2] * row[c2];
+            }
+        }
+    }
+    1.0 / k + tr / 3.0
+}
+
+/// Frames used: every `stride`-th.
+fn stride_of(traj: &Trajectories) -> usize {
+    traj.frames().div_ceil(MAX_FRAMES).max(1)
+}
+
+/// Largest eigenvalue of a symmetric 4 × 4 matrix and its unit eigenvector (cyclic Jacobi
+/// with accumulated rotations; allocation-free).
+pub(crate) fn largest_eigenpair4(mut m: [[f64; 4]; 4]) -> (f64, [f64; 4]) {
+    let mut v = [[0.0; 4]; 4];
+    (0..4).for_each(|i| v[i][i] = 1.0);
+    for _ in 0..30 {
+        let off: f64 = (0..4)
+            .flat_map(|r| (r + 1..4).map(move |c| (r, c)))
+            .map(|(r, c)| m[r][c] * m[r][c])
+            .sum();
+        let diag: f64 = (0..4).map(|r| m[r][r] * m[r][r]).sum();
+        if off <= 1e-24 * diag.max(1e-300) {
+            break;
+        }
+        for p in 0..4 {
+            for q in p + 1..4 {
+                if m[p][q].abs() < 1e-300 {
+                    continue;
+                }
+                let theta = (m[q][q] - m[p][p]) / (2.0 * m[p][q]);
+                let t = if theta == 0.0 {
+                    1.0
+                } else {
+                    theta.signum() / (theta.abs() + (theta * theta + 1.0).sqrt())
+                };
+                let c = 1.0 / (t * t + 1.0).sqrt();
+                let s = t * c;
+                for row in m.iter_mut() {
+                    let (mkp, mkq) = (row[p], row[q]);
+                    row[p] = c * mkp - s * mkq;
+                    row[q] = s * mkp + c * mkq;
+                }
+                let (rp, rq) = (m[p], m[q]);
+                for k in 0..4 {
+                    m[p][k] = c * rp[k] - s * rq[k];
+                    m[q][k] = s * rp[k] + c * rq[k];
+                }
+                for row in v.iter_mut() {
+                    let (vp, vq) = (row[p], row[q]);
+                    row[p] = c * vp - s * vq;
+                    row[q] = s * vp + c * vq;
+                }
+            }
+        }
+    }
+    let best = (0..4).fold(0, |b, i| if m[i][i] > m[b][b] { i } else { b });
+    (
+        m[best][best],
+        [v[0][best], v[1][best], v[2][best], v[3][best]],
+    )
+}
+
+/// Least-squares rigid pose mapping `p` (shape points) onto `q` (positions), Horn's
+/// quaternion method, and its residual sum of squares (mm²). Needs `p.len() == q.len() ≥ 1`.
+pub(crate) fn horn(p: &[[f64; 3]], q: &[[f64; 3]]) -> (Pose, f64) {
+    let k = p.len().min(q.len()).max(1) as f64;
+    let centroid = |v: &[[f64; 3]]| {
+        let mut c = [0.0; 3];
+        v.iter().for_each(|x| (0..3).for_each(|i| c[i] += x[i] / k));
+        c
+    };
+    let (cp, cq) = (centroid(p), centroid(q));
+    let mut s = [[0.0; 3]; 3];
+    let mut norms = 0.0;
+    for (a, b) in p.iter().zip(q) {
+        let pa = [a[0] - cp[0], a[1] - cp[1], a[2] - cp[2]];
+        let qb = [b[0] - cq[0], b[1] - cq[1], b[2] - cq[2]];
+        for r in 0..3 {
+            norms += pa[r] * pa[r] + qb[r] * qb[r];
+            for c in 0..3 {
+                s[r][c] += pa[r] * qb[c];
+            }
+        }
+    }
+    let [[sxx, sxy, sxz], [syx, syy, syz], [szx, szy, szz]] = s;
+    let n = [
+        [sxx + syy + szz, syz - szy, szx - sxz, sxy - syx],
+        [syz - szy, sxx - syy - szz, sxy + syx, szx + sxz],
+        [szx - sxz, sxy + syx, -sxx + syy - szz, syz + szy],
+        [sxy - syx, szx + sxz, syz + szy, -sxx - syy + szz],
+    ];
+    let (lambda, [w, x, y, z]) = largest_eigenpair4(n);
+    let r = [
+        [
+            w * w + x * x - y * y - z * z,
+            2.0 * (x * y - w * z),
+            2.0 * (x * z + w * y),
+        ],
+        [
+            2.0 * (x * y + w * z),
+            w * w - x * x + y * y - z * z,
+            2.0 * (y * z - w * x),
+        ],
+        [
+            2.0 * (x * z - w * y),
+            2.0 * (y * z + w * x),
+            w * w - x * x - y * y + z * z,
+        ],
+    ];
+    let rc: [f64; 3] = std::array::from_fn(|i| (0..3).map(|j| r[i][j] * cp[j]).sum());
+    let t = [cq[0] - rc[0], cq[1] - rc[1], cq[2] - rc[2]];
+    (Pose { r, t }, (norms - 2.0 * lambda).max(0.0))
+}
+
+/// Poses of the shape points at `positions` of `group` (marker indices) in every strided
+/// frame, and the total residual sum of squares.
+fn poses(
+    traj: &Trajectories,
+    group: &[usize],
+    shape: &[[f64; 3]],
+    positions: &[usize],
+    stride: usize,
+) -> (Vec<Option<Pose>>, f64, f64) {
+    let markers = traj.markers().max(1);
+    let mut p = Vec::with_capacity(positions.len());
+    let mut q = Vec::with_capacity(positions.len());
+    let mut total = 0.0;
+    let mut dof = 0.0;
+    let out = traj
+        .positions()
+        .chunks_exact(markers)
+        .step_by(stride)
+        .map(|frame| {
+            p.clear();
+            q.clear();
+            for &a in positions {
+                if let Some(&x) = frame.get(group[a])
+                    && mocap_io::is_present(x)
+                {
+                    p.push(shape[a]);
+                    q.push(x);
+                }
+            }
+            (p.len() >= 3).then(|| {
+                let (pose, ss) = horn(&p, &q);
+                total += ss;
+                dof += (3 * p.len() - 6) as f64;
+                pose
+            })
+        })
+        .collect();
+    (out, total, dof)
+}
+
+impl Body {
+    /// Poses `group` (≥ 3 markers with a reference shape) in every strided frame, with the
+    /// shape's handedness that fits better (MDS cannot tell a shape from its mirror image).
+    fn new(traj: &Trajectories, group: &[usize], stride: usize) -> Option<Self> {
+        if group.len() < 3 {
+            return None;
+        }
+        let dist = median_distances(traj, group);
+        let all: Vec<usize> = (0..group.len()).collect();
+        let shape = reference_shape(&dist, group.len(), &all)?;
+        let mirrored: Vec<[f64; 3]> = shape.iter().map(|p| [-p[0], p[1], p[2]]).collect();
+        let (a, sa, da) = poses(traj, group, &shape, &all, stride);
+        let (b, sb, db) = poses(traj, group, &mirrored, &all, stride);
+        Some(if sa <= sb {
+            Self {
+                shape,
+                poses: a,
+                var: sa / da.max(1.0),
+            }
+        } else {
+            Self {
+                shape: mirrored,
+                poses: b,
+                var: sb / db.max(1.0),
+            }
+        })
+    }
+}
+
+/// Robust scatter of marker `m`'s trajectory in a body's frame, mm per coordinate: its local
+/// position in every frame with a pose, the distance from the per-coordinate median, and
+/// the [`QUANTILE`] of the squared distances over 3 (as the fit split judges a fit). `None`
+/// with fewer than `min_frames` posed frames where `m` is seen.
+pub(crate) fn marker_sigma(
+    traj: &Trajectories,
+    poses: &[Option<Pose>],
+    noise: (&[[f64; 3]], f64),
+    m: usize,
+    stride: usize,
+    min_frames: usize,
+) -> Option<f64> {
+    let markers = traj.markers().max(1);
+    let locals: Vec<[f64; 3]> = traj
+        .positions()
+        .chunks_exact(markers)
+        .step_by(stride)
+        .zip(poses)
+        .filter_map(|(frame, pose)| {
+            let pose = pose.as_ref()?;
+            let x = *frame.get(m)?;
+            if !mocap_io::is_present(x) {
+                return None;
+            }
+            let d = [x[0] - pose.t[0], x[1] - pose.t[1], x[2] - pose.t[2]];
+            // Rᵀ · d: into the body's frame.
+            Some(std::array::from_fn(|i| {
+                (0..3).map(|j| pose.r[j][i] * d[j]).sum()
+            }))
+        })
+        .collect();
+    if locals.len() < min_frames.max(3) {
+        return None;
+    }
+    let mut column = Vec::with_capacity(locals.len());
+    let centre: [f64; 3] = std::array::from_fn(|i| {
+        column.clear();
+        column.extend(locals.iter().map(|l| l[i]));
+        median(&mut column)
+    });
+    let mut dev2: Vec<f64> = locals
+        .iter()
+        .map(|l| (0..3).map(|i| (l[i] - centre[i]).powi(2)).sum())
+        .collect();
+    // Less what the pose's own error puts there (leverage × the body's residual variance):
+    // a body posed by few or near-collinear markers scatters any marker.
+    let (shape, var) = noise;
+    let pose_var = if var > 0.0 {
+        leverage(shape, centre) * var
+    } else {
+        0.0
+    };
+    if !pose_var.is_finite() {
+        return None;
+    }
+    Some(
+        (quantile(&mut dev2, QUANTILE) / 3.0 - pose_var)
+            .max(0.0)
+            .sqrt(),
+    )
+}
+
+/// Robust fit σ of three markers as one rigid body, mm per coordinate: the [`QUANTILE`] over
+/// frames with all three seen of the residual sum of squares over its 3 degrees of freedom.
+/// Where a body of two cannot be posed without the marker, this is how well it holds it.
+fn triple_sigma(traj: &Trajectories, triple: &[usize], stride: usize) -> Option<f64> {
+    let body = Body::new(traj, triple, stride)?;
+    let markers = traj.markers().max(1);
+    let mut v: Vec<f64> = traj
+        .positions()
+        .chunks_exact(markers)
+        .step_by(stride)
+        .filter_map(|frame| {
+            let mut p = [[0.0; 3]; 3];
+            let mut q = [[0.0; 3]; 3];
+            for (a, &m) in triple.iter().enumerate() {
+                let x = *frame.get(m)?;
+                if !mocap_io::is_present(x) {
+                    return None;
+                }
+                p[a] = body.shape[a];
+                q[a] = x;
+            }
+            Some(horn(&p, &q).1 / 3.0)
+        })
+        .collect();
+    (v.len() >= 3).then(|| quantile(&mut v, QUANTILE).sqrt())
+}
+
+/// A proposed move: (how many times better the target holds the marker, marker, from, to).
+type Move = (f64, usize, usize, usize);
+
+/// Moves markers between clusters (marker indices) by rigid fit: a marker of a cluster of
+/// ≥ 3 whose scatter in its own body (posed without it when ≥ 3 others remain) exceeds
+/// `floor_mm` and `ratio` × its scatter in another body of ≥ 3 markers goes to the body
+/// that holds it best; a donor keeps ≥ 2 markers. Strongest moves first, sweeps until none.
+pub(crate) fn reassign(
+    traj: &Trajectories,
+    clusters: &mut [Vec<usize>],
+    ratio: f64,
+    floor_mm: f64,
+    min_overlap: usize,
+) {
+    let stride = stride_of(traj);
+    let min_frames = min_overlap.div_ceil(stride);
+    for _ in 0..MAX_SWEEPS {
+        let bodies: Vec<Option<Body>> = clusters
+            .par_iter()
+            .map(|c| Body::new(traj, c, stride))
+            .collect();
+        let members: Vec<(usize, usize)> = clusters
+            .iter()
+            .enumerate()
+            .flat_map(|(c, ms)| (0..ms.len()).map(move |a| (c, a)))
+            .collect();
+        let mut moves: Vec<Move> = members
+            .par_iter()
+            .filter_map(|&(c, a)| {
+                let own = &clusters[c];
+                let m = own[a];
+                let own_sigma = if own.len() >= 4 {
+                    let body = bodies[c].as_ref()?;
+                    let others: Vec<usize> = (0..own.len()).filter(|&b| b != a).collect();
+                    let (loo, ss, dof) = poses(traj, own, &body.shape, &others, stride);
+                    let rest: Vec<[f64; 3]> = others.iter().map(|&b| body.shape[b]).collect();
+                    let var = ss / dof.max(1.0);
+                    marker_sigma(traj, &loo, (&rest, var), m, stride, min_frames)?
+                } else if own.len() == 3 {
+                    triple_sigma(traj, own, stride)?
+                } else {
+                    return None;
+                };
+                if own_sigma <= floor_mm {
+                    return None;
+                }
+                let (best, target) = clusters
+                    .iter()
+                    .enumerate()
+                    .filter(|&(d, _)| d != c)
+                    .filter_map(|(d, g)| {
+                        let s = match (g.len(), &bodies[d]) {
+                            (_, Some(b)) => {
+                                marker_sigma(traj, &b.poses, (&b.shape, 0.0), m, stride, min_frames)
+                            }
+                            _ => None,
+                        };
+                        s.map(|s| (s, d))
+                    })
+                    .min_by(|x, y| x.0.total_cmp(&y.0).then(x.1.cmp(&y.1)))?;
+                (ratio * best < own_sigma).then(|| (own_sigma / best.max(1e-12), m, c, target))
+            })
+            .collect();
+        moves.sort_by(|x, y| y.0.total_cmp(&x.0).then(x.1.cmp(&y.1)));
+        let mut any = false;
+        for (_, m, from, to) in moves {
+            if clusters[from].len() <= 2 {
+                continue;
+            }
+            clusters[from].retain(|&x| x != m);
+            clusters[to].push(m);
+            any = true;
+        }
+        if !any {
+            break;
+        }
+    }
+}
+
+/// Scatter of marker `m` in the body of `group` posed without `m` (see [`marker_sigma`]),
+/// mm; `None` when fewer than 3 other markers or no reference shape.
+pub(crate) fn sigma_in(traj: &Trajectories, group: &[usize], m: usize) -> Option<f64> {
+    let others: Vec<usize> = group.iter().copied().filter(|&x| x != m).collect();
+    let stride = stride_of(traj);
+    let body = Body::new(traj, &others, stride)?;
+    marker_sigma(traj, &body.poses, (&body.shape, body.var), m, stride, 3)
+}
+
+#[cfg(test)]
+mod tests {
+    use mocap_io::Trajectories;
+
+    use super::reassign;
+
+    /// Two 4-marker bodies at a hinge swinging ±15°, with 1 mm deterministic jitter: a child
+    /// marker clustered with the parent goes back to the child, and the true partition
+    /// stays as it is.
+    #[test]
+    fn misplaced_marker_returns_to_its_body() {
+        let parent = [
+            [30.0, 0.0, 100.0],
+            [-25.0, 20.0, 200.0],
+            [10.0, -30.0, 300.0],
+            [-20.0, -15.0, 150.0],
+        ];
+        let child = [
+            [20.0, 25.0, -100.0],
+            [-30.0, 5.0, -200.0],
+            [15.0, -25.0, -300.0],
+            [-10.0, 30.0, -250.0],
+        ];
+        let frames = 300;
+        let mut positions = Vec::new();
+        for f in 0..frames {
+            let t = f as f64 * 0.05;
+            let shift = [100.0 * t.sin(), 50.0 * t.cos(), 1000.0];
+            let angle = 15f64.to_radians() * (0.7 * t).sin();
+            let (s, c) = angle.sin_cos();
+            for (k, p) in parent.iter().chain(child.iter()).enumerate() {
+                let q = if k >= 4 {
+                    [p[0], c * p[1] - s * p[2], s * p[1] + c * p[2]]
+                } else {
+                    *p
+                };
+                let jitter = |axis: usize| ((f * 7 + k * 13 + axis * 5) as f64).sin();
+                positions.push(std::array::from_fn(|i| q[i] + shift[i] + jitter(i)));
+            }
+        }
+        let labels: Vec<String> = (0..8).map(|m| format!("M{m}")).collect();
+        let traj = Trajectories::new(labels, 100.0, 1, frames, positions).expect("capture");
+        let mut clusters = vec![vec![0, 1, 2, 3, 7], vec![4, 5, 6]];
+        reassign(&traj, &mut clusters, 2.0, 1.0, 10);
+        clusters.iter_mut().for_each(|c| c.sort_unstable());
+        assert_eq!(clusters, vec![vec![0, 1, 2, 3], vec![4, 5, 6, 7]]);
+        let mut right = vec![vec![0, 1, 2, 3], vec![4, 5, 6, 7]];
+        reassign(&traj, &mut right, 2.0, 1.0, 10);
+        assert_eq!(right, vec![vec![0, 1, 2, 3], vec![4, 5, 6, 7]]);
+    }
+}
