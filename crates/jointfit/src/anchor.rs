@@ -332,7 +332,10 @@ pub(crate) fn centre_fit(
     let prior = || {
         let line = line.as_ref()?;
         let bias = line.bias_bound();
-        let variance = bias * bias + noise * noise / (line.turn_var * line.count() * effective);
+        let variance = bias * bias
+            + line
+                .foot_var
+                .max(noise * noise / (line.turn_var * line.count() * effective));
         Some(Prior {
             dir: line.dir,
             value: line.dir.dot(line.foot),
@@ -436,6 +439,8 @@ struct MarkerLine {
     dir: DVec3,
     /// The point nearest every frame's line, least squares (N-local, mm).
     foot: DVec3,
+    /// Variance (mm²) of `foot` along the line from the lines' own scatter.
+    foot_var: f64,
     /// Mean squared change of the direction, `Σ|d − d̄|² / n` (radians², small angles).
     turn_var: f64,
 }
@@ -475,10 +480,33 @@ impl MarkerLine {
             return None;
         }
         let foot = normal.inverse() * rhs;
+        // How well the lines agree on that point: each line's distance from it should be
+        // constant (the centre's offset from the line); its scatter is the line noise as
+        // seen at the foot — skin artefact across the line, amplified by the lever from
+        // the markers — and, being smooth, it counts as its effective sample number.
+        let distances: Vec<f64> = samples
+            .iter()
+            .map(|(a, d)| {
+                let v = foot - *a;
+                (v - *d * d.dot(v)).length()
+            })
+            .collect();
+        let mean = distances.iter().sum::<f64>() / n;
+        let spread: Vec<f64> = distances.iter().map(|x| x - mean).collect();
+        let sq = spread.iter().map(|x| x * x).sum::<f64>();
+        let lag = spread.windows(2).map(|w| w[0] * w[1]).sum::<f64>();
+        let rho = if sq > 0.0 {
+            (lag / sq).clamp(0.0, 0.999)
+        } else {
+            0.0
+        };
+        let effective = ((1.0 - rho) / (1.0 + rho)).clamp(1e-3, 1.0);
+        let foot_var = (sq / n) / (n * effective * (var / n));
         Some(Self {
             dir_mean,
             dir: dir_mean.try_normalize()?,
             foot,
+            foot_var,
             turn_var: var / n,
             samples,
         })

@@ -165,10 +165,10 @@ pub const PARAM_DOCS: &[(&str, &str)] = &[
          curvature), use the point nearest all the marker lines (first order, blind to markers \
          sliding along the limb) as a prior weighted by its noise, a bias bound (its distance \
          from the lines x the swing's minor/major variance) and the residuals' effective \
-         sample count. CMU 02_01: femurs 385/383 -> 449/425 mm (Vicon 429/428), tibias \
-         431/425 -> 393/419 (Vicon 411/407), all four within 5 %; but synthetic hard trials \
-         with 2-3 markers per segment get worse (synth_eval 404: robot arm 45 -> 99 mm, \
-         random 40 -> 53), so it is off; bool; default false",
+         sample count. CMU 02_01: femurs 385/383 -> 448/423 mm (Vicon 429/428), tibias \
+         431/425 -> 392/419 (Vicon 411/407), all four within 5 %; but synthetic hard trials \
+         with 2-3 markers per segment get worse (synth_eval 404: robot arm 45 -> 70 mm, \
+         random 40 -> 51), so it is off; bool; default false",
     ),
     (
         "hinge_slide_max_rise",
