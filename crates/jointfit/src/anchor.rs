@@ -66,7 +66,7 @@ pub(crate) struct Anchor {
 pub(crate) struct CentreFit {
     /// Centre in N's local frame (mm).
     pub centre: DVec3,
-    /// RMS radial residual (mm).
+    /// RMS radial residual (mm) of the distances-only centre (before the line prior).
     pub rms_mm: f64,
     /// Largest over S's markers of the RMS angle of the centre→marker direction from its
     /// mean (degrees).
@@ -329,48 +329,61 @@ pub(crate) fn centre_fit(
     // Skin artefact is smooth, so neighbouring frames' residuals are not independent
     // evidence: the distances' weight is their effective sample count.
     let effective = effective_fraction(&clouds, &used, sphere);
-    let prior = || {
+    // `across`: a candidate hinge axis. Along it a near-hinge leaves the centre free, and
+    // the lines' meeting point there (the waist of the surface they sweep) can lie far
+    // from the joint, so the prior only pins the coordinate across it.
+    let prior = |across: Option<DVec3>| {
         let line = line.as_ref()?;
+        let mut dir = line.dir;
+        if let Some(axis) = across {
+            dir = (dir - axis * axis.dot(dir)).try_normalize()?;
+        }
         let bias = line.bias_bound();
         let variance = bias * bias
             + line
                 .foot_var
                 .max(noise * noise / (line.turn_var * line.count() * effective));
         Some(Prior {
-            dir: line.dir,
-            value: line.dir.dot(line.foot),
+            dir,
+            value: dir.dot(line.foot),
             weight: noise * noise / (variance * effective),
         })
     };
     let radial_dir = (markers_mean - sphere).try_normalize();
-    let planar = hinge_axis(&clouds, &used, &means, radial_dir).map(|axis| {
+    let axis = hinge_axis(&clouds, &used, &means, radial_dir);
+    let planar = axis.map(|axis| {
         let on_axis = sphere + axis * axis.dot(target - sphere);
         geometric_centre(&clouds, &used, on_axis, &[axis], None)
     });
-    // Sliding along the axis bought nothing: it is a hinge axis (or near it). Otherwise
-    // the prior applies to the full centre (on a true axis it would only slide it along).
-    let (centre, hinge) = match planar {
+    // Sliding along the axis bought nothing: it is a hinge axis (or near it).
+    let (base, hinge) = match planar {
         Some(p) if radial(&clouds, &used, p).0 <= 1.05 * rms_sphere + 1e-3 => (p, true),
-        _ => (
-            geometric_centre(&clouds, &used, sphere, &[], prior()),
-            false,
-        ),
+        _ => (sphere, false),
     };
-    let (rms_mm, radii) = radial(&clouds, &used, centre);
+    // Whether this neighbour qualifies, and how it ranks, is the distances' verdict alone:
+    // the prior below only moves the centre (pulling it where the distances disagree must
+    // not hand the segment to a worse neighbour). On a true axis the prior would only
+    // slide the centre along it, so it applies to ball joints.
+    let (rms_mm, base_radii) = radial(&clouds, &used, base);
     let excursion_deg = clouds
         .iter()
-        .zip(&radii)
+        .zip(&base_radii)
         .zip(&used)
         .filter(|(_, u)| **u)
         .map(|((cloud, (_, dir)), _)| {
             let sq = cloud
                 .iter()
-                .filter_map(|q| (*q - centre).try_normalize())
+                .filter_map(|q| (*q - base).try_normalize())
                 .map(|u| u.dot(*dir).clamp(-1.0, 1.0).acos().powi(2))
                 .sum::<f64>();
             (sq / cloud.len() as f64).sqrt().to_degrees()
         })
         .fold(0.0f64, f64::max);
+    let centre = match prior(axis) {
+        Some(prior) if !hinge => geometric_centre(&clouds, &used, sphere, &[], Some(prior)),
+        _ => base,
+    };
+    let (_, radii) = radial(&clouds, &used, centre);
     let ok = rms_mm.is_finite()
         && rms_mm <= params.anchor_max_rms_mm
         && excursion_deg >= params.anchor_min_excursion_deg;
@@ -518,10 +531,11 @@ impl MarkerLine {
     }
 
     /// A bound (mm) on how far `foot` sits along the line from the projection of the
-    /// centre. Lines that pass through the centre meet there exactly; lines at distance
-    /// `h` from it meet off it by up to about `h` when the limb swings evenly both ways,
-    /// and not at all along the line when it swings in one plane (a hinge), so
-    /// `h` × (minor / major variance of the line's swing) bounds it. `h` is the RMS
+    /// centre. Lines through the centre meet there exactly; lines at distance `h` from it
+    /// meet off it along the line by `h Cov(d, n) / Var(d)` (`d` the line's direction, `n`
+    /// the unit direction from the line to the centre), which vanishes for a swing in one
+    /// plane and, by Cauchy–Schwarz with `n` turning as much as the minor swing, is at
+    /// most `h √(minor / major)` of the direction's swing variances. `h` is the RMS
     /// distance of `foot` from the lines, which does not depend on any sphere fit.
     fn bias_bound(&self) -> f64 {
         let n = self.count();
@@ -548,7 +562,7 @@ impl MarkerLine {
         if values[0] <= 0.0 {
             return h;
         }
-        h * (values[1].max(0.0) / values[0])
+        h * (values[1].max(0.0) / values[0]).sqrt()
     }
 }
 

@@ -84,7 +84,7 @@ impl Default for Params {
             anchor: true,
             anchor_min_excursion_deg: 10.0,
             anchor_max_rms_mm: 25.0,
-            anchor_line_prior: false,
+            anchor_line_prior: true,
             hinge_slide_max_rise: 0.0,
             local_voxels: 8,
             local_planar_ratio: 0.1,
@@ -163,12 +163,13 @@ pub const PARAM_DOCS: &[(&str, &str)] = &[
         "anchoring of a 2-marker segment through a ball joint: besides the markers' constant \
          distances to the centre (which fix the centre along the limb only through the arc's \
          curvature), use the point nearest all the marker lines (first order, blind to markers \
-         sliding along the limb) as a prior weighted by its noise, a bias bound (its distance \
-         from the lines x the swing's minor/major variance) and the residuals' effective \
-         sample count. CMU 02_01: femurs 385/383 -> 448/423 mm (Vicon 429/428), tibias \
-         431/425 -> 392/419 (Vicon 411/407), all four within 5 %; but synthetic hard trials \
-         with 2-3 markers per segment get worse (synth_eval 404: robot arm 45 -> 70 mm, \
-         random 40 -> 51), so it is off; bool; default false",
+         sliding along the limb) as a prior on the centre's coordinate across any hinge-like \
+         axis, weighted by the lines' own scatter, a bias bound (distance from the lines x \
+         sqrt of the swing's minor/major variance) and the residuals' effective sample count. \
+         CMU 02_01: femurs 385/383 -> 407/416 mm (Vicon 429/428), tibias 431/425 -> 434/418 \
+         (Vicon 411/407); synthetic 2-3-marker hard trials within +-3.5 mm (synth_eval 404); \
+         default eval unchanged but one mixed quadruped cluster loses poses (known 99.4 %); \
+         bool; default true",
     ),
     (
         "hinge_slide_max_rise",
