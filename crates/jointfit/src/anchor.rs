@@ -410,20 +410,14 @@ fn hinge_axis(
     means: &[DVec3],
     radial_dir: Option<DVec3>,
 ) -> Option<DVec3> {
-    let mut scatter = [[0.0f64; 3]; 3];
-    for ((cloud, &u), mean) in clouds.iter().zip(used).zip(means) {
-        if !u {
-            continue;
-        }
-        for q in cloud {
-            let d = (*q - *mean).to_array();
-            for i in 0..3 {
-                for j in 0..3 {
-                    scatter[i][j] += d[i] * d[j];
-                }
-            }
-        }
-    }
+    let scatter = scatter(
+        clouds
+            .iter()
+            .zip(used)
+            .zip(means)
+            .filter(|((_, u), _)| **u)
+            .flat_map(|((cloud, _), mean)| cloud.iter().map(move |q| *q - *mean)),
+    );
     let (_, vectors) = sym_eigen(scatter);
     let normal = DVec3::from_array(vectors[2]).try_normalize()?;
     let Some(radial_dir) = radial_dir else {
@@ -549,21 +543,28 @@ impl MarkerLine {
             .sum::<f64>()
             / n)
             .sqrt();
-        let mut scatter = [[0.0f64; 3]; 3];
-        for (_, d) in &self.samples {
-            let e = (*d - self.dir_mean).to_array();
-            for i in 0..3 {
-                for j in 0..3 {
-                    scatter[i][j] += e[i] * e[j];
-                }
-            }
-        }
-        let (values, _) = sym_eigen(scatter);
+        let (values, _) = sym_eigen(scatter(
+            self.samples.iter().map(|(_, d)| *d - self.dir_mean),
+        ));
         if values[0] <= 0.0 {
             return h;
         }
         h * (values[1].max(0.0) / values[0]).sqrt()
     }
+}
+
+/// `Σ v vᵀ` over `vectors`.
+fn scatter(vectors: impl Iterator<Item = DVec3>) -> [[f64; 3]; 3] {
+    let mut sum = [[0.0f64; 3]; 3];
+    for v in vectors {
+        let v = v.to_array();
+        for i in 0..3 {
+            for j in 0..3 {
+                sum[i][j] += v[i] * v[j];
+            }
+        }
+    }
+    sum
 }
 
 /// `n_eff / n` of the radial residuals about `c`, from their lag-1 autocorrelation ρ:
