@@ -59,6 +59,9 @@ pub(crate) struct Anchor {
     /// Gap filling only (`posed_by_anchor` false): per frame, whether S's pose there was
     /// filled through N's centre (empty otherwise).
     pub filled: Vec<bool>,
+    /// Posed by this anchor but missing where N has no pose: a second neighbour through
+    /// whose joint those frames were filled, and per frame whether they were.
+    pub secondary: Option<(usize, Vec<bool>)>,
 }
 
 /// A common centre of S's markers in N's local frame.
@@ -161,6 +164,7 @@ pub(crate) fn anchor_segments(
             fit,
             frames_posed: count,
             filled: Vec::new(),
+            secondary: None,
         });
     }
     // Gap filling for segments posed by their own markers.
@@ -214,7 +218,58 @@ pub(crate) fn anchor_segments(
                 fit,
                 frames_posed,
                 filled,
+                secondary: None,
             });
+        }
+    }
+    // Segments posed through a neighbour lack poses wherever that neighbour has none;
+    // where both markers are visible, a second neighbour's joint fills them (its centre
+    // placed in S's frame from the frames both are posed, as for the gaps above).
+    for s in 0..n {
+        let Some(primary) = anchors[s].as_ref().filter(|a| a.posed_by_anchor) else {
+            continue;
+        };
+        let first = primary.neighbour;
+        if segments[s].len() != 2 {
+            continue;
+        }
+        let gappy = (0..traj.frames()).any(|f| {
+            tracks[s][f].is_none() && segments[s].iter().all(|&m| traj.get(f, m).is_some())
+        });
+        if !gappy {
+            continue;
+        }
+        let mut best: Option<(f64, usize, CentreFit)> = None;
+        for nb in 0..n {
+            let loops_back = anchors[nb].as_ref().is_some_and(|a| a.neighbour == s);
+            if nb == s || nb == first || !posed[nb] || loops_back {
+                continue;
+            }
+            let fit = match memo[s][nb].take() {
+                Some(fit) => fit,
+                None => centre_fit(traj, &segments[s], &tracks[nb], params),
+            };
+            if let Some(fit) = fit
+                && best.as_ref().is_none_or(|(c, _, _)| fit.rms_mm < *c)
+            {
+                best = Some((fit.rms_mm, nb, fit));
+            }
+        }
+        let Some((_, nb, fit)) = best else { continue };
+        let filled = fill_gaps(
+            traj,
+            &segments[s],
+            &mut poses[s],
+            &tracks[s],
+            &tracks[nb],
+            &fit,
+            params,
+        );
+        if filled.iter().any(|&x| x) {
+            tracks[s] = pose_track(&poses[s]);
+            if let Some(a) = anchors[s].as_mut() {
+                a.secondary = Some((nb, filled));
+            }
         }
     }
     anchors

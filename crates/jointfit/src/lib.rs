@@ -94,10 +94,13 @@ pub fn run_on_segments(
             markers,
             poses,
             track,
-            filled_through: anchor
-                .as_ref()
-                .filter(|a| !a.posed_by_anchor)
-                .map(|a| (a.neighbour, a.filled.as_slice())),
+            filled_through: anchor.as_ref().and_then(|a| {
+                if a.posed_by_anchor {
+                    a.secondary.as_ref().map(|(nb, f)| (*nb, f.as_slice()))
+                } else {
+                    Some((a.neighbour, a.filled.as_slice()))
+                }
+            }),
         })
         .collect();
     let pairs: Vec<(usize, usize)> = (0..views.len())
@@ -123,6 +126,17 @@ pub fn run_on_segments(
                 anchor.neighbour,
                 anchor.fit.describe()
             ));
+        }
+        if let Some((nb, filled)) = &anchor.secondary {
+            let (a, b) = (s.min(*nb), s.max(*nb));
+            let frames = filled.iter().filter(|&&x| x).count();
+            if let Some(fit) = fits.iter_mut().find(|p| p.a == a && p.b == b) {
+                fit.evidence.push_str(&format!(
+                    "; segment {s}'s frames without its anchor {} filled through this joint \
+                     in {frames} frames",
+                    anchor.neighbour
+                ));
+            }
         }
     }
     Ok(PairFits {

@@ -582,3 +582,37 @@ fn line_prior_fixes_the_centre_along_a_short_swinging_limb() {
         "centre error along the limb: {with:.1} mm with the line prior, {without:.1} mm without"
     );
 }
+
+/// A 2-marker segment between two 4-marker ones, each of which is hidden for 60 frames:
+/// whichever neighbour poses the middle segment, its hidden frames are filled through
+/// the other neighbour's joint, so the middle segment has a pose in every frame.
+#[test]
+fn anchored_segment_gaps_are_filled_through_its_other_joint() {
+    let mut rng = TestRng(35);
+    let mut bodies = chain(
+        &mut rng,
+        &[Articulation::Ball(50.0), Articulation::Ball(50.0)],
+        4,
+    );
+    bodies[1].markers.truncate(2);
+    let trial = generate(&mut rng, &bodies, 300, 0.2, |f, b, _| {
+        (b == 0 && (100..160).contains(&f)) || (b == 2 && (200..260).contains(&f))
+    });
+    let fits = run_on_segments(&trial.traj, &trial.segments, &Params::default()).unwrap();
+    let posed = fits.poses[1]
+        .rotations
+        .iter()
+        .filter(|q| q[0].is_finite())
+        .count();
+    assert_eq!(posed, 300);
+    let evidence = format!(
+        "{} {}",
+        pair(&fits, 0, 1).evidence,
+        pair(&fits, 1, 2).evidence
+    );
+    assert!(evidence.contains("filled through this joint"), "{evidence}");
+    for (a, b) in [(0, 1), (1, 2)] {
+        let err = mean_error(pair(&fits, a, b), &trial.joints[b]);
+        assert!(err < 3.0, "joint {a}-{b}: mean position error {err} mm");
+    }
+}
