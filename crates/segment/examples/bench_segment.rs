@@ -80,7 +80,14 @@ fn main() {
     let frames = args.first().copied().unwrap_or(6000);
     let bodies = args.get(1).copied().unwrap_or(14);
     let traj = capture(frames, bodies, 5);
-    let params = segment::Params::default();
+    // SEG_JOINT_Z overrides joint_split_z (0 = the joint test off), to time it.
+    let params = segment::Params {
+        joint_split_z: std::env::var("SEG_JOINT_Z")
+            .ok()
+            .and_then(|v| v.parse().ok())
+            .unwrap_or(segment::Params::default().joint_split_z),
+        ..segment::Params::default()
+    };
     let mut times = Vec::new();
     let mut result = None;
     for _ in 0..5 {

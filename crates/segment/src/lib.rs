@@ -30,6 +30,7 @@ mod cliques;
 mod eigen;
 mod error;
 mod fitsplit;
+mod jointsplit;
 mod kmeans;
 mod linkage;
 mod pairstats;
@@ -42,6 +43,7 @@ mod spectral;
 mod tests;
 
 pub use error::Error;
+pub use jointsplit::JointEvidence;
 pub use params::{Affinity, Linkage, Method, PARAM_DOCS, Params};
 pub use segmentation::*;
 
@@ -179,6 +181,34 @@ pub fn run(traj: &Trajectories, params: &Params) -> Result<Segmentation, Error> 
         );
         rigidity::normalise(&mut clusters);
     }
+    // Only a cluster of two parts of ≥ 3 markers can be tested (`jointsplit::MIN_PART`).
+    if params.joint_split_z > 0.0 && clusters.iter().any(|c| c.len() >= 2 * jointsplit::MIN_PART) {
+        // Skin leaves a segment's fit σ as large as two segments' at a low-motion joint; how
+        // the parts turn relative to each other does not (see `jointsplit`). After the
+        // reassignment, so a single misplaced marker does not pass for a joint.
+        let typical = fitsplit::typical_sigma(traj, &clusters);
+        let test = jointsplit::JointTest {
+            min_z: params.joint_split_z,
+            centre_fraction: params.joint_centre_fraction,
+            typical_sigma_mm: typical,
+            // Each part must fit like the ordinary segment the fit split accepts.
+            max_part_sigma_mm: (params.fit_split_floor * typical).max(params.tolerance_min_mm),
+        };
+        let before = clusters.len();
+        clusters = jointsplit::split_all(traj, &stats, min_overlap, clusters, test);
+        rigidity::normalise(&mut clusters);
+        // A new joint leaves its near-axis markers to settle, as after the fit split.
+        if clusters.len() > before && params.reassign_ratio > 0.0 {
+            reassign::reassign(
+                traj,
+                &mut clusters,
+                params.reassign_ratio,
+                params.tolerance_min_mm,
+                min_overlap,
+            );
+            rigidity::normalise(&mut clusters);
+        }
+    }
     if params.pair_orphans {
         rigidity::pair_orphans(&mut clusters, &stats, tolerance_mm, min_overlap);
         rigidity::normalise(&mut clusters);
@@ -236,6 +266,37 @@ pub fn fit_split_sigmas(traj: &Trajectories, markers: &[usize]) -> Option<(f64, 
 /// other markers. A diagnostic.
 pub fn marker_fit_sigma(traj: &Trajectories, group: &[usize], marker: usize) -> Option<f64> {
     reassign::sigma_in(traj, group, marker)
+}
+
+/// How parts `a` and `b` (marker indices, ≥ 3 each) move relative to each other: the joint
+/// test's evidence (`joint_split_z`), rotation noise from a marker σ of `sigma_mm` (0:
+/// each part's own fit σ); `None` when either cannot be posed. A diagnostic.
+pub fn joint_evidence(
+    traj: &Trajectories,
+    a: &[usize],
+    b: &[usize],
+    sigma_mm: f64,
+) -> Option<JointEvidence> {
+    jointsplit::evidence_of(traj, a, b, sigma_mm)
+}
+
+/// The capture's typical segment fit σ for `clusters` (marker indices), mm: the median
+/// robust rigid-fit σ of those of ≥ 3 markers. A diagnostic.
+pub fn typical_fit_sigma(traj: &Trajectories, clusters: &[Vec<usize>]) -> f64 {
+    fitsplit::typical_sigma(traj, clusters)
+}
+
+/// The bipartition of `markers` the joint test weighs (the one two free rigid bodies fit
+/// best, parts of ≥ 3) and its evidence (see [`joint_evidence`] for `sigma_mm`); `None`
+/// below 6 markers. A diagnostic.
+pub fn joint_split_candidate(
+    traj: &Trajectories,
+    markers: &[usize],
+    sigma_mm: f64,
+    params: &Params,
+) -> Option<(Vec<usize>, Vec<usize>, JointEvidence)> {
+    let stats = pair_stats(traj);
+    jointsplit::best_of(traj, &stats, params.min_overlap_frames, markers, sigma_mm)
 }
 
 /// Agglomerative groups of `members` (marker indices, a subset of `nodes`): complete or

@@ -105,6 +105,10 @@ pub struct Params {
     pub fit_split_floor: f64,
     /// A marker moves to another cluster of ≥ 3 when that body holds it this many times stiller than its own does; 0 = off.
     pub reassign_ratio: f64,
+    /// Joint test: a cluster splits where its parts' relative rotation has a robust Mahalanobis length above this; 0 = off.
+    pub joint_split_z: f64,
+    /// ... and a centre of rotation fixed in both parts leaves at most this fraction of their relative translation.
+    pub joint_centre_fraction: f64,
 }
 
 impl Default for Params {
@@ -140,6 +144,8 @@ impl Default for Params {
             fit_split_ratio: 2.0,
             fit_split_floor: 2.0,
             reassign_ratio: 2.0,
+            joint_split_z: 4.5,
+            joint_centre_fraction: 1.0,
         }
     }
 }
@@ -260,6 +266,14 @@ pub const PARAM_DOCS: &[(&str, &str)] = &[
         "reassign_ratio",
         "after the fit split, every cluster of ≥ 3 markers is posed per frame (Horn) and each marker's trajectory is expressed in each body's frame; its scatter there (per coordinate, 75th-percentile frame) is skin and noise on its own body but lever arm × angle on a neighbour's, first order in the joint angle. A marker moves when another body holds it this many times stiller than its own body posed without it, and its own scatter exceeds tolerance_min_mm; the donor keeps ≥ 2 markers; 0 = off; default 2.0",
     ),
+    (
+        "joint_split_z",
+        "after the fit split, each cluster of ≥ 6 markers is cut in the two parts of ≥ 3 that two free rigid bodies fit best (all bipartitions up to 12 markers, else spectral cuts of the ρ affinity refined by single moves); each part is posed per frame (Horn) and the deviation of their relative rotation from its mean is weighed by the covariance the parts' pose errors give on one body (σ² J⁻¹ per part, σ = the median fit σ of the clusters of ≥ 3, J = the part's inertia tensor). It splits when that robust Mahalanobis length (75th-percentile frame; ≈ 2 on one rigid body) exceeds this and a centre of rotation fixed in both parts (SCoRE) explains their relative motion (joint_centre_fraction); recursively. Skin moves markers one by one, a joint turns a whole group about one point; 0 = off; default 4.5",
+    ),
+    (
+        "joint_centre_fraction",
+        "joint test: the best centre of rotation fixed in both parts must leave a residual (75th-percentile frame, mm) of at most this fraction of the parts' relative translation (B's centroid about its median in A's frame); default 1.0",
+    ),
 ];
 
 impl Params {
@@ -332,6 +346,8 @@ impl Params {
         non_negative("fit_split_ratio", self.fit_split_ratio)?;
         non_negative("fit_split_floor", self.fit_split_floor)?;
         non_negative("reassign_ratio", self.reassign_ratio)?;
+        non_negative("joint_split_z", self.joint_split_z)?;
+        positive("joint_centre_fraction", self.joint_centre_fraction)?;
         Ok(())
     }
 }

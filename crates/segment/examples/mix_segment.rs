@@ -1,0 +1,76 @@
+//! Per synthetic trial, which found segments mix true segments and which true segments are
+//! spread over several found ones (by name and marker count): what a segmentation got wrong.
+//!
+//! `cargo run --release -p segment --example mix_segment SUBJECTS PRESET FRAMES SEEDS... [key=value ...]`
+//! (SUBJECTS comma-separated, e.g. `hexapod,human`).
+#![allow(clippy::print_stdout)]
+
+use std::collections::BTreeMap;
+
+use synth::{Preset, Subject, SynthConfig};
+
+mod common;
+
+fn main() {
+    let args: Vec<String> = std::env::args().skip(1).collect();
+    let subjects: Vec<Subject> = args
+        .first()
+        .map(|s| s.split(',').filter_map(|x| x.parse().ok()).collect())
+        .unwrap_or_default();
+    let preset: Preset = args
+        .get(1)
+        .and_then(|s| s.parse().ok())
+        .unwrap_or(Preset::Hard);
+    let frames: usize = args.get(2).and_then(|s| s.parse().ok()).unwrap_or(480);
+    let seeds: Vec<u64> = args.iter().skip(3).filter_map(|s| s.parse().ok()).collect();
+    let overrides: Vec<&String> = args.iter().skip(3).filter(|a| a.contains('=')).collect();
+    let params = common::params_from_overrides(overrides);
+    let (mut exact, mut total) = (0, 0);
+    for &subject in &subjects {
+        for &seed in &seeds {
+            let config = SynthConfig {
+                subject,
+                preset,
+                frames,
+                seed,
+                ..SynthConfig::default()
+            };
+            let trial = synth::generate(&config).expect("synthetic trial");
+            let traj = &trial.trajectories;
+            let truth_sets = trial.true_segment_markers();
+            let mut truth = vec![usize::MAX; traj.markers()];
+            for (s, markers) in truth_sets.iter().enumerate() {
+                for &m in markers {
+                    truth[m] = s;
+                }
+            }
+            let seg = segment::run(traj, &params).expect("segmentation");
+            let name = |s: usize| trial.truth.segments[s].name.clone();
+            let mut wrong = Vec::new();
+            for s in &seg.segments {
+                let mut parts: BTreeMap<usize, usize> = BTreeMap::new();
+                for &m in &s.markers {
+                    *parts.entry(truth[m]).or_default() += 1;
+                }
+                let whole = parts.iter().all(|(&t, &c)| truth_sets[t].len() == c);
+                if parts.len() > 1 || !whole {
+                    let desc: Vec<String> = parts
+                        .iter()
+                        .map(|(&t, &c)| format!("{}{}/{}", name(t), c, truth_sets[t].len()))
+                        .collect();
+                    wrong.push(format!("[{}]", desc.join(" ")));
+                }
+            }
+            for u in &seg.unassigned {
+                wrong.push(format!("unassigned {}", name(truth[u.marker])));
+            }
+            total += 1;
+            if wrong.is_empty() {
+                exact += 1;
+            } else {
+                println!("{}: {}", trial.name, wrong.join(" "));
+            }
+        }
+    }
+    println!("exact {exact}/{total}");
+}
