@@ -209,6 +209,15 @@ pub fn run(traj: &Trajectories, params: &Params) -> Result<Segmentation, Error> 
             rigidity::normalise(&mut clusters);
         }
     }
+    if params.eject_ratio > 0.0 {
+        reassign::eject(
+            traj,
+            &mut clusters,
+            params.eject_ratio,
+            params.tolerance_min_mm,
+        );
+        rigidity::normalise(&mut clusters);
+    }
     if params.pair_orphans {
         rigidity::pair_orphans(&mut clusters, &stats, tolerance_mm, min_overlap);
         rigidity::normalise(&mut clusters);

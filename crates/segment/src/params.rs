@@ -109,6 +109,8 @@ pub struct Params {
     pub joint_split_z: f64,
     /// ... and a centre of rotation fixed in both parts leaves at most this fraction of their relative translation.
     pub joint_centre_fraction: f64,
+    /// A marker its own cluster (≥ 5) holds this many times worse than the median of its cluster-mates becomes a group of its own; 0 = off.
+    pub eject_ratio: f64,
 }
 
 impl Default for Params {
@@ -146,6 +148,7 @@ impl Default for Params {
             reassign_ratio: 2.0,
             joint_split_z: 4.5,
             joint_centre_fraction: 1.0,
+            eject_ratio: 0.0,
         }
     }
 }
@@ -267,6 +270,10 @@ pub const PARAM_DOCS: &[(&str, &str)] = &[
         "after the fit split, every cluster of ≥ 3 markers is posed per frame (Horn) and each marker's trajectory is expressed in each body's frame; its scatter there (per coordinate, 75th-percentile frame) is skin and noise on its own body but lever arm × angle on a neighbour's, first order in the joint angle. A marker moves when another body holds it this many times stiller than its own body posed without it, and its own scatter exceeds tolerance_min_mm; the donor keeps ≥ 2 markers; 0 = off; default 2.0",
     ),
     (
+        "eject_ratio",
+        "after the reassignment and the joint test, in a cluster of ≥ 5 the marker with the largest scatter in its own body posed without it (as reassign_ratio measures it) leaves the cluster as a group of its own when that exceeds tolerance_min_mm and this × the median of its cluster-mates' (measured without it) (one per cluster; it stays a 1-marker segment when singleton_steady_factor keeps it, else it is unassigned). ρ misses a marker whose distances to a cluster barely change while the body turns it by tens of mm (CMU 02_01: RUPA swings 36 mm RMS in the head's frame, the head markers 3-5 mm; with 4 it leaves the head, pairs with RSHO, and the right humerus goes from 463 to 228 mm, Vicon 284). Off by default: on the synthetic hard preset (label swaps, skin) markers are ejected even at 20 (cargo xtask eval --set segment.eject_ratio=20: hard topology 10/12 -> 7/12); 0 = off; default 0",
+    ),
+    (
         "joint_split_z",
         "after the fit split, each cluster of ≥ 6 markers is cut in the two parts of ≥ 3 that two free rigid bodies fit best (all bipartitions up to 12 markers, else spectral cuts of the ρ affinity refined by single moves); each part is posed per frame (Horn) and the deviation of their relative rotation from its mean is weighed by the covariance the parts' pose errors give on one body (σ² J⁻¹ per part, σ = the median fit σ of the clusters of ≥ 3, J = the part's inertia tensor). It splits when that robust Mahalanobis length (75th-percentile frame; ≈ 2 on one rigid body) exceeds this and a centre of rotation fixed in both parts (SCoRE) explains their relative motion (joint_centre_fraction); recursively. Skin moves markers one by one, a joint turns a whole group about one point; 0 = off; default 4.5",
     ),
@@ -348,6 +355,7 @@ impl Params {
         non_negative("reassign_ratio", self.reassign_ratio)?;
         non_negative("joint_split_z", self.joint_split_z)?;
         positive("joint_centre_fraction", self.joint_centre_fraction)?;
+        non_negative("eject_ratio", self.eject_ratio)?;
         Ok(())
     }
 }

@@ -448,6 +448,60 @@ pub(crate) fn reassign(
     }
 }
 
+/// Takes out of their clusters the markers no body holds: in a cluster of ≥ 5, the marker
+/// with the largest scatter in its own body posed without it leaves as a group of its own
+/// when that scatter exceeds `floor_mm` and `ratio` × the median of its cluster-mates'
+/// (each measured in the cluster without the suspect, whose swing would otherwise spoil
+/// their poses too). A distance-based clustering keeps a marker whose distances to a
+/// cluster barely change — an upper-arm marker swinging across the line to the head
+/// markers — although the body turns it by tens of mm; `reassign` only moves markers to a
+/// body that holds them, and a one-marker segment (the arm in CMU 02_01) has none.
+/// Returns the markers taken out.
+pub(crate) fn eject(
+    traj: &Trajectories,
+    clusters: &mut Vec<Vec<usize>>,
+    ratio: f64,
+    floor_mm: f64,
+) -> Vec<usize> {
+    let ejected: Vec<Option<usize>> = clusters
+        .par_iter()
+        .map(|c| {
+            if c.len() < 5 {
+                return None;
+            }
+            let (own, suspect) = c
+                .iter()
+                .filter_map(|&m| sigma_in(traj, c, m).map(|s| (s, m)))
+                .max_by(|x, y| x.0.total_cmp(&y.0).then(y.1.cmp(&x.1)))?;
+            if own <= floor_mm {
+                return None;
+            }
+            let rest: Vec<usize> = c.iter().copied().filter(|&m| m != suspect).collect();
+            let mut mates: Vec<f64> = rest
+                .iter()
+                .filter_map(|&m| sigma_in(traj, &rest, m))
+                .collect();
+            if mates.len() < 3 {
+                return None;
+            }
+            mates.sort_by(f64::total_cmp);
+            let median = mates[mates.len() / 2];
+            (own > ratio * median).then_some(suspect)
+        })
+        .collect();
+    let mut taken = Vec::new();
+    for (c, out) in clusters.iter_mut().zip(&ejected) {
+        if let Some(m) = *out {
+            c.retain(|&x| x != m);
+            taken.push(m);
+        }
+    }
+    for &m in &taken {
+        clusters.push(vec![m]);
+    }
+    taken
+}
+
 /// Scatter of marker `m` in the body of `group` posed without `m` (see [`marker_sigma`]),
 /// mm; `None` when fewer than 3 other markers or no reference shape.
 pub(crate) fn sigma_in(traj: &Trajectories, group: &[usize], m: usize) -> Option<f64> {
@@ -461,7 +515,7 @@ pub(crate) fn sigma_in(traj: &Trajectories, group: &[usize], m: usize) -> Option
 mod tests {
     use mocap_io::Trajectories;
 
-    use super::reassign;
+    use super::{eject, reassign};
 
     /// Two 4-marker bodies at a hinge swinging ±15°, with 1 mm deterministic jitter: a child
     /// marker clustered with the parent goes back to the child, and the true partition
@@ -506,5 +560,45 @@ mod tests {
         let mut right = vec![vec![0, 1, 2, 3], vec![4, 5, 6, 7]];
         reassign(&traj, &mut right, 2.0, 1.0, 10);
         assert_eq!(right, vec![vec![0, 1, 2, 3], vec![4, 5, 6, 7]]);
+    }
+
+    /// A 5-marker rigid body with 1 mm jitter plus one marker on an arm swinging ±20°
+    /// 250 mm from the body's hinge: the clustering kept it with the body, the ejection
+    /// takes it out; the body alone loses nothing.
+    #[test]
+    fn swinging_marker_is_ejected_and_a_rigid_body_keeps_its_markers() {
+        let body = [
+            [30.0, 0.0, 100.0],
+            [-25.0, 20.0, 200.0],
+            [10.0, -30.0, 300.0],
+            [-20.0, -15.0, 150.0],
+            [25.0, 25.0, 250.0],
+        ];
+        let arm = [0.0, 0.0, -250.0];
+        let frames = 300;
+        let mut positions = Vec::new();
+        for f in 0..frames {
+            let t = f as f64 * 0.05;
+            let shift = [100.0 * t.sin(), 50.0 * t.cos(), 1000.0];
+            let angle = 20f64.to_radians() * (0.7 * t).sin();
+            let (s, c) = angle.sin_cos();
+            for (k, p) in body.iter().chain(std::iter::once(&arm)).enumerate() {
+                let q = if k == 5 {
+                    [p[0], c * p[1] - s * p[2], s * p[1] + c * p[2]]
+                } else {
+                    *p
+                };
+                let jitter = |axis: usize| ((f * 7 + k * 13 + axis * 5) as f64).sin();
+                positions.push(std::array::from_fn(|i| q[i] + shift[i] + jitter(i)));
+            }
+        }
+        let labels: Vec<String> = (0..6).map(|m| format!("M{m}")).collect();
+        let traj = Trajectories::new(labels, 100.0, 1, frames, positions).expect("capture");
+        let mut clusters = vec![vec![0, 1, 2, 3, 4, 5]];
+        assert_eq!(eject(&traj, &mut clusters, 4.0, 1.0), vec![5]);
+        assert_eq!(clusters, vec![vec![0, 1, 2, 3, 4], vec![5]]);
+        let mut rigid = vec![vec![0, 1, 2, 3, 4]];
+        assert!(eject(&traj, &mut rigid, 4.0, 1.0).is_empty());
+        assert_eq!(rigid, vec![vec![0, 1, 2, 3, 4]]);
     }
 }
