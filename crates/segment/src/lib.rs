@@ -20,7 +20,10 @@
 //! split piece rejoins a cluster it fits with like an ordinary segment (`fit_split_*`).
 //! Then each marker of a cluster of ≥ 4 is weighed in its own body posed without it against
 //! the other bodies of ≥ 3 (its trajectory's scatter in each body's frame, less the pose's
-//! own error) and moves where it is held clearly stiller (`reassign_ratio`).
+//! own error) and moves where it is held clearly stiller (`reassign_ratio`). Then the joint
+//! test splits a cluster of ≥ 6 whose two best-fitting parts turn relative to each other
+//! beyond their own fits' rotation noise, about a common point (`joint_split_z`, see
+//! `jointsplit`); optionally a marker no body holds leaves its cluster (`eject_ratio`).
 //! Or agglomeration alone (`method = "linkage"`) or rigid cliques (`method = "cliques"`).
 //!
 //! It does not estimate poses, joints or topology (jointfit, topo) and does no I/O.
