@@ -213,12 +213,9 @@ pub fn run(traj: &Trajectories, params: &Params) -> Result<Segmentation, Error> 
         }
     }
     if params.eject_ratio > 0.0 {
-        reassign::eject(
-            traj,
-            &mut clusters,
-            params.eject_ratio,
-            params.tolerance_min_mm,
-        );
+        // No marker is held better than skin lets a typical segment hold it.
+        let floor_mm = fitsplit::typical_sigma(traj, &clusters).max(params.tolerance_min_mm);
+        reassign::eject(traj, &mut clusters, params.eject_ratio, floor_mm);
         rigidity::normalise(&mut clusters);
     }
     if params.pair_orphans {

@@ -401,12 +401,7 @@ pub(crate) fn reassign(
                 let own = &clusters[c];
                 let m = own[a];
                 let own_sigma = if own.len() >= 4 {
-                    let body = bodies[c].as_ref()?;
-                    let others: Vec<usize> = (0..own.len()).filter(|&b| b != a).collect();
-                    let (loo, ss, dof) = poses(traj, own, &body.shape, &others, stride);
-                    let rest: Vec<[f64; 3]> = others.iter().map(|&b| body.shape[b]).collect();
-                    let var = ss / dof.max(1.0);
-                    marker_sigma(traj, &loo, (&rest, var), m, stride, min_frames)?
+                    left_out_sigma(traj, own, bodies[c].as_ref()?, a, stride, min_frames)?
                 } else if own.len() == 3 {
                     triple_sigma(traj, own, stride)?
                 } else {
@@ -448,11 +443,16 @@ pub(crate) fn reassign(
     }
 }
 
+/// Largest cluster searched for a marker to eject: each candidate costs a pose of the
+/// cluster per frame, so the search is quadratic in its size, and clusters this large are
+/// not one segment's markers but body-model outputs (bigparlove.c3d: 179 points, 15 s).
+const MAX_EJECT_CLUSTER: usize = 24;
+
 /// Takes out of their clusters the markers no body holds: in a cluster of ≥ 5, the marker
 /// with the largest scatter in its own body posed without it leaves as a group of its own
-/// when that scatter exceeds `floor_mm` and `ratio` × the median of its cluster-mates'
-/// (each measured in the cluster without the suspect, whose swing would otherwise spoil
-/// their poses too). A distance-based clustering keeps a marker whose distances to a
+/// when that scatter exceeds `ratio` × the median of its cluster-mates' (each measured in
+/// the cluster without the suspect, whose swing would otherwise spoil their poses too),
+/// that median floored at `floor_mm`. A distance-based clustering keeps a marker whose distances to a
 /// cluster barely change — an upper-arm marker swinging across the line to the head
 /// markers — although the body turns it by tens of mm; `reassign` only moves markers to a
 /// body that holds them, and a one-marker segment (the arm in CMU 02_01) has none.
@@ -466,14 +466,16 @@ pub(crate) fn eject(
     let ejected: Vec<Option<usize>> = clusters
         .par_iter()
         .map(|c| {
-            if c.len() < 5 {
+            if !(5..=MAX_EJECT_CLUSTER).contains(&c.len()) {
                 return None;
             }
-            let (own, suspect) = c
-                .iter()
-                .filter_map(|&m| sigma_in(traj, c, m).map(|s| (s, m)))
+            let stride = stride_of(traj);
+            let body = Body::new(traj, c, stride)?;
+            let (own, suspect) = (0..c.len())
+                .filter_map(|a| left_out_sigma(traj, c, &body, a, stride, 3).map(|s| (s, c[a])))
                 .max_by(|x, y| x.0.total_cmp(&y.0).then(y.1.cmp(&x.1)))?;
-            if own <= floor_mm {
+            // The mates' median is at least the floor, so nothing below this can leave.
+            if own <= ratio * floor_mm {
                 return None;
             }
             let rest: Vec<usize> = c.iter().copied().filter(|&m| m != suspect).collect();
@@ -485,7 +487,9 @@ pub(crate) fn eject(
                 return None;
             }
             mates.sort_by(f64::total_cmp);
-            let median = mates[mates.len() / 2];
+            // The mates' scatter is net of their poses' own error and can come out near
+            // zero; no marker is held better than the floor (skin, noise).
+            let median = mates[mates.len() / 2].max(floor_mm);
             (own > ratio * median).then_some(suspect)
         })
         .collect();
@@ -500,6 +504,23 @@ pub(crate) fn eject(
         clusters.push(vec![m]);
     }
     taken
+}
+
+/// Scatter (as [`marker_sigma`]) of `cluster[a]` in `body` (the whole cluster's) posed
+/// again without it on its other markers' rows of the same reference shape.
+fn left_out_sigma(
+    traj: &Trajectories,
+    cluster: &[usize],
+    body: &Body,
+    a: usize,
+    stride: usize,
+    min_frames: usize,
+) -> Option<f64> {
+    let others: Vec<usize> = (0..cluster.len()).filter(|&b| b != a).collect();
+    let (loo, ss, dof) = poses(traj, cluster, &body.shape, &others, stride);
+    let rest: Vec<[f64; 3]> = others.iter().map(|&b| body.shape[b]).collect();
+    let var = ss / dof.max(1.0);
+    marker_sigma(traj, &loo, (&rest, var), cluster[a], stride, min_frames)
 }
 
 /// Scatter of marker `m` in the body of `group` posed without `m` (see [`marker_sigma`]),
