@@ -58,7 +58,7 @@ fn bone(skeleton: &serde_json::Value, m1: &str, m2: &str, m3: &str) -> Option<f6
 }
 
 #[test]
-fn cmu_02_01_shank_lengths_match_the_vicon_skeleton() {
+fn cmu_02_01_leg_lengths_match_the_vicon_skeleton() {
     let Some(data) = mocap_io::testdata::shared_data_dir("cmu_02_01_limb_lengths") else {
         return;
     };
