@@ -739,6 +739,66 @@ pub(crate) fn split_all(
         .collect()
 }
 
+/// When two clusters move as one rigid body (see [`merge_rigid`]).
+#[derive(Clone, Copy, Debug)]
+pub(crate) struct RigidMerge {
+    /// Only clusters with some marker pair within this ρ (mm) are compared.
+    pub near_mm: f64,
+    /// Joint test rotation score below which they are one body.
+    pub max_z: f64,
+    /// Largest robust spread of the second's centroid in the first's frame, mm.
+    pub max_translation_mm: f64,
+    /// The capture's typical segment fit σ, mm per coordinate.
+    pub typical_sigma_mm: f64,
+}
+
+/// Merges neighbouring clusters (≥ 3 markers each, some pair of their markers within
+/// `near_mm` of ρ) whose relative motion is that of one rigid body: relative rotation below
+/// `max_z` (a rigid body's best cut scores ≈ 2, true joints ≳ 4) and the second's centroid
+/// steady in the first's frame within `max_translation_mm`. Clusters split by ρ or by the
+/// fit split on skin alone come back together; the most rigid pair first, repeatedly.
+pub(crate) fn merge_rigid(
+    traj: &Trajectories,
+    stats: &PairStats,
+    min_overlap: usize,
+    clusters: &mut Vec<Vec<usize>>,
+    merge: RigidMerge,
+) -> usize {
+    let mut merged = 0;
+    loop {
+        let candidates: Vec<(usize, usize)> = (0..clusters.len())
+            .flat_map(|i| ((i + 1)..clusters.len()).map(move |j| (i, j)))
+            .filter(|&(i, j)| {
+                let (a, b) = (&clusters[i], &clusters[j]);
+                a.len() >= MIN_PART
+                    && b.len() >= MIN_PART
+                    && a.len() + b.len() <= 63
+                    && a.iter().any(|&x| {
+                        b.iter().any(|&y| {
+                            stats
+                                .rho(x, y, min_overlap)
+                                .is_some_and(|r| r <= merge.near_mm)
+                        })
+                    })
+            })
+            .collect();
+        let best = candidates
+            .par_iter()
+            .filter_map(|&(i, j)| {
+                let e = evidence_of(traj, &clusters[i], &clusters[j], merge.typical_sigma_mm)?;
+                (e.rotation_z < merge.max_z && e.translation_mm <= merge.max_translation_mm)
+                    .then_some((e.rotation_z, i, j))
+            })
+            .min_by(|x, y| x.0.total_cmp(&y.0).then(x.1.cmp(&y.1)).then(x.2.cmp(&y.2)));
+        let Some((_, i, j)) = best else { break };
+        let moved = std::mem::take(&mut clusters[j]);
+        clusters[i].extend(moved);
+        clusters.remove(j);
+        merged += 1;
+    }
+    merged
+}
+
 /// Diagnostic: the joint evidence of parts `a` and `b` (marker indices, ≥ 3 each), rotation
 /// noise from `typical_sigma_mm` (0: from each part's own fit).
 pub(crate) fn evidence_of(
@@ -780,7 +840,7 @@ mod tests {
     use rand::{Rng, SeedableRng};
     use rand_chacha::ChaCha8Rng;
 
-    use super::{JointTest, split_by_joint};
+    use super::{JointTest, RigidMerge, merge_rigid, split_by_joint};
     use crate::fitsplit::typical_sigma;
     use crate::pairstats::pair_stats;
 
@@ -871,6 +931,28 @@ mod tests {
                 vec![(0..8).collect::<Vec<_>>()],
                 "seed {seed}"
             );
+        }
+    }
+
+    /// The same two halves as separate clusters: merged when they are one rigid body under
+    /// 8 mm of skin, kept apart across a ±15° hinge (several skin draws).
+    #[test]
+    fn rigid_halves_merge_and_jointed_ones_do_not() {
+        for seed in 1..=3 {
+            for (swing, merged) in [(0.0, true), (15.0, false)] {
+                let traj = capture(swing, 8.0, seed);
+                let stats = pair_stats(&traj);
+                let mut clusters = vec![vec![0, 1, 2, 3], vec![4, 5, 6, 7]];
+                let typical = typical_sigma(&traj, &clusters);
+                let merge = RigidMerge {
+                    near_mm: 1e9,
+                    max_z: 3.0,
+                    max_translation_mm: 4.0 * typical.max(1.0),
+                    typical_sigma_mm: typical,
+                };
+                let n = merge_rigid(&traj, &stats, 10, &mut clusters, merge);
+                assert_eq!(n == 1, merged, "seed {seed}, swing {swing}: {clusters:?}");
+            }
         }
     }
 }

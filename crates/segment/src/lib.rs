@@ -212,6 +212,20 @@ pub fn run(traj: &Trajectories, params: &Params) -> Result<Segmentation, Error> 
             rigidity::normalise(&mut clusters);
         }
     }
+    if params.joint_merge_z > 0.0 {
+        let typical = fitsplit::typical_sigma(traj, &clusters);
+        let part_mm = (params.fit_split_floor * typical).max(params.tolerance_min_mm);
+        let merge = jointsplit::RigidMerge {
+            near_mm: 2.0 * tolerance_mm,
+            max_z: params.joint_merge_z,
+            max_translation_mm: 2.0 * part_mm,
+            typical_sigma_mm: typical,
+        };
+        let merged = jointsplit::merge_rigid(traj, &stats, min_overlap, &mut clusters, merge);
+        if merged > 0 {
+            rigidity::normalise(&mut clusters);
+        }
+    }
     if params.eject_ratio > 0.0 {
         // No marker is held better than skin lets a typical segment hold it.
         let floor_mm = fitsplit::typical_sigma(traj, &clusters).max(params.tolerance_min_mm);

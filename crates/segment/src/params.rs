@@ -111,6 +111,8 @@ pub struct Params {
     pub joint_centre_fraction: f64,
     /// A marker its own cluster (≥ 5) holds this many times worse than the median of its cluster-mates becomes a group of its own; 0 = off.
     pub eject_ratio: f64,
+    /// Neighbouring clusters whose relative rotation scores below this on the joint test move as one body and merge; 0 = off.
+    pub joint_merge_z: f64,
 }
 
 impl Default for Params {
@@ -149,6 +151,7 @@ impl Default for Params {
             joint_split_z: 4.5,
             joint_centre_fraction: 1.0,
             eject_ratio: 4.0,
+            joint_merge_z: 3.0,
         }
     }
 }
@@ -270,6 +273,10 @@ pub const PARAM_DOCS: &[(&str, &str)] = &[
         "after the fit split, every cluster of ≥ 3 markers is posed per frame (Horn) and each marker's trajectory is expressed in each body's frame; its scatter there (per coordinate, 75th-percentile frame) is skin and noise on its own body but lever arm × angle on a neighbour's, first order in the joint angle. A marker moves when another body holds it this many times stiller than its own body posed without it, and its own scatter exceeds tolerance_min_mm; the donor keeps ≥ 2 markers; 0 = off; default 2.0",
     ),
     (
+        "joint_merge_z",
+        "after the joint test, two clusters of ≥ 3 markers with some marker pair within 2 × the tolerance of ρ merge when the joint test's rotation score of the pair is below this and the second's centroid stays within 2 × the part σ bound in the first's frame: they move as one rigid body (a rigid body's best cut scores about 2, true joints 4 and up; joint_table, seeds 3001-3004 hard: 2 of 280 true joints and 2 of 75 true segments' best cuts score on the wrong side of 3); most rigid pair first, repeatedly; 0 = off; default 3.0",
+    ),
+    (
         "eject_ratio",
         "after the reassignment and the joint test, in a cluster of ≥ 5 the marker with the largest scatter in its own body posed without it (as reassign_ratio measures it) leaves the cluster as a group of its own when that exceeds tolerance_min_mm and this × the median of its cluster-mates' (measured without it) (one per cluster; it stays a 1-marker segment when singleton_steady_factor keeps it, else it is unassigned). ρ misses a marker whose distances to a cluster barely change while the body turns it by tens of mm (CMU 02_01: RUPA swings 36 mm RMS in the head's frame, the head markers 3-5 mm; it leaves the head, pairs with RSHO, and the right humerus goes from 463 to 228 mm, Vicon 284). The mates' median is floored at the typical segment fit σ (skin): net of their poses' own error it can come out near zero, and then any foot marker looked ejectable. Synthetic (eval_segment 480, seeds 3001-3006, 5001, 5002): every preset's exact count unchanged, hard ARI 0.973 -> 0.972; 0 = off; default 4.0",
     ),
@@ -356,6 +363,7 @@ impl Params {
         non_negative("joint_split_z", self.joint_split_z)?;
         positive("joint_centre_fraction", self.joint_centre_fraction)?;
         non_negative("eject_ratio", self.eject_ratio)?;
+        non_negative("joint_merge_z", self.joint_merge_z)?;
         Ok(())
     }
 }
