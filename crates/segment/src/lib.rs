@@ -226,6 +226,13 @@ pub fn run(traj: &Trajectories, params: &Params) -> Result<Segmentation, Error> 
             rigidity::normalise(&mut clusters);
         }
     }
+    if params.pair_hold > 0.0 {
+        let hold_mm = params.pair_hold
+            * fitsplit::typical_sigma(traj, &clusters).max(params.tolerance_min_mm);
+        if reassign::dissolve_pairs(traj, &mut clusters, hold_mm, min_overlap) > 0 {
+            rigidity::normalise(&mut clusters);
+        }
+    }
     if params.eject_ratio > 0.0 {
         // No marker is held better than skin lets a typical segment hold it.
         let floor_mm = fitsplit::typical_sigma(traj, &clusters).max(params.tolerance_min_mm);

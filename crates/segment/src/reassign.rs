@@ -443,6 +443,69 @@ pub(crate) fn reassign(
     }
 }
 
+/// Dissolves two-marker clusters whose markers each belong to a body of ≥ 3: when both are
+/// held by some other cluster's body within `hold_mm` (scatter as [`marker_sigma`]), each
+/// joins the body that holds it best. Two markers near one joint axis, one on each side,
+/// keep a steady distance and pair up although each moves with its own segment; a true
+/// two-marker segment has a marker no other body holds (CMU's THI, SHN). Returns how many
+/// pairs were dissolved.
+pub(crate) fn dissolve_pairs(
+    traj: &Trajectories,
+    clusters: &mut Vec<Vec<usize>>,
+    hold_mm: f64,
+    min_overlap: usize,
+) -> usize {
+    let stride = stride_of(traj);
+    let min_frames = min_overlap.div_ceil(stride);
+    let bodies: Vec<Option<Body>> = clusters
+        .par_iter()
+        .map(|c| {
+            if c.len() >= 3 {
+                Body::new(traj, c, stride)
+            } else {
+                None
+            }
+        })
+        .collect();
+    let best_home = |m: usize, own: usize| {
+        bodies
+            .iter()
+            .enumerate()
+            .filter(|&(d, _)| d != own)
+            .filter_map(|(d, b)| {
+                let b = b.as_ref()?;
+                marker_sigma(traj, &b.poses, (&b.shape, 0.0), m, stride, min_frames).map(|s| (s, d))
+            })
+            .min_by(|x, y| x.0.total_cmp(&y.0).then(x.1.cmp(&y.1)))
+    };
+    let moves: Vec<Vec<(usize, usize)>> = clusters
+        .par_iter()
+        .enumerate()
+        .map(|(c, ms)| {
+            let &[a, b] = &ms[..] else { return Vec::new() };
+            match (best_home(a, c), best_home(b, c)) {
+                (Some((sa, da)), Some((sb, db))) if sa <= hold_mm && sb <= hold_mm => {
+                    vec![(a, da), (b, db)]
+                }
+                _ => Vec::new(),
+            }
+        })
+        .collect();
+    let mut dissolved = 0;
+    for (c, mv) in moves.iter().enumerate() {
+        if mv.is_empty() {
+            continue;
+        }
+        for &(m, d) in mv {
+            clusters[d].push(m);
+        }
+        clusters[c].clear();
+        dissolved += 1;
+    }
+    clusters.retain(|c| !c.is_empty());
+    dissolved
+}
+
 /// Largest cluster searched for a marker to eject: each candidate costs a pose of the
 /// cluster per frame, so the search is quadratic in its size, and clusters this large are
 /// not one segment's markers but body-model outputs (bigparlove.c3d: 179 points, 15 s).
@@ -536,7 +599,7 @@ pub(crate) fn sigma_in(traj: &Trajectories, group: &[usize], m: usize) -> Option
 mod tests {
     use mocap_io::Trajectories;
 
-    use super::{eject, reassign};
+    use super::{dissolve_pairs, eject, reassign};
 
     /// Two 4-marker bodies at a hinge swinging ±15°, with 1 mm deterministic jitter: a child
     /// marker clustered with the parent goes back to the child, and the true partition
@@ -621,5 +684,60 @@ mod tests {
         let mut rigid = vec![vec![0, 1, 2, 3, 4]];
         assert!(eject(&traj, &mut rigid, 4.0, 1.0).is_empty());
         assert_eq!(rigid, vec![vec![0, 1, 2, 3, 4]]);
+    }
+
+    /// Two 4-marker bodies at a hinge about x swinging ±20°, each with a fifth marker 15 mm
+    /// from the axis; a third body hinged to the child carries two markers. The two
+    /// near-axis markers paired up dissolve back into their bodies; the third body's pair,
+    /// which no other body holds, stays.
+    #[test]
+    fn near_axis_pair_dissolves_and_a_true_pair_stays() {
+        let parent = [
+            [30.0, 0.0, 100.0],
+            [-25.0, 20.0, 200.0],
+            [10.0, -30.0, 300.0],
+            [-20.0, -15.0, 150.0],
+            [40.0, 0.0, 15.0],
+        ];
+        let child = [
+            [20.0, 25.0, -100.0],
+            [-30.0, 5.0, -200.0],
+            [15.0, -25.0, -300.0],
+            [-10.0, 30.0, -250.0],
+            [-40.0, 0.0, -15.0],
+        ];
+        let third = [[10.0, 20.0, -450.0], [-15.0, -10.0, -550.0]];
+        let frames = 300;
+        let mut positions = Vec::new();
+        for f in 0..frames {
+            let t = f as f64 * 0.05;
+            let shift = [100.0 * t.sin(), 50.0 * t.cos(), 1000.0];
+            let rot = |angle: f64, p: [f64; 3], pivot_z: f64| {
+                let (s, c) = angle.sin_cos();
+                let z = p[2] - pivot_z;
+                [p[0], c * p[1] - s * z, s * p[1] + c * z + pivot_z]
+            };
+            let a1 = 20f64.to_radians() * (0.7 * t).sin();
+            let a2 = 25f64.to_radians() * (0.45 * t).cos();
+            let points: Vec<[f64; 3]> = parent
+                .iter()
+                .copied()
+                .chain(child.iter().map(|&p| rot(a1, p, 0.0)))
+                .chain(third.iter().map(|&p| rot(a1, rot(a2, p, -400.0), 0.0)))
+                .collect();
+            for (k, q) in points.iter().enumerate() {
+                let jitter = |axis: usize| 0.5 * ((f * 7 + k * 13 + axis * 5) as f64).sin();
+                positions.push(std::array::from_fn(|i| q[i] + shift[i] + jitter(i)));
+            }
+        }
+        let labels: Vec<String> = (0..12).map(|m| format!("M{m}")).collect();
+        let traj = Trajectories::new(labels, 100.0, 1, frames, positions).expect("capture");
+        let mut clusters = vec![vec![0, 1, 2, 3], vec![5, 6, 7, 8], vec![4, 9], vec![10, 11]];
+        assert_eq!(dissolve_pairs(&traj, &mut clusters, 3.0, 10), 1);
+        clusters.iter_mut().for_each(|c| c.sort_unstable());
+        assert_eq!(
+            clusters,
+            vec![vec![0, 1, 2, 3, 4], vec![5, 6, 7, 8, 9], vec![10, 11]]
+        );
     }
 }
