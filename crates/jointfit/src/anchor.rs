@@ -167,11 +167,15 @@ pub(crate) fn anchor_segments(
             secondary: None,
         });
     }
-    // Gap filling for segments posed by their own markers.
-    for s in 0..n {
-        if !own[s] || segments[s].len() < 3 {
-            continue;
-        }
+    // Fills S's frames without a pose where 2 of its markers are visible through the
+    // posed neighbour (not `skip`, not anchored through S) whose centre fits best; returns
+    // that neighbour, its fit and the frames filled, and refreshes S's track.
+    let fill = |s: usize,
+                skip: Option<usize>,
+                poses: &mut [SegmentPoses],
+                tracks: &mut [Vec<Option<Pose>>],
+                anchors: &[Option<Anchor>],
+                memo: &mut [Vec<Option<Option<CentreFit>>>]| {
         let gappy = (0..traj.frames()).any(|f| {
             tracks[s][f].is_none()
                 && segments[s]
@@ -181,12 +185,12 @@ pub(crate) fn anchor_segments(
                     >= 2
         });
         if !gappy {
-            continue;
+            return None;
         }
         let mut best: Option<(f64, usize, CentreFit)> = None;
         for nb in 0..n {
             let loops_back = anchors[nb].as_ref().is_some_and(|a| a.neighbour == s);
-            if nb == s || !posed[nb] || loops_back {
+            if nb == s || Some(nb) == skip || !posed[nb] || loops_back {
                 continue;
             }
             let fit = match memo[s][nb].take() {
@@ -199,7 +203,7 @@ pub(crate) fn anchor_segments(
                 best = Some((fit.rms_mm, nb, fit));
             }
         }
-        let Some((_, nb, fit)) = best else { continue };
+        let (_, nb, fit) = best?;
         let filled = fill_gaps(
             traj,
             &segments[s],
@@ -209,14 +213,23 @@ pub(crate) fn anchor_segments(
             &fit,
             params,
         );
-        let frames_posed = filled.iter().filter(|&&x| x).count();
-        if frames_posed > 0 {
-            tracks[s] = pose_track(&poses[s]);
+        if !filled.iter().any(|&x| x) {
+            return None;
+        }
+        tracks[s] = pose_track(&poses[s]);
+        Some((nb, fit, filled))
+    };
+    // Gap filling for segments posed by their own markers.
+    for s in 0..n {
+        if !own[s] || segments[s].len() < 3 {
+            continue;
+        }
+        if let Some((nb, fit, filled)) = fill(s, None, poses, &mut tracks, &anchors, &mut memo) {
             anchors[s] = Some(Anchor {
                 neighbour: nb,
                 posed_by_anchor: false,
                 fit,
-                frames_posed,
+                frames_posed: filled.iter().filter(|&&x| x).count(),
                 filled,
                 secondary: None,
             });
@@ -226,50 +239,20 @@ pub(crate) fn anchor_segments(
     // where both markers are visible, a second neighbour's joint fills them (its centre
     // placed in S's frame from the frames both are posed, as for the gaps above).
     for s in 0..n {
-        let Some(primary) = anchors[s].as_ref().filter(|a| a.posed_by_anchor) else {
+        let Some(first) = anchors[s]
+            .as_ref()
+            .filter(|a| a.posed_by_anchor)
+            .map(|a| a.neighbour)
+        else {
             continue;
         };
-        let first = primary.neighbour;
         if segments[s].len() != 2 {
             continue;
         }
-        let gappy = (0..traj.frames()).any(|f| {
-            tracks[s][f].is_none() && segments[s].iter().all(|&m| traj.get(f, m).is_some())
-        });
-        if !gappy {
-            continue;
-        }
-        let mut best: Option<(f64, usize, CentreFit)> = None;
-        for nb in 0..n {
-            let loops_back = anchors[nb].as_ref().is_some_and(|a| a.neighbour == s);
-            if nb == s || nb == first || !posed[nb] || loops_back {
-                continue;
-            }
-            let fit = match memo[s][nb].take() {
-                Some(fit) => fit,
-                None => centre_fit(traj, &segments[s], &tracks[nb], params),
-            };
-            if let Some(fit) = fit
-                && best.as_ref().is_none_or(|(c, _, _)| fit.rms_mm < *c)
-            {
-                best = Some((fit.rms_mm, nb, fit));
-            }
-        }
-        let Some((_, nb, fit)) = best else { continue };
-        let filled = fill_gaps(
-            traj,
-            &segments[s],
-            &mut poses[s],
-            &tracks[s],
-            &tracks[nb],
-            &fit,
-            params,
-        );
-        if filled.iter().any(|&x| x) {
-            tracks[s] = pose_track(&poses[s]);
-            if let Some(a) = anchors[s].as_mut() {
-                a.secondary = Some((nb, filled));
-            }
+        if let Some((nb, _, filled)) = fill(s, Some(first), poses, &mut tracks, &anchors, &mut memo)
+            && let Some(a) = anchors[s].as_mut()
+        {
+            a.secondary = Some((nb, filled));
         }
     }
     anchors
