@@ -30,7 +30,7 @@ use rayon::prelude::*;
 use crate::eigen::symmetric_eigen;
 use crate::fitsplit::{QUANTILE, median_distances, quantile, reference_shape};
 use crate::pairstats::PairStats;
-use crate::reassign::{Pose, horn, largest_eigenpair4};
+use crate::reassign::{Pose, horn, inertia_det, inertia_tensor, invert3, largest_eigenpair4};
 
 /// Fewest markers in a part: three pose a body's rotation fully.
 pub(crate) const MIN_PART: usize = 3;
@@ -98,28 +98,10 @@ struct PartFit {
 /// Trace of the inverse of the inertia tensor of `shape` about its centroid, 1/mm²;
 /// infinite when the points are collinear.
 fn inverse_inertia_trace(shape: &[[f64; 3]]) -> f64 {
-    let k = shape.len().max(1) as f64;
-    let mut c = [0.0; 3];
-    shape
-        .iter()
-        .for_each(|p| (0..3).for_each(|i| c[i] += p[i] / k));
-    let mut j = [[0.0; 3]; 3];
-    for p in shape {
-        let d = [p[0] - c[0], p[1] - c[1], p[2] - c[2]];
-        let n2 = d[0] * d[0] + d[1] * d[1] + d[2] * d[2];
-        for (a, row) in j.iter_mut().enumerate() {
-            for (b, v) in row.iter_mut().enumerate() {
-                *v += if a == b { n2 } else { 0.0 } - d[a] * d[b];
-            }
-        }
-    }
-    let det = j[0][0] * (j[1][1] * j[2][2] - j[1][2] * j[2][1])
-        - j[0][1] * (j[1][0] * j[2][2] - j[1][2] * j[2][0])
-        + j[0][2] * (j[1][0] * j[2][1] - j[1][1] * j[2][0]);
-    let scale = (j[0][0] + j[1][1] + j[2][2]).max(1e-300);
-    if det.abs() <= 1e-9 * scale * scale * scale {
+    let (_, j) = inertia_tensor(shape);
+    let Some(det) = inertia_det(&j) else {
         return f64::INFINITY;
-    }
+    };
     // trace(J⁻¹) = sum of the principal 2×2 minors over det.
     let minors = (j[1][1] * j[2][2] - j[1][2] * j[2][1])
         + (j[0][0] * j[2][2] - j[0][2] * j[2][0])
@@ -130,55 +112,7 @@ fn inverse_inertia_trace(shape: &[[f64; 3]]) -> f64 {
 /// Inverse of the inertia tensor of `shape` about its centroid, 1/mm²; `None` when the
 /// points are collinear.
 fn inverse_inertia(shape: &[[f64; 3]]) -> Option<[[f64; 3]; 3]> {
-    let k = shape.len().max(1) as f64;
-    let mut c = [0.0; 3];
-    shape
-        .iter()
-        .for_each(|p| (0..3).for_each(|i| c[i] += p[i] / k));
-    let mut j = [[0.0; 3]; 3];
-    for p in shape {
-        let d = [p[0] - c[0], p[1] - c[1], p[2] - c[2]];
-        let n2 = d[0] * d[0] + d[1] * d[1] + d[2] * d[2];
-        for (a, row) in j.iter_mut().enumerate() {
-            for (b, v) in row.iter_mut().enumerate() {
-                *v += if a == b { n2 } else { 0.0 } - d[a] * d[b];
-            }
-        }
-    }
-    invert3(&j)
-}
-
-/// Inverse of a 3 × 3 matrix by cofactors; `None` when (nearly) singular.
-fn invert3(j: &[[f64; 3]; 3]) -> Option<[[f64; 3]; 3]> {
-    let det = j[0][0] * (j[1][1] * j[2][2] - j[1][2] * j[2][1])
-        - j[0][1] * (j[1][0] * j[2][2] - j[1][2] * j[2][0])
-        + j[0][2] * (j[1][0] * j[2][1] - j[1][1] * j[2][0]);
-    let scale = j
-        .iter()
-        .flatten()
-        .map(|x| x.abs())
-        .fold(0.0, f64::max)
-        .max(1e-300);
-    if det.abs() <= 1e-12 * scale * scale * scale {
-        return None;
-    }
-    Some([
-        [
-            (j[1][1] * j[2][2] - j[1][2] * j[2][1]) / det,
-            (j[0][2] * j[2][1] - j[0][1] * j[2][2]) / det,
-            (j[0][1] * j[1][2] - j[0][2] * j[1][1]) / det,
-        ],
-        [
-            (j[1][2] * j[2][0] - j[1][0] * j[2][2]) / det,
-            (j[0][0] * j[2][2] - j[0][2] * j[2][0]) / det,
-            (j[0][2] * j[1][0] - j[0][0] * j[1][2]) / det,
-        ],
-        [
-            (j[1][0] * j[2][1] - j[1][1] * j[2][0]) / det,
-            (j[0][1] * j[2][0] - j[0][0] * j[2][1]) / det,
-            (j[0][0] * j[1][1] - j[0][1] * j[1][0]) / det,
-        ],
-    ])
+    invert3(&inertia_tensor(shape).1)
 }
 
 /// Poses per strided frame and each frame's residual (sum of squares mm², dof).

@@ -42,13 +42,9 @@ struct Body {
     var: f64,
 }
 
-/// How much a pose fitted to `shape` (≥ 3 points, mm) misplaces a point at `x` (same frame),
-/// per unit of the markers' residual variance: the leverage 1/k + mean over axes of
-/// [r]× J⁻¹ [r]×ᵀ (r = x − centroid, J the points' inertia tensor), the variance of the
-/// predicted position over the marker noise (linearised least squares). Infinite when the
-/// points are collinear (the rotation about their line is not determined).
-fn leverage(shape: &[[f64; 3]], x: [f64; 3]) -> f64 {
-    let k = shape.len() as f64;
+/// Centroid and inertia tensor `Σ (|d|² I − d dᵀ)` (d = point − centroid) of `shape`, mm².
+pub(crate) fn inertia_tensor(shape: &[[f64; 3]]) -> ([f64; 3], [[f64; 3]; 3]) {
+    let k = shape.len().max(1) as f64;
     let mut c = [0.0; 3];
     shape
         .iter()
@@ -63,15 +59,24 @@ fn leverage(shape: &[[f64; 3]], x: [f64; 3]) -> f64 {
             }
         }
     }
+    (c, j)
+}
+
+/// Inverse of a 3 × 3 matrix by cofactors; `None` when (nearly) singular.
+pub(crate) fn invert3(j: &[[f64; 3]; 3]) -> Option<[[f64; 3]; 3]> {
     let det = j[0][0] * (j[1][1] * j[2][2] - j[1][2] * j[2][1])
         - j[0][1] * (j[1][0] * j[2][2] - j[1][2] * j[2][0])
         + j[0][2] * (j[1][0] * j[2][1] - j[1][1] * j[2][0]);
-    let scale = (j[0][0] + j[1][1] + j[2][2]).max(1e-300);
-    if det.abs() <= 1e-9 * scale * scale * scale {
-        return f64::INFINITY;
+    let scale = j
+        .iter()
+        .flatten()
+        .map(|x| x.abs())
+        .fold(0.0, f64::max)
+        .max(1e-300);
+    if det.abs() <= 1e-12 * scale * scale * scale {
+        return None;
     }
-    // Inverse by cofactors (J is symmetric).
-    let inv = [
+    Some([
         [
             (j[1][1] * j[2][2] - j[1][2] * j[2][1]) / det,
             (j[0][2] * j[2][1] - j[0][1] * j[2][2]) / det,
@@ -87,7 +92,31 @@ fn leverage(shape: &[[f64; 3]], x: [f64; 3]) -> f64 {
             (j[0][1] * j[2][0] - j[0][0] * j[2][1]) / det,
             (j[0][0] * j[1][1] - j[0][1] * j[1][0]) / det,
         ],
-    ];
+    ])
+}
+
+/// Determinant of an inertia tensor, or `None` when its points are (nearly) collinear:
+/// |det| within 1e-9 × trace³.
+pub(crate) fn inertia_det(j: &[[f64; 3]; 3]) -> Option<f64> {
+    let det = j[0][0] * (j[1][1] * j[2][2] - j[1][2] * j[2][1])
+        - j[0][1] * (j[1][0] * j[2][2] - j[1][2] * j[2][0])
+        + j[0][2] * (j[1][0] * j[2][1] - j[1][1] * j[2][0]);
+    let scale = (j[0][0] + j[1][1] + j[2][2]).max(1e-300);
+    (det.abs() > 1e-9 * scale * scale * scale).then_some(det)
+}
+
+/// How much a pose fitted to `shape` (≥ 3 points, mm) misplaces a point at `x` (same frame),
+/// per unit of the markers' residual variance: the leverage 1/k + mean over axes of
+/// [r]× J⁻¹ [r]×ᵀ (r = x − centroid, J the points' inertia tensor), the variance of the
+/// predicted position over the marker noise (linearised least squares). Infinite when the
+/// points are collinear (the rotation about their line is not determined).
+fn leverage(shape: &[[f64; 3]], x: [f64; 3]) -> f64 {
+    let k = shape.len() as f64;
+    let (c, j) = inertia_tensor(shape);
+    // `invert3`'s own singularity margin is looser than `inertia_det`'s.
+    let Some(inv) = inertia_det(&j).and_then(|_| invert3(&j)) else {
+        return f64::INFINITY;
+    };
     let r = [x[0] - c[0], x[1] - c[1], x[2] - c[2]];
     let cross = [[0.0, -r[2], r[1]], [r[2], 0.0, -r[0]], [-r[1], r[0], 0.0]];
     // trace(C J⁻¹ Cᵀ) = Σ_a Σ_b Σ_c C[a][b] J⁻¹[b][c] C[a][c].
