@@ -7,20 +7,18 @@
 //! (mm), fraction, pooled σ, and whether the weighed cut is the true one.
 #![allow(clippy::print_stdout)]
 
-use synth::{Preset, Subject, SynthConfig};
+use synth::SynthConfig;
+
+mod common;
 
 fn main() {
     let args: Vec<String> = std::env::args().skip(1).collect();
-    let subjects: Vec<Subject> = args
-        .first()
-        .map(|s| s.split(',').filter_map(|x| x.parse().ok()).collect())
-        .unwrap_or_default();
-    let preset: Preset = args
-        .get(1)
-        .and_then(|s| s.parse().ok())
-        .unwrap_or(Preset::Hard);
-    let frames: usize = args.get(2).and_then(|s| s.parse().ok()).unwrap_or(480);
-    let seeds: Vec<u64> = args.iter().skip(3).filter_map(|s| s.parse().ok()).collect();
+    let common::TrialSet {
+        subjects,
+        preset,
+        frames,
+        seeds,
+    } = common::trial_set_from_args(&args);
     let params = segment::Params::default();
     let line = |kind: &str,
                 trial: &str,

@@ -41,3 +41,28 @@ pub fn params_from_overrides<'a>(words: impl IntoIterator<Item = &'a String>) ->
         .collect();
     serde_json::from_value(serde_json::Value::Object(overrides)).expect("segment params")
 }
+
+/// Trials named by `SUBJECTS PRESET FRAMES SEEDS...` (subjects comma-separated; defaults:
+/// none, hard, 480, none).
+pub struct TrialSet {
+    pub subjects: Vec<Subject>,
+    pub preset: Preset,
+    pub frames: usize,
+    pub seeds: Vec<u64>,
+}
+
+/// Parses [`TrialSet`] from argv (after the program name).
+pub fn trial_set_from_args(args: &[String]) -> TrialSet {
+    TrialSet {
+        subjects: args
+            .first()
+            .map(|s| s.split(',').filter_map(|x| x.parse().ok()).collect())
+            .unwrap_or_default(),
+        preset: args
+            .get(1)
+            .and_then(|s| s.parse().ok())
+            .unwrap_or(Preset::Hard),
+        frames: args.get(2).and_then(|s| s.parse().ok()).unwrap_or(480),
+        seeds: args.iter().skip(3).filter_map(|s| s.parse().ok()).collect(),
+    }
+}
