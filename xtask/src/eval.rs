@@ -34,6 +34,9 @@ pub struct Args {
     /// Presets, comma-separated.
     #[arg(long, value_delimiter = ',', default_values_t = ["clean".to_string(), "hard".to_string()])]
     pub presets: Vec<String>,
+    /// Markers per segment as MIN:MAX (or one number) [default: the generator's, 3:6].
+    #[arg(long, value_name = "MIN:MAX")]
+    pub markers: Option<String>,
     /// Set a stage parameter for every trial (STAGE.PARAM=VALUE). Repeatable.
     #[arg(long = "set", value_name = "STAGE.PARAM=VALUE")]
     pub set: Vec<String>,
@@ -109,6 +112,11 @@ pub fn suite(args: &Args) -> Result<Vec<TrialSpec>> {
         .iter()
         .map(|s| s.parse::<Preset>().map_err(anyhow::Error::from))
         .collect::<Result<_>>()?;
+    let markers_per_segment = match &args.markers {
+        None => SynthConfig::default().markers_per_segment,
+        Some(text) => crate::synth_cmd::parse_range(text)
+            .with_context(|| format!("--markers {text}: expected MIN:MAX or N"))?,
+    };
     let mut specs = Vec::new();
     for subject in &subjects {
         for preset in &presets {
@@ -118,6 +126,7 @@ pub fn suite(args: &Args) -> Result<Vec<TrialSpec>> {
                     preset: *preset,
                     frames: args.frames,
                     seed: *seed,
+                    markers_per_segment,
                     ..SynthConfig::default()
                 };
                 config.validate()?;

@@ -61,7 +61,8 @@ pub fn config(args: &Args) -> Result<SynthConfig> {
     Ok(config)
 }
 
-fn parse_range(text: &str) -> Result<(usize, usize)> {
+/// `MIN:MAX` (or `MIN-MAX`, `MIN,MAX`, one number) as a range of markers per segment.
+pub fn parse_range(text: &str) -> Result<(usize, usize)> {
     let (lo, hi) = text.split_once([':', '-', ',']).unwrap_or((text, text));
     Ok((lo.trim().parse()?, hi.trim().parse()?))
 }

@@ -69,6 +69,7 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
             for (name, method, anchor) in [
                 ("score", Method::Score, true),
                 ("no-anch", Method::Score, false),
+                ("no-dist", Method::Score, true),
                 ("aguiar", Method::Aguiar, true),
                 ("score+h", Method::Score, true),
                 ("local", Method::Local, true),
@@ -77,6 +78,7 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
                 let params = Params {
                     method,
                     anchor,
+                    anchor_centres_by_distance: name != "no-dist",
                     ..Params::default()
                 };
                 let start = Instant::now();

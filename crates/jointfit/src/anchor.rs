@@ -134,8 +134,15 @@ pub(crate) fn anchor_segments(
                 if nb == s || !posed[nb] || failed[s][nb] {
                     continue;
                 }
-                let fit = memo[s][nb]
-                    .get_or_insert_with(|| centre_fit(traj, &segments[s], &tracks[nb], params));
+                let fit = memo[s][nb].get_or_insert_with(|| {
+                    centre_fit(
+                        traj,
+                        &segments[s],
+                        &tracks[nb],
+                        params,
+                        params.anchor_min_excursion_deg,
+                    )
+                });
                 if let Some(fit) = fit
                     && best.is_none_or(|(c, _, _)| fit.rms_mm < c)
                 {
@@ -195,7 +202,13 @@ pub(crate) fn anchor_segments(
             }
             let fit = match memo[s][nb].take() {
                 Some(fit) => fit,
-                None => centre_fit(traj, &segments[s], &tracks[nb], params),
+                None => centre_fit(
+                    traj,
+                    &segments[s],
+                    &tracks[nb],
+                    params,
+                    params.anchor_min_excursion_deg,
+                ),
             };
             if let Some(fit) = fit
                 && best.as_ref().is_none_or(|(c, _, _)| fit.rms_mm < *c)
@@ -258,12 +271,14 @@ pub(crate) fn anchor_segments(
     anchors
 }
 
-/// Common centre of `markers` (S's) in the frame of a neighbour with poses `track`.
+/// Common centre of `markers` (S's) in the frame of a neighbour with poses `track`;
+/// `None` unless the markers turn at least `min_excursion_deg` RMS about it.
 pub(crate) fn centre_fit(
     traj: &Trajectories,
     markers: &[usize],
     track: &[Option<Pose>],
     params: &Params,
+    min_excursion_deg: f64,
 ) -> Option<CentreFit> {
     // Samples of each marker in N's frame.
     let clouds: Vec<Vec<DVec3>> = markers
@@ -424,7 +439,7 @@ pub(crate) fn centre_fit(
     let (_, radii) = radial(&clouds, &used, centre);
     let ok = rms_mm.is_finite()
         && rms_mm <= params.anchor_max_rms_mm
-        && excursion_deg >= params.anchor_min_excursion_deg;
+        && excursion_deg >= min_excursion_deg;
     ok.then_some(CentreFit {
         centre,
         rms_mm,

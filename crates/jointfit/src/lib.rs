@@ -110,6 +110,17 @@ pub fn run_on_segments(
         .par_iter()
         .map(|&(a, b)| fit::fit_pair(traj, a, b, &views[a], &views[b], params))
         .collect();
+    // A segment posed through a joint has no twist of its own about its marker line: its
+    // joints (the anchor's and any other) are centred by its markers' distances alone.
+    if params.anchor_centres_by_distance {
+        fits.par_iter_mut().for_each(|fit| {
+            for s in [fit.a, fit.b] {
+                if let Some(anchor) = anchors[s].as_ref().filter(|a| a.posed_by_anchor) {
+                    centre_by_distance(traj, fit, s, &segments[s], anchor, &tracks, params);
+                }
+            }
+        });
+    }
     // Say which joints carry a segment's poses: their costs are low partly by construction.
     for (s, anchor) in anchors.iter().enumerate() {
         let Some(anchor) = anchor else { continue };
@@ -144,6 +155,45 @@ pub fn run_on_segments(
         poses,
         pairs: fits,
     })
+}
+
+/// Re-centres `fit`, a pair of segment `s` (posed through `anchor`), by `s`'s markers'
+/// distances: the anchor's own joint at the anchor's common centre, any other at the common
+/// centre of `s`'s markers in the other segment's frame. Where the distances leave a
+/// direction free (a hinge axis) or the pair does not move, the pose fit stays.
+fn centre_by_distance(
+    traj: &Trajectories,
+    fit: &mut PairFit,
+    s: usize,
+    markers: &[usize],
+    anchor: &anchor::Anchor,
+    tracks: &[Vec<Option<poses::Pose>>],
+    params: &Params,
+) {
+    let other = if fit.a == s { fit.b } else { fit.a };
+    let (ta, tb) = (&tracks[fit.a], &tracks[fit.b]);
+    if other == anchor.neighbour {
+        if !anchor.fit.hinge {
+            let note = "the anchor's common centre";
+            fit::set_centre(fit, other, anchor.fit.centre, ta, tb, note);
+        }
+        return;
+    }
+    if !fit.cost.is_finite() || fit.kind == JointKind::Rigid {
+        return;
+    }
+    // The topology decides whether this pair is a joint: any excursion above rigid counts.
+    let Some(cf) = anchor::centre_fit(traj, markers, &tracks[other], params, params.rigid_deg)
+    else {
+        return;
+    };
+    if !cf.hinge {
+        let note = format!(
+            "segment {s}'s markers' common centre in segment {other} ({})",
+            cf.describe()
+        );
+        fit::set_centre(fit, other, cf.centre, ta, tb, &note);
+    }
 }
 
 #[cfg(test)]

@@ -61,6 +61,10 @@ pub struct Params {
     /// Anchoring of 2-marker segments: pin the centre's coordinate along the marker line
     /// to the line's least-moving point (a prior weighted by its uncertainty).
     pub anchor_line_prior: bool,
+    /// Joints of a segment posed through an anchor are centred by its markers' distances
+    /// (the anchor's common centre; for its other joints, the common centre in the other
+    /// segment's frame) instead of a refit on the poses built through the anchor.
+    pub anchor_centres_by_distance: bool,
     /// When > 0, a hinge's centre is placed along its axis only if that raises the pair
     /// residual by at most this factor over the least-squares centre (+0.1 mm); 0 = always.
     pub hinge_slide_max_rise: f64,
@@ -85,6 +89,7 @@ impl Default for Params {
             anchor_min_excursion_deg: 10.0,
             anchor_max_rms_mm: 25.0,
             anchor_line_prior: true,
+            anchor_centres_by_distance: true,
             hinge_slide_max_rise: 0.0,
             local_voxels: 8,
             local_planar_ratio: 0.1,
@@ -157,6 +162,14 @@ pub const PARAM_DOCS: &[(&str, &str)] = &[
         "anchor_max_rms_mm",
         "anchoring: a neighbour qualifies only if the markers' distances to the common \
          centre vary by at most this RMS; mm; default 25",
+    ),
+    (
+        "anchor_centres_by_distance",
+        "joints of a segment with fewer than 3 markers, posed through an anchor joint, are \
+         centred by its markers' distances (the anchor's common centre; for its other joints \
+         the common centre in the other segment's frame, accepted above rigid_deg of \
+         excursion) rather than refitted on the poses built through the anchor, whose twist \
+         about the marker line is only as good as that centre; default true",
     ),
     (
         "anchor_line_prior",
