@@ -114,10 +114,18 @@ pub fn run_on_segments(
     // joints (the anchor's and any other) are centred by its markers' distances alone.
     if params.anchor_centres_by_distance {
         fits.par_iter_mut().for_each(|fit| {
-            for s in [fit.a, fit.b] {
-                if let Some(anchor) = anchors[s].as_ref().filter(|a| a.posed_by_anchor) {
-                    centre_by_distance(traj, fit, s, &segments[s], anchor, &tracks, params);
-                }
+            // Both segments posed through anchors (a knee between a 2-marker thigh and
+            // shank): the side whose markers keep their distances best decides.
+            let best = [fit.a, fit.b]
+                .into_iter()
+                .filter_map(|s| {
+                    let anchor = anchors[s].as_ref().filter(|a| a.posed_by_anchor)?;
+                    distance_centre(traj, fit, s, &segments[s], anchor, &tracks, params)
+                })
+                .min_by(|x, y| x.rms_mm.total_cmp(&y.rms_mm));
+            if let Some(c) = best {
+                let (ta, tb) = (&tracks[fit.a], &tracks[fit.b]);
+                fit::set_centre(fit, c.frame, c.centre, ta, tb, &c.note);
             }
         });
     }
@@ -157,43 +165,52 @@ pub fn run_on_segments(
     })
 }
 
-/// Re-centres `fit`, a pair of segment `s` (posed through `anchor`), by `s`'s markers'
-/// distances: the anchor's own joint at the anchor's common centre, any other at the common
-/// centre of `s`'s markers in the other segment's frame. Where the distances leave a
-/// direction free (a hinge axis) or the pair does not move, the pose fit stays.
-fn centre_by_distance(
+/// A joint centre from a segment's markers' distances, in segment `frame`'s local frame.
+struct DistanceCentre {
+    frame: usize,
+    centre: glam::DVec3,
+    /// RMS radial residual of the fit (mm).
+    rms_mm: f64,
+    /// Where the centre came from, for the evidence.
+    note: String,
+}
+
+/// The centre of `fit`, a pair of segment `s` (posed through `anchor`), by `s`'s markers'
+/// distances: for the anchor's own joint the anchor's common centre, for any other the
+/// common centre of `s`'s markers in the other segment's frame. `None` where the distances
+/// leave a direction free (a hinge axis) or the pair does not move: the pose fit stays.
+fn distance_centre(
     traj: &Trajectories,
-    fit: &mut PairFit,
+    fit: &PairFit,
     s: usize,
     markers: &[usize],
     anchor: &anchor::Anchor,
     tracks: &[Vec<Option<poses::Pose>>],
     params: &Params,
-) {
+) -> Option<DistanceCentre> {
     let other = if fit.a == s { fit.b } else { fit.a };
-    let (ta, tb) = (&tracks[fit.a], &tracks[fit.b]);
     if other == anchor.neighbour {
-        if !anchor.fit.hinge {
-            let note = "the anchor's common centre";
-            fit::set_centre(fit, other, anchor.fit.centre, ta, tb, note);
-        }
-        return;
+        return (!anchor.fit.hinge).then(|| DistanceCentre {
+            frame: other,
+            centre: anchor.fit.centre,
+            rms_mm: anchor.fit.rms_mm,
+            note: "the anchor's common centre".to_string(),
+        });
     }
     if !fit.cost.is_finite() || fit.kind == JointKind::Rigid {
-        return;
+        return None;
     }
     // The topology decides whether this pair is a joint: any excursion above rigid counts.
-    let Some(cf) = anchor::centre_fit(traj, markers, &tracks[other], params, params.rigid_deg)
-    else {
-        return;
-    };
-    if !cf.hinge {
-        let note = format!(
+    let cf = anchor::centre_fit(traj, markers, &tracks[other], params, params.rigid_deg)?;
+    (!cf.hinge).then(|| DistanceCentre {
+        frame: other,
+        centre: cf.centre,
+        rms_mm: cf.rms_mm,
+        note: format!(
             "segment {s}'s markers' common centre in segment {other} ({})",
             cf.describe()
-        );
-        fit::set_centre(fit, other, cf.centre, ta, tb, &note);
-    }
+        ),
+    })
 }
 
 #[cfg(test)]
