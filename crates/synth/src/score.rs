@@ -9,6 +9,13 @@
 //! - An estimated joint matches a true joint when its two segments map to that joint's
 //!   two segments, in either order (edges are undirected). Each true joint is matched at
 //!   most once, by the first estimated joint that maps to it.
+//! - Coincident joints: true joints whose centres coincide in every frame (a random tree
+//!   hangs several children on one parent's tip) make every tree over their segments
+//!   kinematically identical: with children C1, C2 both at P's tip, C2 turns about the
+//!   same point whether it hangs on P or on C1, so no motion can tell. An estimated joint
+//!   left unmatched above whose two segments map into one such group takes an unmatched
+//!   true joint of the group (counted in `equivalent_joints`; its centre is scored, its
+//!   kind is not, the kind of a pair that is not a true joint being undefined).
 //! - Joint error: distance between matched joints' centres over frames where both are
 //!   known, pooled over all matched joints: mean and worst, mm and % of `height_mm`.
 //! - Bone-length constancy: for every estimated joint whose parent segment is the child
@@ -147,8 +154,11 @@ pub struct JointScore {
     pub worst_mm: Option<f64>,
     /// Share of the truth's frames where the estimate is known.
     pub known_fraction: f64,
-    /// Whether hinge vs not-hinge agrees.
+    /// Whether hinge vs not-hinge agrees (false for an `equivalent` match).
     pub kind_correct: bool,
+    /// Matched through a group of coincident true joints, not by its own segments.
+    #[serde(default)]
+    pub equivalent: bool,
 }
 
 /// Agreement of an estimate with the truth (see the module docs for definitions).
@@ -168,6 +178,9 @@ pub struct Score {
     pub estimated_joints: usize,
     /// Estimated joints matching a true joint (each true joint once).
     pub matched_joints: usize,
+    /// Of those, matched through a group of coincident true joints (see the module docs).
+    #[serde(default)]
+    pub equivalent_joints: usize,
     /// matched / estimated joints (1 when the estimate has none).
     pub topology_precision: f64,
     /// matched / true joints (1 when the truth has none).
@@ -201,7 +214,7 @@ impl fmt::Display for Score {
         };
         write!(
             f,
-            "ARI {:.3} | segments {}/{} | topology P {:.2} R {:.2} {} | joints {}/{} err mean {} mm ({} %) worst {} mm ({} %) | known {:.2} | bone std {} mm | kind {}",
+            "ARI {:.3} | segments {}/{} | topology P {:.2} R {:.2} {}{} | joints {}/{} err mean {} mm ({} %) worst {} mm ({} %) | known {:.2} | bone std {} mm | kind {}",
             self.ari,
             self.estimated_segments,
             self.true_segments,
@@ -211,6 +224,11 @@ impl fmt::Display for Score {
                 "exact"
             } else {
                 "inexact"
+            },
+            if self.equivalent_joints > 0 {
+                format!(" ({} by coincident joints)", self.equivalent_joints)
+            } else {
+                String::new()
             },
             self.matched_joints,
             self.true_joints,
@@ -223,6 +241,35 @@ impl fmt::Display for Score {
             opt(self.kind_accuracy, 2),
         )
     }
+}
+
+/// Groups (≥ 2, ascending) of true joints whose centres coincide within 1 µm in every frame.
+fn coincident_groups(truth: &Truth) -> Vec<Vec<usize>> {
+    let n = truth.joints.len();
+    let mut group: Vec<usize> = (0..n).collect();
+    for j in 0..n {
+        for k in (j + 1)..n {
+            let (pj, pk) = (&truth.joints[j].positions, &truth.joints[k].positions);
+            let same = !pj.is_empty()
+                && pj.len() == pk.len()
+                && pj.iter().zip(pk).all(|(a, b)| {
+                    (a[0] - b[0]).powi(2) + (a[1] - b[1]).powi(2) + (a[2] - b[2]).powi(2) <= 1e-6
+                });
+            if same {
+                let (from, to) = (group[k], group[j]);
+                for g in &mut group {
+                    if *g == from {
+                        *g = to;
+                    }
+                }
+            }
+        }
+    }
+    let mut out: BTreeMap<usize, Vec<usize>> = BTreeMap::new();
+    for (j, g) in group.into_iter().enumerate() {
+        out.entry(g).or_default().push(j);
+    }
+    out.into_values().filter(|g| g.len() >= 2).collect()
 }
 
 /// Adjusted Rand index of two labellings of the same items.
@@ -311,6 +358,7 @@ pub fn score(truth: &Truth, estimate: &Estimate) -> Score {
         .collect();
     // True joint → estimated joint.
     let mut matched: BTreeMap<usize, usize> = BTreeMap::new();
+    let mut mapped_edges = Vec::new();
     for (e, ej) in estimate.joints.iter().enumerate() {
         let (Some(&p), Some(&c)) = (
             maps_to.get(&ej.parent_segment),
@@ -321,8 +369,34 @@ pub fn score(truth: &Truth, estimate: &Estimate) -> Score {
         if p == c {
             continue;
         }
+        mapped_edges.push((e, p, c));
         if let Some(&t) = true_edges.get(&edge(p, c)) {
             matched.entry(t).or_insert(e);
+        }
+    }
+    // Estimated joints left over, matched within groups of coincident true joints.
+    let groups = coincident_groups(truth);
+    let mut equivalent = std::collections::BTreeSet::new();
+    for (e, p, c) in mapped_edges {
+        if matched.values().any(|&m| m == e) {
+            continue;
+        }
+        let in_group = |g: &Vec<usize>| {
+            let touches = |s: usize| {
+                g.iter().any(|&j| {
+                    truth.joints[j].parent_segment == s || truth.joints[j].child_segment == s
+                })
+            };
+            touches(p) && touches(c)
+        };
+        let free = groups
+            .iter()
+            .filter(|g| in_group(g))
+            .flat_map(|g| g.iter().copied())
+            .find(|t| !matched.contains_key(t));
+        if let Some(t) = free {
+            matched.insert(t, e);
+            equivalent.insert(t);
         }
     }
     let est_joints = estimate.joints.len();
@@ -365,7 +439,8 @@ pub fn score(truth: &Truth, estimate: &Estimate) -> Score {
         count += jc;
         worst = worst.max(jw);
         known += jc;
-        let kind_correct = (tj.kind == "hinge") == (ej.kind == "hinge");
+        let is_equivalent = equivalent.contains(&t);
+        let kind_correct = !is_equivalent && (tj.kind == "hinge") == (ej.kind == "hinge");
         kind_ok += usize::from(kind_correct);
         joints.push(JointScore {
             truth: tj.name.clone(),
@@ -378,6 +453,7 @@ pub fn score(truth: &Truth, estimate: &Estimate) -> Score {
                 jc as f64 / frames as f64
             },
             kind_correct,
+            equivalent: is_equivalent,
         });
     }
     let mean = (count > 0).then(|| sum / count as f64);
@@ -428,6 +504,7 @@ pub fn score(truth: &Truth, estimate: &Estimate) -> Score {
         true_joints,
         estimated_joints: est_joints,
         matched_joints: matched.len(),
+        equivalent_joints: equivalent.len(),
         topology_precision: precision,
         topology_recall: recall,
         topology_exact: matched.len() == est_joints && matched.len() == true_joints,
@@ -443,7 +520,8 @@ pub fn score(truth: &Truth, estimate: &Estimate) -> Score {
         },
         bone_length_std_mm: (!bone_stds.is_empty())
             .then(|| bone_stds.iter().sum::<f64>() / bone_stds.len() as f64),
-        kind_accuracy: (!matched.is_empty()).then(|| kind_ok as f64 / matched.len() as f64),
+        kind_accuracy: (matched.len() > equivalent.len())
+            .then(|| kind_ok as f64 / (matched.len() - equivalent.len()) as f64),
         joints,
     }
 }

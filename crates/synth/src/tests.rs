@@ -588,3 +588,46 @@ fn true_segment_markers_cover_every_marker_once() {
         );
     }
 }
+
+/// Two children on one parent's tip: hanging the second on the first instead is the same
+/// skeleton in motion, and scores as exact (centre scored, kind not); hanging it on a
+/// segment elsewhere does not.
+#[test]
+fn coincident_joints_make_equivalent_trees_exact() {
+    let found = (1..40u64).find_map(|seed| {
+        let t = trial(Subject::Random, Preset::Clean, seed);
+        let joints = &t.truth.joints;
+        let pair = (0..joints.len()).find_map(|j| {
+            ((j + 1)..joints.len())
+                .find(|&k| {
+                    joints[j].parent_segment == joints[k].parent_segment
+                        && joints[j].positions == joints[k].positions
+                })
+                .map(|k| (j, k))
+        })?;
+        Some((t, pair))
+    });
+    let (t, (j, k)) = found.expect("a random tree with two children on one tip in seeds 1..40");
+    let mut est = Estimate::from_truth(&t.truth);
+    est.joints[k].parent_segment = t.truth.joints[j].child_segment;
+    let s = score(&t.truth, &est);
+    assert!(s.topology_exact, "{s}");
+    assert_eq!(s.equivalent_joints, 1, "{s}");
+    assert_eq!(s.joint_error_mean_mm, Some(0.0), "{s}");
+    assert_eq!(s.kind_accuracy, Some(1.0), "{s}");
+    assert_eq!(s.joints.iter().filter(|js| js.equivalent).count(), 1);
+    // A segment that touches none of the coincident joints.
+    let elsewhere = (0..t.truth.segments.len()).find(|&seg| {
+        seg != t.truth.joints[k].child_segment
+            && t.truth
+                .joints
+                .iter()
+                .filter(|jt| jt.positions == t.truth.joints[k].positions)
+                .all(|jt| jt.parent_segment != seg && jt.child_segment != seg)
+    });
+    let seg = elsewhere.expect("random trees have at least 5 segments");
+    let mut wrong = Estimate::from_truth(&t.truth);
+    wrong.joints[k].parent_segment = seg;
+    let s = score(&t.truth, &wrong);
+    assert!(!s.topology_exact && s.equivalent_joints == 0, "{s}");
+}
