@@ -44,6 +44,7 @@ pub use horn::{RigidFit, absolute_orientation, rotation_from_cross_covariance};
 pub use pairfits::*;
 pub use params::{Method, PARAM_DOCS, Params};
 
+use glam::DVec3;
 use mocap_io::Trajectories;
 use rayon::prelude::*;
 
@@ -125,9 +126,28 @@ pub fn run_on_segments(
                     distance_centre(traj, fit, s, &segments[s], anchor, &tracks, params)
                 })
                 .min_by(|x, y| x.rms_mm.total_cmp(&y.rms_mm));
-            if let Some(c) = best {
+            let Some(c) = best else { return };
+            // Where the two disagree, the data leave a direction nearly free (a hinge-like
+            // axis) and each fit settled it on its own bias. Joints lie inside the limbs the
+            // markers sit on: a centre that moves away from every marker is sliding along
+            // that direction, not finding the joint.
+            let markers = || segments[fit.a].iter().chain(&segments[fit.b]).copied();
+            let track_n = &tracks[c.frame];
+            let now = nearest_marker_mm(traj, markers(), |f| {
+                let p = DVec3::from_array(fit.positions[f]);
+                p.is_finite().then_some(p)
+            });
+            let then = nearest_marker_mm(traj, markers(), |f| {
+                track_n[f].as_ref().map(|pose| pose.apply(c.centre))
+            });
+            if then <= now {
                 let (ta, tb) = (&tracks[fit.a], &tracks[fit.b]);
                 fit::set_centre(fit, c.frame, c.centre, ta, tb, &c.note);
+            } else {
+                fit.evidence.push_str(&format!(
+                    "; {} not used: {then:.0} mm from the nearest marker against {now:.0}",
+                    c.note
+                ));
             }
         });
     }
@@ -167,10 +187,37 @@ pub fn run_on_segments(
     })
 }
 
+/// Mean over frames of the distance (mm) from `centre(f)` to the nearest visible marker of
+/// `markers`; +∞ when no frame has both.
+fn nearest_marker_mm(
+    traj: &Trajectories,
+    markers: impl Iterator<Item = usize> + Clone,
+    centre: impl Fn(usize) -> Option<DVec3>,
+) -> f64 {
+    let (mut sum, mut count) = (0.0, 0usize);
+    for f in 0..traj.frames() {
+        let Some(c) = centre(f) else { continue };
+        let nearest = markers
+            .clone()
+            .filter_map(|m| traj.get(f, m))
+            .map(|p| DVec3::from_array(p).distance(c))
+            .fold(f64::INFINITY, f64::min);
+        if nearest.is_finite() {
+            sum += nearest;
+            count += 1;
+        }
+    }
+    if count == 0 {
+        f64::INFINITY
+    } else {
+        sum / count as f64
+    }
+}
+
 /// A joint centre from a segment's markers' distances, in segment `frame`'s local frame.
 struct DistanceCentre {
     frame: usize,
-    centre: glam::DVec3,
+    centre: DVec3,
     /// RMS radial residual of the fit (mm).
     rms_mm: f64,
     /// Where the centre came from, for the evidence.

@@ -169,7 +169,9 @@ pub const PARAM_DOCS: &[(&str, &str)] = &[
          centred by its markers' distances (the anchor's common centre; for its other joints \
          the common centre in the other segment's frame, accepted above rigid_deg of \
          excursion) rather than refitted on the poses built through the anchor, whose twist \
-         about the marker line is only as good as that centre; default true",
+         about the marker line is only as good as that centre; kept only where it lies no \
+         farther from the pair's markers than the refit's (mean nearest-marker distance), \
+         since where the two disagree a nearly free direction was settled by bias; default true",
     ),
     (
         "anchor_line_prior",

@@ -626,11 +626,13 @@ fn anchored_segment_gaps_are_filled_through_its_other_joint() {
 fn two_marker_limb_joints_are_centred_by_distances() {
     let mut rng = TestRng(36);
     let frames = 600;
+    // The last trunk marker sits on the acromion, 45 mm above the shoulder, as in the
+    // usual marker sets (CMU's LSHO / RSHO).
     let trunk = [
         DVec3::new(60.0, 0.0, 40.0),
         DVec3::new(-50.0, 30.0, 60.0),
         DVec3::new(10.0, -70.0, 80.0),
-        DVec3::new(-20.0, 40.0, 140.0),
+        DVec3::new(0.0, 160.0, 5.0),
     ];
     let shoulder_in_trunk = DVec3::new(0.0, 150.0, -40.0);
     // Arm frame: shoulder at the origin, humerus along −z, elbow at −300 mm on it.
