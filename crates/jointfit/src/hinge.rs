@@ -7,7 +7,12 @@
 //! e, g of X the squared distance `|c_e + s_e u_e − c_g − s_g u_g|²` in X's local frame
 //! (a ball joint has no `u`). Its minimum puts each hinge where the mean of the bones to
 //! its neighbours is perpendicular to the axis, the usual anatomy (a limb's bone runs
-//! across its knee or elbow axis); when every bone is perpendicular this is exact. A hinge
+//! across its knee or elbow axis); when every bone is perpendicular this is exact. Each
+//! term is weighted by 1 / (D² + (10 mm)²), D the pair's distance that no slide changes (a
+//! ball centre's distance from the axis; two hinges' centres' distance): a joint lying on
+//! the axis is the same point as the hinge (siblings hung on one tip, common in random
+//! trees), where a far joint's "perpendicular bone" is only a rule of thumb. With
+//! comparable distances (a knee between hip and ankle) the weights barely matter. A hinge
 //! with no adjacent joint goes nearest its child segment's local origin (the centroid of
 //! its markers). A tiny ridge keeps parallel neighbouring hinges (whose common shift
 //! changes no distance) where the pair fit put them.
@@ -90,19 +95,23 @@ pub fn place_hinge_centres(fits: &mut PairFits, edges: &[(usize, usize, usize)])
         for i in 0..incident.len() {
             for j in (i + 1)..incident.len() {
                 let ((ie, ce, ue), (ig, cg, ug)) = (incident[i], incident[j]);
+                if ie.is_none() && ig.is_none() {
+                    continue;
+                }
                 let d0 = ce - cg;
-                // d = d0 + s_e u_e − s_g u_g; ½∇|d|² = 0 gives the normal equations.
+                let w = 1.0 / (across_mm(d0, ue, ug).powi(2) + NEAR_MM * NEAR_MM);
+                // d = d0 + s_e u_e − s_g u_g; ½∇(w|d|²) = 0 gives the normal equations.
                 if let Some(ie) = ie {
-                    h[ie][ie] += ue.length_squared();
-                    r[ie] -= ue.dot(d0);
+                    h[ie][ie] += w * ue.length_squared();
+                    r[ie] -= w * ue.dot(d0);
                 }
                 if let Some(ig) = ig {
-                    h[ig][ig] += ug.length_squared();
-                    r[ig] += ug.dot(d0);
+                    h[ig][ig] += w * ug.length_squared();
+                    r[ig] += w * ug.dot(d0);
                 }
                 if let (Some(ie), Some(ig)) = (ie, ig) {
-                    h[ie][ig] -= ue.dot(ug);
-                    h[ig][ie] -= ue.dot(ug);
+                    h[ie][ig] -= w * ue.dot(ug);
+                    h[ig][ie] -= w * ue.dot(ug);
                 }
             }
         }
@@ -162,6 +171,23 @@ pub fn place_hinge_centres(fits: &mut PairFits, edges: &[(usize, usize, usize)])
         ));
     }
     shifts
+}
+
+/// Scale (mm) below which two joints count as one point in [`place_hinge_centres`]'s
+/// weights: well above the pair fits' residuals on clean data, well below bone lengths.
+const NEAR_MM: f64 = 10.0;
+
+/// How far apart (mm) two joints are in a way no slide along the axes changes: from a ball
+/// joint's centre to the hinge's axis; for two hinges (whose nearly parallel axes, like a
+/// knee's and an ankle's, can pass close far from both joints) the centres' distance as the
+/// pair fits left them.
+fn across_mm(d0: DVec3, ue: DVec3, ug: DVec3) -> f64 {
+    let off_line = |u: DVec3| (d0 - u * u.dot(d0)).length();
+    match (ue.length_squared() > 0.0, ug.length_squared() > 0.0) {
+        (true, false) => off_line(ue),
+        (false, true) => off_line(ug),
+        _ => d0.length(),
+    }
 }
 
 /// Gaussian elimination with partial pivoting; `None` when singular.

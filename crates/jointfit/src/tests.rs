@@ -711,3 +711,40 @@ fn two_marker_limb_joints_are_centred_by_distances() {
         on.3
     );
 }
+
+/// Two children on one parent's tip, one by a ball joint, one by a hinge whose axis is not
+/// perpendicular to the parent's bone: the hinge centre goes to the ball's centre on its
+/// axis (the same point), not where the parent's far joint would put a perpendicular bone
+/// (~110 mm along the axis here).
+#[test]
+fn hinge_beside_a_coincident_ball_joint_takes_its_point() {
+    let mut rng = TestRng(37);
+    let mut bodies = chain(
+        &mut rng,
+        &[Articulation::Ball(50.0), Articulation::Ball(50.0)],
+        4,
+    );
+    let tip = bodies[2].joint_in_parent;
+    let axis = DVec3::new(1.0, 0.0, 0.5).normalize();
+    let markers = (0..4)
+        .map(|_| DVec3::new(0.0, 0.0, -250.0) + rng.vec3(60.0))
+        .collect();
+    bodies.push(crate::testkit::Body {
+        parent: Some(1),
+        joint_in_parent: tip,
+        joint_in_self: DVec3::ZERO,
+        articulation: Articulation::Hinge(axis, 50.0),
+        markers,
+    });
+    let trial = generate(&mut rng, &bodies, 300, 0.1, |_, _, _| false);
+    let mut fits = run_on_segments(&trial.traj, &trial.segments, &Params::default()).unwrap();
+    let index = |a: usize, b: usize| fits.pairs.iter().position(|p| p.a == a && p.b == b);
+    let edges: Vec<(usize, usize, usize)> = [(0, 1), (1, 2), (1, 3)]
+        .iter()
+        .map(|&(a, b)| (index(a, b).unwrap(), a, b))
+        .collect();
+    assert_eq!(pair(&fits, 1, 3).kind, JointKind::Hinge);
+    crate::place_hinge_centres(&mut fits, &edges);
+    let err = mean_error(pair(&fits, 1, 3), &trial.joints[3]);
+    assert!(err < 2.0, "hinge centre {err:.1} mm from the shared point");
+}
