@@ -133,9 +133,13 @@ pub fn place_hinge_centres(fits: &mut PairFits, edges: &[(usize, usize, usize)])
             r[k] -= u.dot(c);
         }
     }
+    // Relative to the (weighted) diagonal, which is far below 1 with the distance weights.
     let trace: f64 = (0..count).map(|k| h[k][k]).sum();
+    if trace.is_nan() || trace <= 0.0 {
+        return shifts;
+    }
     for k in 0..count {
-        h[k][k] += 1e-9 * trace.max(1.0);
+        h[k][k] += 1e-9 * trace;
     }
     let Some(s) = solve(h, r) else {
         return shifts;
