@@ -8,6 +8,7 @@ fuzz_target!(|data: &[u8]| {
     for keep_invalid_residuals in [false, true] {
         let options = ReadOptions {
             keep_invalid_residuals,
+            keep_model_outputs: keep_invalid_residuals,
         };
         if let Ok(capture) = c3d::parse(data, &options) {
             let t = &capture.trajectories;

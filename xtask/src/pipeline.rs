@@ -36,12 +36,20 @@ pub const TOOL_VERSION: &str = env!("CARGO_PKG_VERSION");
 pub const CAPTURE_ROLE: &str = "capture";
 
 /// Meanings of mocap-io's parameters ([`ReadOptions`]), which mocap-io documents on the type.
-pub const READ_PARAM_DOCS: &[(&str, &str)] = &[(
-    "keep_invalid_residuals",
-    "C3D: keep samples with a negative residual when a file flags every sample invalid \
-     although its coordinates vary (SIMI writes such files); default false: read them as \
-     missing, with a warning",
-)];
+pub const READ_PARAM_DOCS: &[(&str, &str)] = &[
+    (
+        "keep_invalid_residuals",
+        "C3D: keep samples with a negative residual when a file flags every sample invalid \
+         although its coordinates vary (SIMI writes such files); default false: read them as \
+         missing, with a warning",
+    ),
+    (
+        "keep_model_outputs",
+        "C3D: keep the points listed in POINT:ANGLES, FORCES, MOMENTS, POWERS, SCALARS, \
+         REACTIONS or a group POINT:TYPE_GROUPS names (angles, forces and the like stored as \
+         points); default false: they are not read, with a warning",
+    ),
+];
 
 /// One stage of the pipeline, in pipeline order.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, PartialOrd, Ord, Hash)]

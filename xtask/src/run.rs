@@ -57,6 +57,8 @@ pub struct Report {
     pub joints: usize,
     /// Files written.
     pub files: Vec<PathBuf>,
+    /// What the reader warned about the capture (units guessed, points not read, ...).
+    pub warnings: Vec<String>,
 }
 
 impl Report {
@@ -68,6 +70,7 @@ impl Report {
             "segments": self.segments,
             "joints": self.joints,
             "files": self.files,
+            "warnings": self.warnings,
         })
     }
 }
@@ -75,6 +78,9 @@ impl Report {
 /// Runs `run`.
 pub fn main(args: &Args) -> Result<()> {
     let report = execute(args, &Progress::stderr())?;
+    for w in &report.warnings {
+        eprintln!("warning: {w}");
+    }
     eprintln!("{}", summary(&report));
     if args.json {
         println!("{}", serde_json::to_string_pretty(&report.json())?);
@@ -127,6 +133,17 @@ pub fn execute(args: &Args, progress: &Progress) -> Result<Report> {
             .map_or(0, |s| s.segments.len()),
         joints: products.topology.as_ref().map_or(0, |t| t.joints.len()),
         files,
+        warnings: products
+            .capture
+            .as_ref()
+            .map(|c| {
+                c.info
+                    .warnings
+                    .iter()
+                    .map(|w| format!("{}: {w}", input.display()))
+                    .collect()
+            })
+            .unwrap_or_default(),
     })
 }
 

@@ -20,7 +20,12 @@ fn is_c3d(entry: &Value) -> bool {
 
 fn read(dir: &Path, path: &str) -> Result<Capture, mocap_io::FormatError> {
     let bytes = std::fs::read(dir.join(path)).expect("shared file readable");
-    c3d::parse(&bytes, &ReadOptions::default())
+    // Every point, as the reference readers give them (model outputs included).
+    let options = ReadOptions {
+        keep_model_outputs: true,
+        ..ReadOptions::default()
+    };
+    c3d::parse(&bytes, &options)
 }
 
 /// Millimetres per unit of the reference's own numbers.
@@ -272,6 +277,7 @@ fn giant_keeps_flagged_samples_only_when_asked() {
     );
     let keep = ReadOptions {
         keep_invalid_residuals: true,
+        ..ReadOptions::default()
     };
     let kept = c3d::parse(&bytes, &keep).unwrap();
     let t = &kept.trajectories;
@@ -324,4 +330,43 @@ fn phasespace_without_parameters_reads_from_the_header() {
         (40, 701)
     );
     assert!(c.info.warnings.iter().any(|w| w.contains("no parameters")));
+}
+
+/// bigparlove lists 64 of its 205 points in POINT:ANGLES, FORCES, MOMENTS and POWERS
+/// (Plug-in Gait outputs): not markers, so not read unless asked, and said so.
+#[test]
+fn model_outputs_are_not_read_as_markers() {
+    let Some((dir, _)) = reference() else {
+        return;
+    };
+    let bytes = std::fs::read(dir.join("c3d/c3d.org/sample33/bigparlove.c3d")).unwrap();
+    let default = c3d::parse(&bytes, &ReadOptions::default()).unwrap();
+    let t = &default.trajectories;
+    assert_eq!(t.markers(), 205 - 64);
+    for output in ["RHipAngles", "RKneeForce", "RKneeMoment", "RHipPower"] {
+        assert!(!t.labels().iter().any(|l| l == output), "{output} read");
+    }
+    assert!(t.labels().iter().any(|l| l == "Sacr"));
+    let warning = default
+        .info
+        .warnings
+        .iter()
+        .find(|w| w.contains("model outputs"))
+        .expect("a warning about the dropped points");
+    assert!(
+        warning.contains("64 points") && warning.contains("POINT:ANGLES"),
+        "{warning}"
+    );
+    let keep = ReadOptions {
+        keep_model_outputs: true,
+        ..ReadOptions::default()
+    };
+    let all = c3d::parse(&bytes, &keep).unwrap();
+    assert_eq!(all.trajectories.markers(), 205);
+    // The markers kept are the same samples either way.
+    let sacr = |t: &mocap_io::Trajectories| {
+        let m = t.labels().iter().position(|l| l == "Sacr").unwrap();
+        t.get(100, m)
+    };
+    assert_eq!(sacr(&default.trajectories), sacr(&all.trajectories));
 }

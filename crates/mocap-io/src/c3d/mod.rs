@@ -160,6 +160,11 @@ pub fn parse(bytes: &[u8], options: &ReadOptions) -> Result<Capture, FormatError
             ));
         }
     }
+    let (labels, positions) = if options.keep_model_outputs {
+        (labels, positions)
+    } else {
+        drop_model_outputs(&params, labels, positions, &mut warnings)
+    };
     let trajectories = Trajectories::new(
         labels,
         f64::from(layout.rate),
@@ -184,6 +189,90 @@ pub fn parse(bytes: &[u8], options: &ReadOptions) -> Result<Capture, FormatError
             warnings,
         },
     })
+}
+
+/// POINT parameters that list model outputs stored as points (Vicon and Plug-in Gait
+/// conventions), besides any that POINT:TYPE_GROUPS names.
+const MODEL_OUTPUT_GROUPS: [&str; 6] = [
+    "ANGLES",
+    "FORCES",
+    "MOMENTS",
+    "POWERS",
+    "SCALARS",
+    "REACTIONS",
+];
+
+/// Removes the points whose labels a model-output list holds (angles, forces, moments,
+/// powers stored as points are not marker positions); warns with how many and from where.
+fn drop_model_outputs(
+    params: &Params,
+    labels: Vec<String>,
+    positions: Vec<[f64; 3]>,
+    warnings: &mut Vec<String>,
+) -> (Vec<String>, Vec<[f64; 3]>) {
+    let mut groups: Vec<String> = MODEL_OUTPUT_GROUPS.iter().map(|g| g.to_string()).collect();
+    // TYPE_GROUPS pairs a list's parameter name with its type name (ANGLES, ANGLE, ...).
+    for name in params.strings("POINT:TYPE_GROUPS").unwrap_or_default() {
+        let name = name.trim().to_ascii_uppercase();
+        if !name.is_empty() && !groups.contains(&name) {
+            groups.push(name);
+        }
+    }
+    let mut listed: Vec<String> = Vec::new();
+    let mut sources: Vec<String> = Vec::new();
+    for group in &groups {
+        let Some(names) = params.strings(&format!("POINT:{group}")) else {
+            continue;
+        };
+        let names: Vec<String> = names
+            .into_iter()
+            .map(|n| n.trim().to_string())
+            .filter(|n| !n.is_empty())
+            .collect();
+        if !names.is_empty() {
+            sources.push(format!("POINT:{group}"));
+            listed.extend(names);
+        }
+    }
+    // A label matches with or without its subject prefix ("Sub:RKneeAngles").
+    let is_output = |label: &str| {
+        let bare = label.rsplit(':').next().unwrap_or(label).trim();
+        listed.iter().any(|l| l == label.trim() || l == bare)
+    };
+    let keep: Vec<bool> = labels.iter().map(|l| !is_output(l)).collect();
+    let dropped = keep.iter().filter(|k| !**k).count();
+    if dropped == 0 {
+        return (labels, positions);
+    }
+    if dropped == labels.len() {
+        warnings.push(format!(
+            "every point is listed in {} as a model output: all read as markers",
+            sources.join(", ")
+        ));
+        return (labels, positions);
+    }
+    let points = labels.len();
+    let positions = positions
+        .chunks(points)
+        .flat_map(|frame| {
+            frame
+                .iter()
+                .zip(&keep)
+                .filter(|(_, k)| **k)
+                .map(|(p, _)| *p)
+        })
+        .collect();
+    let labels: Vec<String> = labels
+        .into_iter()
+        .zip(&keep)
+        .filter(|(_, k)| **k)
+        .map(|(l, _)| l)
+        .collect();
+    warnings.push(format!(
+        "{dropped} points listed in {} are model outputs, not markers: not read (--set mocap-io.keep_model_outputs=true keeps them)",
+        sources.join(", ")
+    ));
+    (labels, positions)
 }
 
 /// Where the frames are and how they are stored, after header and parameters are reconciled.
