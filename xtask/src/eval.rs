@@ -67,6 +67,8 @@ pub struct TrialResult {
     pub subject: String,
     /// Preset name.
     pub preset: String,
+    /// Markers per segment the generator drew from (inclusive range).
+    pub markers_per_segment: (usize, usize),
     /// Segments found.
     pub segments: usize,
     /// Segments in the truth.
@@ -147,6 +149,7 @@ pub fn run_trial(spec: &TrialSpec, params: &Params) -> TrialResult {
         trial: config.trial_name(),
         subject: config.subject.name().into(),
         preset: config.preset.name().into(),
+        markers_per_segment: config.markers_per_segment,
         segments: 0,
         true_segments: 0,
         adjusted_rand: f64::NAN,
@@ -358,6 +361,8 @@ struct Aggregate {
     trials: usize,
     failed: usize,
     topology_exact: usize,
+    /// Of the exact trees, those exact only up to coincident true joints.
+    topology_equivalent: usize,
     mean_error_pct: f64,
     worst_error_pct: f64,
     mean_known_fraction: f64,
@@ -369,6 +374,7 @@ fn aggregate<'a>(results: impl Iterator<Item = &'a TrialResult>) -> Aggregate {
         trials: 0,
         failed: 0,
         topology_exact: 0,
+        topology_equivalent: 0,
         mean_error_pct: 0.0,
         // NaN until a trial is scored: f64::max ignores NaN.
         worst_error_pct: f64::NAN,
@@ -384,6 +390,7 @@ fn aggregate<'a>(results: impl Iterator<Item = &'a TrialResult>) -> Aggregate {
             continue;
         }
         a.topology_exact += usize::from(r.topology_exact);
+        a.topology_equivalent += usize::from(r.topology_exact && r.equivalent_joints > 0);
         a.mean_known_fraction += r.known_fraction;
         if r.mean_error_pct.is_finite() {
             a.mean_error_pct += r.mean_error_pct;
@@ -432,9 +439,14 @@ fn summary_line(label: &str, results: &[TrialResult], wall: f64) -> String {
     for p in presets_of(results) {
         let a = aggregate(results.iter().filter(|r| r.preset == p));
         parts.push(format!(
-            "{p}: topology {}/{}, mean {}% (worst {}%) of height, known {}%{}",
+            "{p}: topology {}/{}{}, mean {}% (worst {}%) of height, known {}%{}",
             a.topology_exact,
             a.trials,
+            if a.topology_equivalent > 0 {
+                format!(" ({} up to coincident joints)", a.topology_equivalent)
+            } else {
+                String::new()
+            },
             fmt_f(a.mean_error_pct, 2),
             fmt_f(a.worst_error_pct, 2),
             fmt_f(a.mean_known_fraction * 100.0, 1),

@@ -154,8 +154,9 @@ pub struct JointScore {
     pub worst_mm: Option<f64>,
     /// Share of the truth's frames where the estimate is known.
     pub known_fraction: f64,
-    /// Whether hinge vs not-hinge agrees (false for an `equivalent` match).
-    pub kind_correct: bool,
+    /// Whether hinge vs not-hinge agrees; `None` for an `equivalent` match, whose
+    /// estimated pair is not a true joint and so has no true kind.
+    pub kind_correct: Option<bool>,
     /// Matched through a group of coincident true joints, not by its own segments.
     #[serde(default)]
     pub equivalent: bool,
@@ -378,7 +379,9 @@ pub fn score(truth: &Truth, estimate: &Estimate) -> Score {
     let groups = coincident_groups(truth);
     let mut equivalent = std::collections::BTreeSet::new();
     for (e, p, c) in mapped_edges {
-        if matched.values().any(|&m| m == e) {
+        // A duplicate of a true edge (a true segment split in two, both halves hung on
+        // one neighbour) is an extra joint, not a re-hung one.
+        if matched.values().any(|&m| m == e) || true_edges.contains_key(&edge(p, c)) {
             continue;
         }
         let in_group = |g: &Vec<usize>| {
@@ -440,8 +443,8 @@ pub fn score(truth: &Truth, estimate: &Estimate) -> Score {
         worst = worst.max(jw);
         known += jc;
         let is_equivalent = equivalent.contains(&t);
-        let kind_correct = !is_equivalent && (tj.kind == "hinge") == (ej.kind == "hinge");
-        kind_ok += usize::from(kind_correct);
+        let kind_correct = (!is_equivalent).then(|| (tj.kind == "hinge") == (ej.kind == "hinge"));
+        kind_ok += usize::from(kind_correct == Some(true));
         joints.push(JointScore {
             truth: tj.name.clone(),
             estimate: ej.name.clone(),

@@ -625,6 +625,22 @@ fn coincident_joints_make_equivalent_trees_exact() {
                 .filter(|jt| jt.positions == t.truth.joints[k].positions)
                 .all(|jt| jt.parent_segment != seg && jt.child_segment != seg)
     });
+    // Splitting the second child in two, both halves on the parent: the duplicate is an
+    // extra joint, not a re-hung one (it must not take the first child's place).
+    let mut split = Estimate::from_truth(&t.truth);
+    let c2 = t.truth.joints[k].child_segment;
+    let half = split.segments[c2].markers.split_off(1);
+    let new_id = split.segments.len();
+    split.segments.push(crate::score::EstimatedSegment {
+        id: new_id,
+        markers: half,
+    });
+    split.joints.remove(j);
+    let mut extra = split.joints[k - 1].clone();
+    extra.child_segment = new_id;
+    split.joints.push(extra);
+    let s = score(&t.truth, &split);
+    assert!(!s.topology_exact && s.equivalent_joints == 0, "{s}");
     let seg = elsewhere.expect("random trees have at least 5 segments");
     let mut wrong = Estimate::from_truth(&t.truth);
     wrong.joints[k].parent_segment = seg;
