@@ -617,7 +617,9 @@ fn place_hinges_on_child(
         let Some(fit) = fits.pairs.get(joint.pair) else {
             continue;
         };
-        if fit.kind != jointfit::JointKind::Hinge || !(fit.a == x || fit.b == x) {
+        // A centre the markers' distances fixed (jointfit) is not free along its axis.
+        let free = fit.kind == jointfit::JointKind::Hinge && !fit.centre_from_distances;
+        if !free || !(fit.a == x || fit.b == x) {
             continue;
         }
         let (Some(ua), Some(ub)) = (fit.axis_in_a, fit.axis_in_b) else {

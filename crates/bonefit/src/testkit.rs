@@ -127,6 +127,7 @@ pub fn scene(frames: usize, rate: f64) -> Scene {
                 rotation_max_deg: 40.0,
                 wobble_deg: [0.0, 5.0, 5.0],
                 evidence: "exact".into(),
+                centre_from_distances: false,
             });
         }
     }

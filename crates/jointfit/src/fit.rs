@@ -107,6 +107,7 @@ pub(crate) fn fit_pair(
                 co.len(),
                 params.min_frames
             ),
+            centre_from_distances: false,
         };
     }
     let motion = relative_motion(pa, pb, &co);
@@ -192,14 +193,7 @@ pub(crate) fn fit_pair(
             };
             let min = aguiar::minimise(&problem, start, params.max_iters);
             evidence.push_str(&format!("; {}", min.note));
-            // c_b: the least-squares fixed point in b of the centre a carries.
-            let mut c_b = DVec3::ZERO;
-            for &f in &co {
-                if let (Some(x), Some(y)) = (&pa[f], &pb[f]) {
-                    c_b += y.inverse_apply(x.apply(min.centre));
-                }
-            }
-            (min.centre, c_b / n, min.cost)
+            (min.centre, mean_image(min.centre, pa, pb, &co), min.cost)
         }
         Method::Local => {
             let settings = LocalSettings {
@@ -219,24 +213,11 @@ pub(crate) fn fit_pair(
                 _ => {}
             }
             evidence.push_str(&format!("; {}", local.note));
-            let mut c_b = DVec3::ZERO;
-            for &f in &co {
-                if let (Some(x), Some(y)) = (&pa[f], &pb[f]) {
-                    c_b += y.inverse_apply(x.apply(c_a));
-                }
-            }
-            (c_a, c_b / n, local.cost)
+            (c_a, mean_image(c_a, pa, pb, &co), local.cost)
         }
     };
     let residual = residual_rms(pa, pb, &co, c_a, c_b);
-    let positions = (0..frames)
-        .map(|f| match (&sa.track[f], &sb.track[f]) {
-            (Some(x), Some(y)) => (0.5 * (x.apply(c_a) + y.apply(c_b))).to_array(),
-            (Some(x), None) => x.apply(c_a).to_array(),
-            (None, Some(y)) => y.apply(c_b).to_array(),
-            (None, None) => nan3,
-        })
-        .collect();
+    let positions = joint_positions(c_a, c_b, sa.track, sb.track);
     let hinge = kind == JointKind::Hinge;
     PairFit {
         a,
@@ -255,7 +236,41 @@ pub(crate) fn fit_pair(
         rotation_max_deg: motion.max_deg,
         wobble_deg: motion.wobble_deg,
         evidence,
+        centre_from_distances: false,
     }
+}
+
+/// The joint's global position per frame from its centre in each segment: the mean of
+/// both segments' views where both are posed, either one's alone, NaN where neither is.
+pub(crate) fn joint_positions(
+    c_a: DVec3,
+    c_b: DVec3,
+    track_a: &[Option<Pose>],
+    track_b: &[Option<Pose>],
+) -> Vec<[f64; 3]> {
+    track_a
+        .iter()
+        .zip(track_b)
+        .map(|(x, y)| match (x, y) {
+            (Some(x), Some(y)) => (0.5 * (x.apply(c_a) + y.apply(c_b))).to_array(),
+            (Some(x), None) => x.apply(c_a).to_array(),
+            (None, Some(y)) => y.apply(c_b).to_array(),
+            (None, None) => [f64::NAN; 3],
+        })
+        .collect()
+}
+
+/// The least-squares fixed point in `to`'s frame of the point `from` carries at `c`: the
+/// mean over `frames` (where both are posed) of its image.
+fn mean_image(c: DVec3, from: &[Option<Pose>], to: &[Option<Pose>], frames: &[usize]) -> DVec3 {
+    let (mut sum, mut count) = (DVec3::ZERO, 0usize);
+    for &f in frames {
+        if let (Some(x), Some(y)) = (&from[f], &to[f]) {
+            sum += y.inverse_apply(x.apply(c));
+            count += 1;
+        }
+    }
+    sum / count.max(1) as f64
 }
 
 /// RMS over `frames` of |R_a c_a + t_a − (R_b c_b + t_b)| (mm).
@@ -275,52 +290,68 @@ fn residual_rms(
     (sq / frames.len().max(1) as f64).sqrt()
 }
 
-/// Puts the pair's centre at `c_n` in segment `n`'s frame (and its mean image in the other
-/// segment's), with positions and residual to match; `source` says where `c_n` came from.
+/// A pair's centre moved to a given point, before it is applied (see [`recentre`]).
+pub(crate) struct Recentred {
+    c_a: DVec3,
+    c_b: DVec3,
+    /// Frames where both segments are posed.
+    frames: Vec<usize>,
+    /// Global positions per frame by [`joint_positions`].
+    pub positions: Vec<[f64; 3]>,
+}
+
+/// The pair's centre put at `c_n` in segment `n`'s frame (and its mean image in the other
+/// segment's), with the positions that gives; `None` when the two are never posed
+/// together or `c_n` is not finite.
 ///
 /// For a segment posed through a joint (two markers plus that joint's centre), a refit on
 /// its poses reads their twist about the marker line, which is only as good as the
 /// anchor's centre; where it reads the motion as a hinge, it slides the centre along an
 /// axis that twist may have made up (CMU 02_01 upper arms 20–26 % short).
-pub(crate) fn set_centre(
-    fit: &mut PairFit,
+pub(crate) fn recentre(
+    fit: &PairFit,
     n: usize,
     c_n: DVec3,
     track_a: &[Option<Pose>],
     track_b: &[Option<Pose>],
-    source: &str,
-) {
+) -> Option<Recentred> {
     let (tn, ts) = if n == fit.a {
         (track_a, track_b)
     } else {
         (track_b, track_a)
     };
-    let co: Vec<usize> = (0..tn.len().min(ts.len()))
+    let frames: Vec<usize> = (0..tn.len().min(ts.len()))
         .filter(|&f| tn[f].is_some() && ts[f].is_some())
         .collect();
-    if co.is_empty() || !c_n.is_finite() {
-        return;
+    if frames.is_empty() || !c_n.is_finite() {
+        return None;
     }
-    let mut c_s = DVec3::ZERO;
-    for &f in &co {
-        if let (Some(x), Some(y)) = (&tn[f], &ts[f]) {
-            c_s += y.inverse_apply(x.apply(c_n));
-        }
-    }
-    c_s /= co.len() as f64;
+    let c_s = mean_image(c_n, tn, ts, &frames);
     let (c_a, c_b) = if n == fit.a { (c_n, c_s) } else { (c_s, c_n) };
-    let moved = (DVec3::from_array(fit.centre_in_a) - c_a).length();
-    fit.centre_in_a = c_a.to_array();
-    fit.centre_in_b = c_b.to_array();
-    fit.residual_rms_mm = residual_rms(track_a, track_b, &co, c_a, c_b);
-    for (f, p) in fit.positions.iter_mut().enumerate() {
-        *p = match (&track_a[f], &track_b[f]) {
-            (Some(x), Some(y)) => (0.5 * (x.apply(c_a) + y.apply(c_b))).to_array(),
-            (Some(x), None) => x.apply(c_a).to_array(),
-            (None, Some(y)) => y.apply(c_b).to_array(),
-            (None, None) => [f64::NAN; 3],
-        };
-    }
+    Some(Recentred {
+        c_a,
+        c_b,
+        positions: joint_positions(c_a, c_b, track_a, track_b),
+        frames,
+    })
+}
+
+/// Applies [`recentre`]'s result; `source` says where the centre came from (evidence).
+/// The centre is then fixed: hinge placement leaves it where it is.
+pub(crate) fn apply_recentred(
+    fit: &mut PairFit,
+    r: Recentred,
+    track_a: &[Option<Pose>],
+    track_b: &[Option<Pose>],
+    source: &str,
+) {
+    let moved = (DVec3::from_array(fit.centre_in_a) - r.c_a).length();
+    fit.centre_in_a = r.c_a.to_array();
+    fit.centre_in_b = r.c_b.to_array();
+    fit.residual_rms_mm = residual_rms(track_a, track_b, &r.frames, r.c_a, r.c_b);
+    fit.frames_used = r.frames.len();
+    fit.positions = r.positions;
+    fit.centre_from_distances = true;
     fit.evidence.push_str(&format!(
         "; centre set to {source}, {moved:.1} mm from the pose fit's"
     ));

@@ -8,8 +8,9 @@
 //! (a ball joint has no `u`). Its minimum puts each hinge where the mean of the bones to
 //! its neighbours is perpendicular to the axis, the usual anatomy (a limb's bone runs
 //! across its knee or elbow axis); when every bone is perpendicular this is exact. Each
-//! term is weighted by 1 / (D² + (10 mm)²), D the pair's distance that no slide changes (a
-//! ball centre's distance from the axis; two hinges' centres' distance): a joint lying on
+//! term is weighted by 1 / (D² + (10 mm)²), D how far apart the pair is: a ball centre's
+//! distance from the axis (which no slide changes), or for two hinges their centres'
+//! distance as the pair fits left them (a constant proxy, see `across_mm`): a joint lying on
 //! the axis is the same point as the hinge (siblings hung on one tip, common in random
 //! trees), where a far joint's "perpendicular bone" is only a rule of thumb. With
 //! comparable distances (a knee between hip and ankle) the weights barely matter. A hinge
@@ -29,6 +30,7 @@
 
 use glam::DVec3;
 
+use crate::fit::joint_positions;
 use crate::pairfits::{JointKind, PairFits};
 use crate::poses::pose_track;
 
@@ -64,7 +66,9 @@ pub fn place_hinge_centres(fits: &mut PairFits, edges: &[(usize, usize, usize)])
     let mut count = 0;
     for &(e, pair, _) in &usable {
         let fit = &fits.pairs[pair];
-        if fit.kind == JointKind::Hinge && fit.axis_in_a.is_some() && fit.axis_in_b.is_some() {
+        // A centre the distances fixed is a fixed neighbour, not a free point of its axis.
+        let free = fit.kind == JointKind::Hinge && !fit.centre_from_distances;
+        if free && fit.axis_in_a.is_some() && fit.axis_in_b.is_some() {
             unknown[e] = Some(count);
             count += 1;
         }
@@ -160,16 +164,7 @@ pub fn place_hinge_centres(fits: &mut PairFits, edges: &[(usize, usize, usize)])
         let c_b = DVec3::from_array(fit.centre_in_b) + shift * DVec3::from_array(ub);
         fit.centre_in_a = c_a.to_array();
         fit.centre_in_b = c_b.to_array();
-        let (ta, tb) = (&tracks[fit.a], &tracks[fit.b]);
-        for (f, p) in fit.positions.iter_mut().enumerate() {
-            // Same rule as the pair fit: both segments' view averaged where both are posed.
-            *p = match (&ta[f], &tb[f]) {
-                (Some(x), Some(y)) => (0.5 * (x.apply(c_a) + y.apply(c_b))).to_array(),
-                (Some(x), None) => x.apply(c_a).to_array(),
-                (None, Some(y)) => y.apply(c_b).to_array(),
-                (None, None) => [f64::NAN; 3],
-            };
-        }
+        fit.positions = joint_positions(c_a, c_b, &tracks[fit.a], &tracks[fit.b]);
         fit.evidence.push_str(&format!(
             "; centre moved {shift:.1} mm along the hinge axis toward the adjacent joints"
         ));

@@ -117,38 +117,7 @@ pub fn run_on_segments(
     // joints (the anchor's and any other) are centred by its markers' distances alone.
     if params.anchor_centres_by_distance {
         fits.par_iter_mut().for_each(|fit| {
-            // Both segments posed through anchors (a knee between a 2-marker thigh and
-            // shank): the side whose markers keep their distances best decides.
-            let best = [fit.a, fit.b]
-                .into_iter()
-                .filter_map(|s| {
-                    let anchor = anchors[s].as_ref().filter(|a| a.posed_by_anchor)?;
-                    distance_centre(traj, fit, s, &segments[s], anchor, &tracks, params)
-                })
-                .min_by(|x, y| x.rms_mm.total_cmp(&y.rms_mm));
-            let Some(c) = best else { return };
-            // Where the two disagree, the data leave a direction nearly free (a hinge-like
-            // axis) and each fit settled it on its own bias. Joints lie inside the limbs the
-            // markers sit on: a centre that moves away from every marker is sliding along
-            // that direction, not finding the joint.
-            let markers = || segments[fit.a].iter().chain(&segments[fit.b]).copied();
-            let track_n = &tracks[c.frame];
-            let now = nearest_marker_mm(traj, markers(), |f| {
-                let p = DVec3::from_array(fit.positions[f]);
-                p.is_finite().then_some(p)
-            });
-            let then = nearest_marker_mm(traj, markers(), |f| {
-                track_n[f].as_ref().map(|pose| pose.apply(c.centre))
-            });
-            if then <= now {
-                let (ta, tb) = (&tracks[fit.a], &tracks[fit.b]);
-                fit::set_centre(fit, c.frame, c.centre, ta, tb, &c.note);
-            } else {
-                fit.evidence.push_str(&format!(
-                    "; {} not used: {then:.0} mm from the nearest marker against {now:.0}",
-                    c.note
-                ));
-            }
+            centre_by_distances(traj, fit, segments, &anchors, &tracks, params);
         });
     }
     // Say which joints carry a segment's poses: their costs are low partly by construction.
@@ -185,6 +154,73 @@ pub fn run_on_segments(
         poses,
         pairs: fits,
     })
+}
+
+/// A centre no farther than this (mm, mean nearest-marker distance) beyond the pose fit's
+/// counts as just as near: the test separates slides along a free axis (tens of mm), not
+/// ties.
+const NEARER_TOLERANCE_MM: f64 = 1.0;
+
+/// Re-centres `fit` by the marker distances of a segment of the pair posed through an
+/// anchor (see [`distance_centre`]); where both are, the side whose markers keep their
+/// distances best decides (a knee between a 2-marker thigh and shank).
+///
+/// Where that centre and the pose fit's disagree, the data leave a direction nearly free
+/// (a hinge-like axis) and each fit settled it on its own bias. Joints lie inside the limbs
+/// the markers sit on, so a centre that ends farther from every marker of the pair (mean
+/// over frames of the nearest-marker distance) is sliding along that direction, not
+/// finding the joint, and is refused.
+fn centre_by_distances(
+    traj: &Trajectories,
+    fit: &mut PairFit,
+    segments: &[Vec<usize>],
+    anchors: &[Option<anchor::Anchor>],
+    tracks: &[Vec<Option<poses::Pose>>],
+    params: &Params,
+) {
+    // An unidentifiable pair (no common frames) has no centre to move.
+    if !fit.cost.is_finite() {
+        return;
+    }
+    let best = [fit.a, fit.b]
+        .into_iter()
+        .filter_map(|s| {
+            let anchor = anchors[s].as_ref().filter(|a| a.posed_by_anchor)?;
+            let other = if fit.a == s { fit.b } else { fit.a };
+            // The other segment posed through s: its frame carries s's centre by
+            // construction, so s's markers keep their distances there trivially.
+            let circular = anchors[other]
+                .as_ref()
+                .is_some_and(|o| o.posed_by_anchor && o.neighbour == s);
+            if circular {
+                return None;
+            }
+            distance_centre(traj, fit, s, &segments[s], anchor, tracks, params)
+        })
+        .min_by(|x, y| x.rms_mm.total_cmp(&y.rms_mm));
+    let Some(c) = best else { return };
+    let (ta, tb) = (&tracks[fit.a], &tracks[fit.b]);
+    let Some(moved) = fit::recentre(fit, c.frame, c.centre, ta, tb) else {
+        return;
+    };
+    // Both measured on the positions they write, over the frames both are known.
+    let markers = || segments[fit.a].iter().chain(&segments[fit.b]).copied();
+    let known = |p: &[f64; 3]| {
+        let p = DVec3::from_array(*p);
+        p.is_finite().then_some(p)
+    };
+    let both = |f: usize| known(&fit.positions[f]).and(known(&moved.positions[f]));
+    let now = nearest_marker_mm(traj, markers(), |f| both(f).and(known(&fit.positions[f])));
+    let then = nearest_marker_mm(traj, markers(), |f| both(f).and(known(&moved.positions[f])));
+    if then <= now + NEARER_TOLERANCE_MM {
+        fit::apply_recentred(fit, moved, ta, tb, &c.note);
+    } else {
+        fit.evidence.push_str(&format!(
+            "; {} not used: its centre is {then:.1} mm from the nearest marker on average, \
+             the pose fit's {now:.1} mm",
+            c.note
+        ));
+    }
 }
 
 /// Mean over frames of the distance (mm) from `centre(f)` to the nearest visible marker of
@@ -246,11 +282,18 @@ fn distance_centre(
             note: "the anchor's common centre".to_string(),
         });
     }
-    if !fit.cost.is_finite() || fit.kind == JointKind::Rigid {
+    if fit.kind == JointKind::Rigid {
         return None;
     }
-    // The topology decides whether this pair is a joint: any excursion above rigid counts.
-    let cf = anchor::centre_fit(traj, markers, &tracks[other], params, params.rigid_deg)?;
+    // The topology decides whether this pair is a joint, so the bar is lower than for
+    // choosing an anchor: only a swing too small to curve the markers' paths is refused.
+    let cf = anchor::centre_fit(
+        traj,
+        markers,
+        &tracks[other],
+        params,
+        params.anchor_refit_min_excursion_deg,
+    )?;
     (!cf.hinge).then(|| DistanceCentre {
         frame: other,
         centre: cf.centre,

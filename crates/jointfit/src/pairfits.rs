@@ -3,7 +3,7 @@
 use serde::{Deserialize, Serialize};
 
 /// Schema version of [`PairFits`]; bump when its fields or the algorithm's output change.
-pub const SCHEMA_VERSION: u32 = 3;
+pub const SCHEMA_VERSION: u32 = 4;
 
 /// Per-frame rigid poses of every segment and the joint fitted to every segment pair.
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
@@ -93,4 +93,8 @@ pub struct PairFit {
     pub wobble_deg: [f64; 3],
     /// Human-readable evidence for `kind` (conditioning, range of motion).
     pub evidence: String,
+    /// The centre was set from a posed-through segment's marker distances, which fixed it
+    /// in every direction: hinge placement must not slide it along the axis.
+    #[serde(default)]
+    pub centre_from_distances: bool,
 }

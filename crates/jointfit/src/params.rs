@@ -65,6 +65,9 @@ pub struct Params {
     /// (the anchor's common centre; for its other joints, the common centre in the other
     /// segment's frame) instead of a refit on the poses built through the anchor.
     pub anchor_centres_by_distance: bool,
+    /// `anchor_centres_by_distance` for a segment's joints other than its anchor: least RMS
+    /// angle (degrees) its markers must turn about the centre for the distances to place it.
+    pub anchor_refit_min_excursion_deg: f64,
     /// When > 0, a hinge's centre is placed along its axis only if that raises the pair
     /// residual by at most this factor over the least-squares centre (+0.1 mm); 0 = always.
     pub hinge_slide_max_rise: f64,
@@ -90,6 +93,7 @@ impl Default for Params {
             anchor_max_rms_mm: 25.0,
             anchor_line_prior: true,
             anchor_centres_by_distance: true,
+            anchor_refit_min_excursion_deg: 5.0,
             hinge_slide_max_rise: 0.0,
             local_voxels: 8,
             local_planar_ratio: 0.1,
@@ -174,6 +178,13 @@ pub const PARAM_DOCS: &[(&str, &str)] = &[
          since where the two disagree a nearly free direction was settled by bias; default true",
     ),
     (
+        "anchor_refit_min_excursion_deg",
+        "anchor_centres_by_distance, for a posed-through segment's joints other than its \
+         anchor: the distances place the centre only if the segment's markers turn at least \
+         this RMS angle about it (lower than anchor_min_excursion_deg: the tree already says \
+         the pair is a joint; CMU 02_01's left shoulder turns 8.5 deg); degrees; default 5",
+    ),
+    (
         "anchor_line_prior",
         "anchoring of a 2-marker segment through a ball joint: besides the markers' constant \
          distances to the centre (which fix the centre along the limb only through the arc's \
@@ -228,6 +239,15 @@ impl Params {
             return Err(bad(
                 "anchor_min_excursion_deg",
                 self.anchor_min_excursion_deg,
+                "must be a finite number ≥ 0",
+            ));
+        }
+        if !(self.anchor_refit_min_excursion_deg.is_finite()
+            && self.anchor_refit_min_excursion_deg >= 0.0)
+        {
+            return Err(bad(
+                "anchor_refit_min_excursion_deg",
+                self.anchor_refit_min_excursion_deg,
                 "must be a finite number ≥ 0",
             ));
         }

@@ -350,6 +350,7 @@ mod tests {
                     rotation_max_deg: 60.0,
                     wobble_deg: [10.0; 3],
                     evidence: String::new(),
+                    centre_from_distances: false,
                 });
             }
         }
