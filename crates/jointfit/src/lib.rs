@@ -16,9 +16,10 @@
 //! the joint centre the neighbour carries; a 1-marker segment gets a swing-only pose (its
 //! twist about the centre→marker line is unobservable and set to the neighbour's). Frames
 //! where only 2 markers of a larger segment are visible are filled the same way. At least
-//! one segment must have ≥ 3 non-collinear markers to start from. Such a segment's twist
-//! about its marker line is derived, not seen, so its joints are centred by its markers'
-//! distances (`Params::anchor_centres_by_distance`) wherever those fix the centre.
+//! one segment must have ≥ 3 non-collinear markers to start from. A segment posed through
+//! a joint has a twist about its marker line that is derived, not seen, so its joints are
+//! centred by its markers' distances (`Params::anchor_centres_by_distance`) wherever those
+//! fix the centre.
 //!
 //! It does not choose which pairs are joints (topo does, from the costs); hinge centres
 //! are placed on their axes from the tree by [`place_hinge_centres`], which the caller

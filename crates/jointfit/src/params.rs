@@ -168,23 +168,6 @@ pub const PARAM_DOCS: &[(&str, &str)] = &[
          centre vary by at most this RMS; mm; default 25",
     ),
     (
-        "anchor_centres_by_distance",
-        "joints of a segment with fewer than 3 markers, posed through an anchor joint, are \
-         centred by its markers' distances (the anchor's common centre; for its other joints \
-         the common centre in the other segment's frame, accepted above rigid_deg of \
-         excursion) rather than refitted on the poses built through the anchor, whose twist \
-         about the marker line is only as good as that centre; kept only where it lies no \
-         farther from the pair's markers than the refit's (mean nearest-marker distance), \
-         since where the two disagree a nearly free direction was settled by bias; default true",
-    ),
-    (
-        "anchor_refit_min_excursion_deg",
-        "anchor_centres_by_distance, for a posed-through segment's joints other than its \
-         anchor: the distances place the centre only if the segment's markers turn at least \
-         this RMS angle about it (lower than anchor_min_excursion_deg: the tree already says \
-         the pair is a joint; CMU 02_01's left shoulder turns 8.5 deg); degrees; default 5",
-    ),
-    (
         "anchor_line_prior",
         "anchoring of a 2-marker segment through a ball joint: besides the markers' constant \
          distances to the centre (which fix the centre along the limb only through the arc's \
@@ -195,6 +178,24 @@ pub const PARAM_DOCS: &[(&str, &str)] = &[
          CMU 02_01: femurs 385/383 -> 407/416 mm (Vicon 429/428), tibias 431/425 -> 434/418 \
          (Vicon 411/407); synthetic 2-3-marker hard trials within +-3.5 mm (synth_eval 404); \
          cargo xtask eval hard 1.67 -> 1.69 %; bool; default true",
+    ),
+    (
+        "anchor_centres_by_distance",
+        "joints of a segment posed through an anchor joint (1 or 2 markers, or collinear \
+         ones) are centred by its markers' distances (the anchor's common centre; for its \
+         other joints the common centre in the other segment's frame, see \
+         anchor_refit_min_excursion_deg) rather than refitted on the poses built through the \
+         anchor, whose twist about the marker line is only as good as that centre; kept only \
+         where it lies no farther (1 mm) from the pair's markers than the refit's (mean \
+         nearest-marker distance), since where the two disagree a nearly free direction was \
+         settled by bias; hinge placement then leaves it; default true",
+    ),
+    (
+        "anchor_refit_min_excursion_deg",
+        "anchor_centres_by_distance, for a posed-through segment's joints other than its \
+         anchor: the distances place the centre only if the segment's markers turn at least \
+         this RMS angle about it (lower than anchor_min_excursion_deg: the tree already says \
+         the pair is a joint; CMU 02_01's left shoulder turns 8.5 deg); degrees; default 5",
     ),
     (
         "hinge_slide_max_rise",

@@ -748,3 +748,19 @@ fn hinge_beside_a_coincident_ball_joint_takes_its_point() {
     let err = mean_error(pair(&fits, 1, 3), &trial.joints[3]);
     assert!(err < 2.0, "hinge centre {err:.1} mm from the shared point");
 }
+
+/// The guard's measure: mean over frames of the distance to the nearest visible marker,
+/// skipping frames where the centre or every marker is unknown.
+#[test]
+fn nearest_marker_distance_skips_unknown_frames() {
+    let m = mocap_io::MISSING;
+    let positions = vec![[0.0, 0.0, 0.0], [10.0, 0.0, 0.0], m, [0.0, 4.0, 0.0], m, m];
+    let labels = vec!["A".to_string(), "B".to_string()];
+    let traj = mocap_io::Trajectories::new(labels, 100.0, 1, 3, positions).unwrap();
+    let centre = |f: usize| (f < 3).then_some(DVec3::new(3.0, 0.0, 0.0));
+    // Frame 0: nearest A at 3 mm; frame 1: only B, at 5 mm; frame 2: no marker.
+    let d = crate::nearest_marker_mm(&traj, [0usize, 1].into_iter(), centre);
+    assert!((d - 4.0).abs() < 1e-12, "{d}");
+    let none = crate::nearest_marker_mm(&traj, [0usize, 1].into_iter(), |_| None);
+    assert!(none.is_infinite());
+}
