@@ -24,8 +24,8 @@
 //! test splits a cluster of ≥ 6 whose two best-fitting parts turn relative to each other
 //! beyond their own fits' rotation noise, about a common point (`joint_split_z`, see
 //! `jointsplit`); neighbours that move as one rigid body merge (`joint_merge_z`); a marker
-//! no body holds leaves its cluster (`eject_ratio`); optionally a two-marker cluster whose
-//! markers other bodies hold dissolves into them (`pair_hold`).
+//! no body holds leaves its cluster (`eject_ratio`); a two-marker cluster whose markers
+//! two different bodies hold dissolves into them (`pair_hold`).
 //! Or agglomeration alone (`method = "linkage"`) or rigid cliques (`method = "cliques"`).
 //!
 //! It does not estimate poses, joints or topology (jointfit, topo) and does no I/O.

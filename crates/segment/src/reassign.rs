@@ -473,8 +473,8 @@ pub(crate) fn reassign(
 }
 
 /// Dissolves two-marker clusters whose markers each belong to a body of ≥ 3: when both are
-/// held by some other cluster's body within `hold_mm` (scatter as [`marker_sigma`]), each
-/// joins the body that holds it best. Two markers near one joint axis, one on each side,
+/// held within `hold_mm` (scatter as [`marker_sigma`]) by two different other clusters'
+/// bodies, each joins the body that holds it best. Two markers near one joint axis, one on each side,
 /// keep a steady distance and pair up although each moves with its own segment; a true
 /// two-marker segment has a marker no other body holds (CMU's THI, SHN). Returns how many
 /// pairs were dissolved.
@@ -513,7 +513,11 @@ pub(crate) fn dissolve_pairs(
         .map(|(c, ms)| {
             let &[a, b] = &ms[..] else { return Vec::new() };
             match (best_home(a, c), best_home(b, c)) {
-                (Some((sa, da)), Some((sb, db))) if sa <= hold_mm && sb <= hold_mm => {
+                // Held by one body, the pair may be a segment of its own that moved little
+                // against it (a foot on its shank, a pelvis on the trunk in a walk):
+                // merging would lose a segment. Only a pair split across two bodies is a
+                // cross-joint artefact.
+                (Some((sa, da)), Some((sb, db))) if sa <= hold_mm && sb <= hold_mm && da != db => {
                     vec![(a, da), (b, db)]
                 }
                 _ => Vec::new(),
@@ -716,9 +720,11 @@ mod tests {
     }
 
     /// Two 4-marker bodies at a hinge about x swinging ±20°, each with a fifth marker 15 mm
-    /// from the axis; a third body hinged to the child carries two markers. The two
-    /// near-axis markers paired up dissolve back into their bodies; the third body's pair,
-    /// which no other body holds, stays.
+    /// from the axis; a third body hinged to the child carries two markers; two more
+    /// markers ride on the parent. The two near-axis markers paired up dissolve back into
+    /// their bodies; the third body's pair, which no other body holds, stays; so does the
+    /// pair the parent alone holds (a segment that moved little against it, for all the
+    /// data can tell).
     #[test]
     fn near_axis_pair_dissolves_and_a_true_pair_stays() {
         let parent = [
@@ -736,6 +742,7 @@ mod tests {
             [-40.0, 0.0, -15.0],
         ];
         let third = [[10.0, 20.0, -450.0], [-15.0, -10.0, -550.0]];
+        let riders = [[50.0, 40.0, 250.0], [-45.0, 35.0, 120.0]];
         let frames = 300;
         let mut positions = Vec::new();
         for f in 0..frames {
@@ -753,20 +760,32 @@ mod tests {
                 .copied()
                 .chain(child.iter().map(|&p| rot(a1, p, 0.0)))
                 .chain(third.iter().map(|&p| rot(a1, rot(a2, p, -400.0), 0.0)))
+                .chain(riders.iter().copied())
                 .collect();
             for (k, q) in points.iter().enumerate() {
                 let jitter = |axis: usize| 0.5 * ((f * 7 + k * 13 + axis * 5) as f64).sin();
                 positions.push(std::array::from_fn(|i| q[i] + shift[i] + jitter(i)));
             }
         }
-        let labels: Vec<String> = (0..12).map(|m| format!("M{m}")).collect();
+        let labels: Vec<String> = (0..14).map(|m| format!("M{m}")).collect();
         let traj = Trajectories::new(labels, 100.0, 1, frames, positions).expect("capture");
-        let mut clusters = vec![vec![0, 1, 2, 3], vec![5, 6, 7, 8], vec![4, 9], vec![10, 11]];
+        let mut clusters = vec![
+            vec![0, 1, 2, 3],
+            vec![5, 6, 7, 8],
+            vec![4, 9],
+            vec![10, 11],
+            vec![12, 13],
+        ];
         assert_eq!(dissolve_pairs(&traj, &mut clusters, 3.0, 10), 1);
         clusters.iter_mut().for_each(|c| c.sort_unstable());
         assert_eq!(
             clusters,
-            vec![vec![0, 1, 2, 3, 4], vec![5, 6, 7, 8, 9], vec![10, 11]]
+            vec![
+                vec![0, 1, 2, 3, 4],
+                vec![5, 6, 7, 8, 9],
+                vec![10, 11],
+                vec![12, 13]
+            ]
         );
     }
 }
