@@ -228,16 +228,22 @@ pub fn run(traj: &Trajectories, params: &Params) -> Result<Segmentation, Error> 
             rigidity::normalise(&mut clusters);
         }
     }
-    if params.pair_hold > 0.0 {
-        let hold_mm = params.pair_hold
-            * fitsplit::typical_sigma(traj, &clusters).max(params.tolerance_min_mm);
+    // The typical fit σ poses every cluster: computed once for both steps below unless the
+    // first changes the clusters, and not at all for pairs when there is none.
+    let mut typical_sigma = None;
+    if params.pair_hold > 0.0 && clusters.iter().any(|c| c.len() == 2) {
+        let sigma = fitsplit::typical_sigma(traj, &clusters);
+        typical_sigma = Some(sigma);
+        let hold_mm = params.pair_hold * sigma.max(params.tolerance_min_mm);
         if reassign::dissolve_pairs(traj, &mut clusters, hold_mm, min_overlap) > 0 {
             rigidity::normalise(&mut clusters);
+            typical_sigma = None;
         }
     }
     if params.eject_ratio > 0.0 {
         // No marker is held better than skin lets a typical segment hold it.
-        let floor_mm = fitsplit::typical_sigma(traj, &clusters).max(params.tolerance_min_mm);
+        let sigma = typical_sigma.unwrap_or_else(|| fitsplit::typical_sigma(traj, &clusters));
+        let floor_mm = sigma.max(params.tolerance_min_mm);
         reassign::eject(traj, &mut clusters, params.eject_ratio, floor_mm);
         rigidity::normalise(&mut clusters);
     }

@@ -486,10 +486,31 @@ pub(crate) fn dissolve_pairs(
 ) -> usize {
     let stride = stride_of(traj);
     let min_frames = min_overlap.div_ceil(stride);
+    // A body costs a pose per frame: pose only those that could hold a pair's marker,
+    // the clusters nearest it in space (a marker's own segment is among its neighbours).
+    let mut candidates = std::collections::BTreeSet::new();
+    for (c, ms) in clusters.iter().enumerate() {
+        if ms.len() == 2 {
+            for &m in ms {
+                candidates.extend(nearest_clusters(
+                    traj,
+                    clusters,
+                    m,
+                    c,
+                    stride,
+                    HOLDER_CANDIDATES,
+                ));
+            }
+        }
+    }
+    if candidates.is_empty() {
+        return 0;
+    }
     let bodies: Vec<Option<Body>> = clusters
         .par_iter()
-        .map(|c| {
-            if c.len() >= 3 {
+        .enumerate()
+        .map(|(d, c)| {
+            if c.len() >= 3 && candidates.contains(&d) {
                 Body::new(traj, c, stride)
             } else {
                 None
@@ -537,6 +558,45 @@ pub(crate) fn dissolve_pairs(
     }
     clusters.retain(|c| !c.is_empty());
     dissolved
+}
+
+/// Clusters [`dissolve_pairs`] poses as possible holders of each pair marker.
+const HOLDER_CANDIDATES: usize = 3;
+
+/// Up to `k` clusters of ≥ 3 markers other than `own`, nearest marker `m` in space: by the
+/// mean over strided frames of the distance from `m` to the cluster's nearest visible
+/// marker.
+fn nearest_clusters(
+    traj: &Trajectories,
+    clusters: &[Vec<usize>],
+    m: usize,
+    own: usize,
+    stride: usize,
+    k: usize,
+) -> Vec<usize> {
+    let mut ranked: Vec<(f64, usize)> = clusters
+        .iter()
+        .enumerate()
+        .filter(|&(d, c)| d != own && c.len() >= 3)
+        .filter_map(|(d, c)| {
+            let (mut sum, mut count) = (0.0, 0usize);
+            for f in (0..traj.frames()).step_by(stride) {
+                let Some(p) = traj.get(f, m) else { continue };
+                let nearest = c
+                    .iter()
+                    .filter_map(|&x| traj.get(f, x))
+                    .map(|q| (0..3).map(|i| (p[i] - q[i]).powi(2)).sum::<f64>())
+                    .fold(f64::INFINITY, f64::min);
+                if nearest.is_finite() {
+                    sum += nearest.sqrt();
+                    count += 1;
+                }
+            }
+            (count > 0).then(|| (sum / count as f64, d))
+        })
+        .collect();
+    ranked.sort_by(|x, y| x.0.total_cmp(&y.0).then(x.1.cmp(&y.1)));
+    ranked.into_iter().take(k).map(|(_, d)| d).collect()
 }
 
 /// Largest cluster searched for a marker to eject: each candidate costs a pose of the
