@@ -210,9 +210,9 @@ fn centre_by_distances(
         let p = DVec3::from_array(*p);
         p.is_finite().then_some(p)
     };
-    let both = |f: usize| known(&fit.positions[f]).and(known(&moved.positions[f]));
-    let now = nearest_marker_mm(traj, markers(), |f| both(f).and(known(&fit.positions[f])));
-    let then = nearest_marker_mm(traj, markers(), |f| both(f).and(known(&moved.positions[f])));
+    let both = |f: usize| known(&fit.positions[f]).zip(known(&moved.positions[f]));
+    let now = nearest_marker_mm(traj, markers(), |f| both(f).map(|(old, _)| old));
+    let then = nearest_marker_mm(traj, markers(), |f| both(f).map(|(_, new)| new));
     if then <= now + NEARER_TOLERANCE_MM {
         fit::apply_recentred(fit, moved, ta, tb, &c.note);
     } else {
