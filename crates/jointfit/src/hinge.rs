@@ -85,7 +85,11 @@ pub fn place_hinge_centres(fits: &mut PairFits, edges: &[(usize, usize, usize)])
         } else {
             (fit.centre_in_b, fit.axis_in_b)
         };
-        let u = u.map_or(DVec3::ZERO, DVec3::from_array);
+        // A joint that does not move (a ball, a fixed hinge centre) is a point here.
+        let u = match unknown[e] {
+            Some(_) => u.map_or(DVec3::ZERO, DVec3::from_array),
+            None => DVec3::ZERO,
+        };
         (unknown[e], DVec3::from_array(c), u)
     };
     let mut h = vec![vec![0.0; count]; count];
