@@ -519,6 +519,13 @@ pub fn run_cached(
                     Ok(p) => p,
                     Err(e) => {
                         progress.abandon();
+                        // What the reader said about the file often explains a later
+                        // failure (every sample flagged invalid, units guessed).
+                        if let Some(capture) = &products.capture {
+                            for w in &capture.info.warnings {
+                                progress.warn(&format!("{}: {w}", capture_file.display()));
+                            }
+                        }
                         return Err(e);
                     }
                 };

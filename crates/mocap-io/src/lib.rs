@@ -29,7 +29,7 @@ pub use trajectories::{ABSURD_MM, MISSING, Trajectories, is_present};
 /// Stage name of capture artifacts.
 pub const STAGE: &str = "mocap-io";
 /// Schema version of capture artifacts ([`Capture`]).
-pub const SCHEMA_VERSION: u32 = 2;
+pub const SCHEMA_VERSION: u32 = 3;
 
 /// The file formats we read.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize)]

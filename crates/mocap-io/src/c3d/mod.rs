@@ -124,13 +124,13 @@ pub fn parse(bytes: &[u8], options: &ReadOptions) -> Result<Capture, FormatError
         if varies(&kept) {
             if options.keep_invalid_residuals {
                 warnings.push(format!(
-                    "every sample's residual is negative (invalid) although coordinates vary: {} samples kept because ReadOptions::keep_invalid_residuals is set",
+                    "every sample's residual is negative (invalid) although coordinates vary: {} samples kept because mocap-io.keep_invalid_residuals is set",
                     counts.flagged_nonzero
                 ));
                 positions = kept;
             } else {
                 warnings.push(format!(
-                    "every sample's residual is negative (invalid) although coordinates vary: {} samples read as missing; set ReadOptions::keep_invalid_residuals (keep_invalid_residuals = true) to keep them",
+                    "every sample's residual is negative (invalid) although coordinates vary: {} samples read as missing (--set mocap-io.keep_invalid_residuals=true keeps them)",
                     counts.flagged_nonzero
                 ));
                 flagged_positions = Some(kept);
