@@ -121,3 +121,36 @@ fn cmu_02_01_limb_lengths_match_the_vicon_skeleton() {
         );
     }
 }
+
+/// giant.c3d flags every sample invalid: the run fails for want of segments, and says why
+/// (the reader's warning, naming the switch) before the error; with the switch it runs.
+#[test]
+fn a_failed_run_shows_what_the_reader_warned() {
+    let Some(data) = mocap_io::testdata::shared_data_dir("giant_reader_warnings") else {
+        return;
+    };
+    let tmp = Scratch::new("giant");
+    let input = data.join("c3d/c3d.org/sample16/giant.c3d");
+    let (input, out, cache) = (input.to_str().unwrap(), tmp.path("out"), tmp.path("cache"));
+    let args = [
+        "run",
+        input,
+        "--out",
+        out.to_str().unwrap(),
+        "--cache",
+        cache.to_str().unwrap(),
+    ];
+    let failed = crate::support::xtask(&args);
+    assert!(!failed.status.success());
+    let stderr = String::from_utf8_lossy(&failed.stderr);
+    let warning = stderr
+        .find("--set mocap-io.keep_invalid_residuals=true")
+        .expect("the reader's warning");
+    let error = stderr.find("stage topo failed").expect("the error");
+    assert!(warning < error, "{stderr}");
+    assert!(!out.join("skeleton.json").exists());
+    let mut kept = args.to_vec();
+    kept.extend(["--set", "mocap-io.keep_invalid_residuals=true"]);
+    xtask_ok(&kept);
+    assert!(out.join("skeleton.json").exists());
+}
