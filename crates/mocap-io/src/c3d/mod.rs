@@ -211,10 +211,11 @@ fn drop_model_outputs(
     warnings: &mut Vec<String>,
 ) -> (Vec<String>, Vec<[f64; 3]>) {
     let mut groups: Vec<String> = MODEL_OUTPUT_GROUPS.iter().map(|g| g.to_string()).collect();
-    // TYPE_GROUPS pairs a list's parameter name with its type name (ANGLES, ANGLE, ...).
+    // TYPE_GROUPS pairs a list's parameter name with its type name (ANGLES, ANGLE, ...);
+    // a list of markers, should a file name one there, is not an output.
     for name in params.strings("POINT:TYPE_GROUPS").unwrap_or_default() {
         let name = name.trim().to_ascii_uppercase();
-        if !name.is_empty() && !groups.contains(&name) {
+        if !name.is_empty() && !name.contains("MARKER") && !groups.contains(&name) {
             groups.push(name);
         }
     }
