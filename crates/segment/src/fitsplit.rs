@@ -13,6 +13,7 @@ use rayon::prelude::*;
 
 use crate::eigen::symmetric_eigen;
 use crate::pairstats::PairStats;
+use crate::reassign::largest_eigenvalue4;
 use crate::rigidity::rms_rho;
 
 /// Largest cluster whose bipartitions are all tried (2^(n−1) candidates).
@@ -120,43 +121,6 @@ pub(crate) fn reference_shape(dist: &[f64], n: usize, group: &[usize]) -> Option
         }
     }
     Some(shape)
-}
-
-/// Largest eigenvalue of a symmetric 4 × 4 matrix (cyclic Jacobi; allocation-free).
-fn largest_eigenvalue4(mut m: [[f64; 4]; 4]) -> f64 {
-    for _ in 0..30 {
-        let off: f64 = (0..4)
-            .flat_map(|r| (r + 1..4).map(move |c| (r, c)))
-            .map(|(r, c)| m[r][c] * m[r][c])
-            .sum();
-        let diag: f64 = (0..4).map(|r| m[r][r] * m[r][r]).sum();
-        if off <= 1e-22 * diag.max(1e-300) {
-            break;
-        }
-        for p in 0..4 {
-            for q in p + 1..4 {
-                if m[p][q].abs() < 1e-300 {
-                    continue;
-                }
-                let theta = (m[q][q] - m[p][p]) / (2.0 * m[p][q]);
-                let t = theta.signum() / (theta.abs() + (theta * theta + 1.0).sqrt());
-                let t = if theta == 0.0 { 1.0 } else { t };
-                let c = 1.0 / (t * t + 1.0).sqrt();
-                let s = t * c;
-                for row in m.iter_mut() {
-                    let (mkp, mkq) = (row[p], row[q]);
-                    row[p] = c * mkp - s * mkq;
-                    row[q] = s * mkp + c * mkq;
-                }
-                let (rp, rq) = (m[p], m[q]);
-                for k in 0..4 {
-                    m[p][k] = c * rp[k] - s * rq[k];
-                    m[q][k] = s * rp[k] + c * rq[k];
-                }
-            }
-        }
-    }
-    (0..4).map(|r| m[r][r]).fold(f64::NEG_INFINITY, f64::max)
 }
 
 /// Least-squares rigid-fit residual of `group` in every frame (zero dof where fewer than two

@@ -30,7 +30,9 @@ use rayon::prelude::*;
 use crate::eigen::symmetric_eigen;
 use crate::fitsplit::{QUANTILE, median_distances, quantile, reference_shape};
 use crate::pairstats::PairStats;
-use crate::reassign::{Pose, horn, inertia_det, inertia_tensor, invert3, largest_eigenpair4};
+use crate::reassign::{
+    Pose, horn, inertia_det, inertia_tensor, invert3, largest_eigenpair4, rotation_matrix,
+};
 
 /// Fewest markers in a part: three pose a body's rotation fully.
 pub(crate) const MIN_PART: usize = 3;
@@ -215,28 +217,6 @@ fn quaternion(r: &[[f64; 3]; 3]) -> [f64; 4] {
     };
     let n = q.iter().map(|x| x * x).sum::<f64>().sqrt().max(1e-300);
     q.map(|x| x / n)
-}
-
-/// Rotation matrix of a unit quaternion (w, x, y, z).
-fn rotation_matrix(q: [f64; 4]) -> [[f64; 3]; 3] {
-    let [w, x, y, z] = q;
-    [
-        [
-            w * w + x * x - y * y - z * z,
-            2.0 * (x * y - w * z),
-            2.0 * (x * z + w * y),
-        ],
-        [
-            2.0 * (x * y + w * z),
-            w * w - x * x + y * y - z * z,
-            2.0 * (y * z - w * x),
-        ],
-        [
-            2.0 * (x * z - w * y),
-            2.0 * (y * z + w * x),
-            w * w - x * x - y * y + z * z,
-        ],
-    ]
 }
 
 /// Rotation vector (radians, axis × angle) of `q` relative to `mean`, i.e. of q ⊗ mean⁻¹,

@@ -136,9 +136,10 @@ fn stride_of(traj: &Trajectories) -> usize {
     traj.frames().div_ceil(MAX_FRAMES).max(1)
 }
 
-/// Largest eigenvalue of a symmetric 4 × 4 matrix and its unit eigenvector (cyclic Jacobi
-/// with accumulated rotations; allocation-free).
-pub(crate) fn largest_eigenpair4(mut m: [[f64; 4]; 4]) -> (f64, [f64; 4]) {
+/// Cyclic Jacobi on a symmetric 4 × 4 matrix (allocation-free): the matrix brought to
+/// diagonal form, and with `VECTORS` the accumulated rotations (eigenvectors in columns);
+/// without, the rotations are not accumulated (an eigenvalue alone is cheaper).
+fn jacobi4<const VECTORS: bool>(mut m: [[f64; 4]; 4]) -> ([[f64; 4]; 4], [[f64; 4]; 4]) {
     let mut v = [[0.0; 4]; 4];
     (0..4).for_each(|i| v[i][i] = 1.0);
     for _ in 0..30 {
@@ -173,19 +174,56 @@ pub(crate) fn largest_eigenpair4(mut m: [[f64; 4]; 4]) -> (f64, [f64; 4]) {
                     m[p][k] = c * rp[k] - s * rq[k];
                     m[q][k] = s * rp[k] + c * rq[k];
                 }
-                for row in v.iter_mut() {
-                    let (vp, vq) = (row[p], row[q]);
-                    row[p] = c * vp - s * vq;
-                    row[q] = s * vp + c * vq;
+                if VECTORS {
+                    for row in v.iter_mut() {
+                        let (vp, vq) = (row[p], row[q]);
+                        row[p] = c * vp - s * vq;
+                        row[q] = s * vp + c * vq;
+                    }
                 }
             }
         }
     }
-    let best = (0..4).fold(0, |b, i| if m[i][i] > m[b][b] { i } else { b });
+    (m, v)
+}
+
+/// Largest eigenvalue of a symmetric 4 × 4 matrix (cyclic Jacobi; allocation-free).
+pub(crate) fn largest_eigenvalue4(m: [[f64; 4]; 4]) -> f64 {
+    let (d, _) = jacobi4::<false>(m);
+    (0..4).map(|r| d[r][r]).fold(f64::NEG_INFINITY, f64::max)
+}
+
+/// Largest eigenvalue of a symmetric 4 × 4 matrix and its unit eigenvector (cyclic Jacobi
+/// with accumulated rotations; allocation-free).
+pub(crate) fn largest_eigenpair4(m: [[f64; 4]; 4]) -> (f64, [f64; 4]) {
+    let (d, v) = jacobi4::<true>(m);
+    let best = (0..4).fold(0, |b, i| if d[i][i] > d[b][b] { i } else { b });
     (
-        m[best][best],
+        d[best][best],
         [v[0][best], v[1][best], v[2][best], v[3][best]],
     )
+}
+
+/// Rotation matrix of a unit quaternion (w, x, y, z).
+pub(crate) fn rotation_matrix(q: [f64; 4]) -> [[f64; 3]; 3] {
+    let [w, x, y, z] = q;
+    [
+        [
+            w * w + x * x - y * y - z * z,
+            2.0 * (x * y - w * z),
+            2.0 * (x * z + w * y),
+        ],
+        [
+            2.0 * (x * y + w * z),
+            w * w - x * x + y * y - z * z,
+            2.0 * (y * z - w * x),
+        ],
+        [
+            2.0 * (x * z - w * y),
+            2.0 * (y * z + w * x),
+            w * w - x * x - y * y + z * z,
+        ],
+    ]
 }
 
 /// Least-squares rigid pose mapping `p` (shape points) onto `q` (positions), Horn's
@@ -217,24 +255,8 @@ pub(crate) fn horn(p: &[[f64; 3]], q: &[[f64; 3]]) -> (Pose, f64) {
         [szx - sxz, sxy + syx, -sxx + syy - szz, syz + szy],
         [sxy - syx, szx + sxz, syz + szy, -sxx - syy + szz],
     ];
-    let (lambda, [w, x, y, z]) = largest_eigenpair4(n);
-    let r = [
-        [
-            w * w + x * x - y * y - z * z,
-            2.0 * (x * y - w * z),
-            2.0 * (x * z + w * y),
-        ],
-        [
-            2.0 * (x * y + w * z),
-            w * w - x * x + y * y - z * z,
-            2.0 * (y * z - w * x),
-        ],
-        [
-            2.0 * (x * z - w * y),
-            2.0 * (y * z + w * x),
-            w * w - x * x - y * y + z * z,
-        ],
-    ];
+    let (lambda, q) = largest_eigenpair4(n);
+    let r = rotation_matrix(q);
     let rc: [f64; 3] = std::array::from_fn(|i| (0..3).map(|j| r[i][j] * cp[j]).sum());
     let t = [cq[0] - rc[0], cq[1] - rc[1], cq[2] - rc[2]];
     (Pose { r, t }, (norms - 2.0 * lambda).max(0.0))
