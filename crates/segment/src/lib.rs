@@ -160,11 +160,13 @@ pub fn run(traj: &Trajectories, params: &Params) -> Result<Segmentation, Error> 
         ),
     };
     rigidity::normalise(&mut clusters);
+    // The typical fit σ of the clusters as they stand (see `typical_sigma`).
+    let mut sigma_memo = None;
     if params.fit_split_ratio > 0.0 {
         // ρ is second order in a joint's angle near a straight limb; a rigid fit of the
         // whole cluster is first order (see `fitsplit`), so joined segments come apart here.
         // Never below the smallest tolerance: on noiseless data every σ is rounding error.
-        let floor_mm = (params.fit_split_floor * fitsplit::typical_sigma(traj, &clusters))
+        let floor_mm = (params.fit_split_floor * typical_sigma(traj, &clusters, &mut sigma_memo))
             .max(params.tolerance_min_mm);
         clusters = fitsplit::split_and_rejoin(
             traj,
@@ -176,22 +178,25 @@ pub fn run(traj: &Trajectories, params: &Params) -> Result<Segmentation, Error> 
         );
         rigidity::normalise(&mut clusters);
     }
-    if params.reassign_ratio > 0.0 {
+    let settle = |clusters: &mut Vec<Vec<usize>>| {
         reassign::reassign(
             traj,
-            &mut clusters,
+            clusters,
             params.reassign_ratio,
             params.tolerance_min_mm,
             min_overlap,
         );
-        rigidity::normalise(&mut clusters);
+        rigidity::normalise(clusters);
+    };
+    if params.reassign_ratio > 0.0 {
+        settle(&mut clusters);
     }
     // Only a cluster of two parts of ≥ 3 markers can be tested (`jointsplit::MIN_PART`).
     if params.joint_split_z > 0.0 && clusters.iter().any(|c| c.len() >= 2 * jointsplit::MIN_PART) {
         // Skin leaves a segment's fit σ as large as two segments' at a low-motion joint; how
         // the parts turn relative to each other does not (see `jointsplit`). After the
         // reassignment, so a single misplaced marker does not pass for a joint.
-        let typical = fitsplit::typical_sigma(traj, &clusters);
+        let typical = typical_sigma(traj, &clusters, &mut sigma_memo);
         let test = jointsplit::JointTest {
             min_z: params.joint_split_z,
             centre_fraction: params.joint_centre_fraction,
@@ -204,18 +209,11 @@ pub fn run(traj: &Trajectories, params: &Params) -> Result<Segmentation, Error> 
         rigidity::normalise(&mut clusters);
         // A new joint leaves its near-axis markers to settle, as after the fit split.
         if clusters.len() > before && params.reassign_ratio > 0.0 {
-            reassign::reassign(
-                traj,
-                &mut clusters,
-                params.reassign_ratio,
-                params.tolerance_min_mm,
-                min_overlap,
-            );
-            rigidity::normalise(&mut clusters);
+            settle(&mut clusters);
         }
     }
     if params.joint_merge_z > 0.0 {
-        let typical = fitsplit::typical_sigma(traj, &clusters);
+        let typical = typical_sigma(traj, &clusters, &mut sigma_memo);
         let part_mm = (params.fit_split_floor * typical).max(params.tolerance_min_mm);
         let merge = jointsplit::RigidMerge {
             near_mm: 2.0 * tolerance_mm,
@@ -228,22 +226,17 @@ pub fn run(traj: &Trajectories, params: &Params) -> Result<Segmentation, Error> 
             rigidity::normalise(&mut clusters);
         }
     }
-    // The typical fit σ poses every cluster: computed once for both steps below unless the
-    // first changes the clusters, and not at all for pairs when there is none.
-    let mut typical_sigma = None;
+    // Not posed at all for pairs when there is none.
     if params.pair_hold > 0.0 && clusters.iter().any(|c| c.len() == 2) {
-        let sigma = fitsplit::typical_sigma(traj, &clusters);
-        typical_sigma = Some(sigma);
-        let hold_mm = params.pair_hold * sigma.max(params.tolerance_min_mm);
+        let hold_mm = params.pair_hold
+            * typical_sigma(traj, &clusters, &mut sigma_memo).max(params.tolerance_min_mm);
         if reassign::dissolve_pairs(traj, &mut clusters, hold_mm, min_overlap) > 0 {
             rigidity::normalise(&mut clusters);
-            typical_sigma = None;
         }
     }
     if params.eject_ratio > 0.0 {
         // No marker is held better than skin lets a typical segment hold it.
-        let sigma = typical_sigma.unwrap_or_else(|| fitsplit::typical_sigma(traj, &clusters));
-        let floor_mm = sigma.max(params.tolerance_min_mm);
+        let floor_mm = typical_sigma(traj, &clusters, &mut sigma_memo).max(params.tolerance_min_mm);
         reassign::eject(traj, &mut clusters, params.eject_ratio, floor_mm);
         rigidity::normalise(&mut clusters);
     }
@@ -322,6 +315,24 @@ pub fn joint_evidence(
 /// robust rigid-fit σ of those of ≥ 3 markers. A diagnostic.
 pub fn typical_fit_sigma(traj: &Trajectories, clusters: &[Vec<usize>]) -> f64 {
     fitsplit::typical_sigma(traj, clusters)
+}
+
+/// The typical fit σ of `clusters` (`fitsplit::typical_sigma`, which poses every cluster),
+/// computed again only when the clusters differ from those `memo` was computed for: the
+/// steps of [`run`] ask for it after each other, mostly with nothing changed between.
+fn typical_sigma(
+    traj: &Trajectories,
+    clusters: &[Vec<usize>],
+    memo: &mut Option<(Vec<Vec<usize>>, f64)>,
+) -> f64 {
+    if let Some((seen, sigma)) = memo.as_ref()
+        && seen.as_slice() == clusters
+    {
+        return *sigma;
+    }
+    let sigma = fitsplit::typical_sigma(traj, clusters);
+    *memo = Some((clusters.to_vec(), sigma));
+    sigma
 }
 
 /// The bipartition of `markers` the joint test weighs (the one two free rigid bodies fit
