@@ -10,7 +10,9 @@ use std::collections::BTreeMap;
 use std::time::Instant;
 
 use segment::{Affinity, Method, Params};
-use synth::{Preset, Subject, SynthConfig};
+use synth::{Preset, Subject};
+
+mod common;
 
 /// Adjusted Rand index of two labelings of the same items (Hubert & Arabie 1985).
 fn ari(a: &[usize], b: &[usize]) -> f64 {
@@ -158,21 +160,9 @@ fn main() {
     for &preset in &presets {
         for &subject in &subjects {
             for &seed in &seeds {
-                let config = SynthConfig {
-                    subject,
-                    preset,
-                    frames,
-                    seed,
-                    ..SynthConfig::default()
-                };
-                let trial = synth::generate(&config).expect("synthetic trial");
+                let trial = common::generate(subject, preset, frames, seed);
                 let traj = &trial.trajectories;
-                let mut truth = vec![usize::MAX; traj.markers()];
-                for (s, markers) in trial.true_segment_markers().iter().enumerate() {
-                    for &m in markers {
-                        truth[m] = s;
-                    }
-                }
+                let truth = common::true_segment_of(&trial);
                 let mut line = format!(
                     "{:<22} {:>3} segs {:>3} markers |",
                     trial.name,

@@ -13,12 +13,7 @@ fn main() {
     let traj = &trial.trajectories;
     let labels = traj.labels();
     let n = traj.markers();
-    let mut truth = vec![usize::MAX; traj.markers()];
-    for (s, markers) in trial.true_segment_markers().iter().enumerate() {
-        for &m in markers {
-            truth[m] = s;
-        }
-    }
+    let truth = common::true_segment_of(&trial);
     // ρ by brute force (this is a diagnostic, not the stage).
     let rho = |i: usize, j: usize| {
         let d: Vec<f64> = (0..traj.frames())

@@ -7,18 +7,11 @@
 //! (mm), fraction, pooled σ, and whether the weighed cut is the true one.
 #![allow(clippy::print_stdout)]
 
-use synth::SynthConfig;
-
 mod common;
 
 fn main() {
     let args: Vec<String> = std::env::args().skip(1).collect();
-    let common::TrialSet {
-        subjects,
-        preset,
-        frames,
-        seeds,
-    } = common::trial_set_from_args(&args);
+    let set = common::trial_set_from_args(&args);
     let params = segment::Params::default();
     let line = |kind: &str,
                 trial: &str,
@@ -41,71 +34,59 @@ fn main() {
             e.part_sigma_mm
         );
     };
-    for &subject in &subjects {
-        for &seed in &seeds {
-            let config = SynthConfig {
-                subject,
-                preset,
-                frames,
-                seed,
-                ..SynthConfig::default()
-            };
-            let trial = synth::generate(&config).expect("synthetic trial");
-            let traj = &trial.trajectories;
-            let members = trial.true_segment_markers();
-            let sigma = segment::typical_fit_sigma(traj, &members);
-            for (s, seg) in trial.truth.segments.iter().enumerate() {
-                if let Some((_, _, e)) =
-                    segment::joint_split_candidate(traj, &members[s], sigma, &params)
-                {
-                    line(
-                        "seg",
-                        &trial.name,
-                        &seg.name,
-                        members[s].len(),
-                        &e,
-                        sigma,
-                        "",
-                    );
-                }
-            }
-            for j in &trial.truth.joints {
-                let (a, b) = (&members[j.parent_segment], &members[j.child_segment]);
-                let mut union = a.clone();
-                union.extend(b);
-                let name = format!(
-                    "{}+{}",
-                    trial.truth.segments[j.parent_segment].name,
-                    trial.truth.segments[j.child_segment].name
+    for trial in set.trials() {
+        let traj = &trial.trajectories;
+        let members = trial.true_segment_markers();
+        let sigma = segment::typical_fit_sigma(traj, &members);
+        for (s, seg) in trial.truth.segments.iter().enumerate() {
+            if let Some((_, _, e)) =
+                segment::joint_split_candidate(traj, &members[s], sigma, &params)
+            {
+                line(
+                    "seg",
+                    &trial.name,
+                    &seg.name,
+                    members[s].len(),
+                    &e,
+                    sigma,
+                    "",
                 );
-                if let Some((ca, _, e)) =
-                    segment::joint_split_candidate(traj, &union, sigma, &params)
-                {
-                    let right = {
-                        let mut x = ca.clone();
-                        x.sort_unstable();
-                        let mut y = a.clone();
-                        y.sort_unstable();
-                        let mut z = b.clone();
-                        z.sort_unstable();
-                        x == y || x == z
-                    };
-                    line(
-                        "joint",
-                        &trial.name,
-                        &name,
-                        union.len(),
-                        &e,
-                        sigma,
-                        if right { "cut=truth" } else { "cut!=truth" },
-                    );
-                }
-                if a.len() >= 3
-                    && b.len() >= 3
-                    && let Some(e) = segment::joint_evidence(traj, a, b, sigma)
-                {
-                    line("true", &trial.name, &name, union.len(), &e, sigma, "");
-                }
+            }
+        }
+        for j in &trial.truth.joints {
+            let (a, b) = (&members[j.parent_segment], &members[j.child_segment]);
+            let mut union = a.clone();
+            union.extend(b);
+            let name = format!(
+                "{}+{}",
+                trial.truth.segments[j.parent_segment].name,
+                trial.truth.segments[j.child_segment].name
+            );
+            if let Some((ca, _, e)) = segment::joint_split_candidate(traj, &union, sigma, &params) {
+                let right = {
+                    let mut x = ca.clone();
+                    x.sort_unstable();
+                    let mut y = a.clone();
+                    y.sort_unstable();
+                    let mut z = b.clone();
+                    z.sort_unstable();
+                    x == y || x == z
+                };
+                line(
+                    "joint",
+                    &trial.name,
+                    &name,
+                    union.len(),
+                    &e,
+                    sigma,
+                    if right { "cut=truth" } else { "cut!=truth" },
+                );
+            }
+            if a.len() >= 3
+                && b.len() >= 3
+                && let Some(e) = segment::joint_evidence(traj, a, b, sigma)
+            {
+                line("true", &trial.name, &name, union.len(), &e, sigma, "");
             }
         }
     }

@@ -7,65 +7,43 @@
 
 use std::collections::BTreeMap;
 
-use synth::SynthConfig;
-
 mod common;
 
 fn main() {
     let args: Vec<String> = std::env::args().skip(1).collect();
-    let common::TrialSet {
-        subjects,
-        preset,
-        frames,
-        seeds,
-    } = common::trial_set_from_args(&args);
+    let set = common::trial_set_from_args(&args);
     let overrides: Vec<&String> = args.iter().skip(3).filter(|a| a.contains('=')).collect();
     let params = common::params_from_overrides(overrides);
     let (mut exact, mut total) = (0, 0);
-    for &subject in &subjects {
-        for &seed in &seeds {
-            let config = SynthConfig {
-                subject,
-                preset,
-                frames,
-                seed,
-                ..SynthConfig::default()
-            };
-            let trial = synth::generate(&config).expect("synthetic trial");
-            let traj = &trial.trajectories;
-            let truth_sets = trial.true_segment_markers();
-            let mut truth = vec![usize::MAX; traj.markers()];
-            for (s, markers) in truth_sets.iter().enumerate() {
-                for &m in markers {
-                    truth[m] = s;
-                }
+    for trial in set.trials() {
+        let traj = &trial.trajectories;
+        let truth_sets = trial.true_segment_markers();
+        let truth = common::true_segment_of(&trial);
+        let seg = segment::run(traj, &params).expect("segmentation");
+        let name = |s: usize| trial.truth.segments[s].name.clone();
+        let mut wrong = Vec::new();
+        for s in &seg.segments {
+            let mut parts: BTreeMap<usize, usize> = BTreeMap::new();
+            for &m in &s.markers {
+                *parts.entry(truth[m]).or_default() += 1;
             }
-            let seg = segment::run(traj, &params).expect("segmentation");
-            let name = |s: usize| trial.truth.segments[s].name.clone();
-            let mut wrong = Vec::new();
-            for s in &seg.segments {
-                let mut parts: BTreeMap<usize, usize> = BTreeMap::new();
-                for &m in &s.markers {
-                    *parts.entry(truth[m]).or_default() += 1;
-                }
-                let whole = parts.iter().all(|(&t, &c)| truth_sets[t].len() == c);
-                if parts.len() > 1 || !whole {
-                    let desc: Vec<String> = parts
-                        .iter()
-                        .map(|(&t, &c)| format!("{}{}/{}", name(t), c, truth_sets[t].len()))
-                        .collect();
-                    wrong.push(format!("[{}]", desc.join(" ")));
-                }
+            let whole = parts.iter().all(|(&t, &c)| truth_sets[t].len() == c);
+            if parts.len() > 1 || !whole {
+                let desc: Vec<String> = parts
+                    .iter()
+                    .map(|(&t, &c)| format!("{}{}/{}", name(t), c, truth_sets[t].len()))
+                    .collect();
+                wrong.push(format!("[{}]", desc.join(" ")));
             }
-            for u in &seg.unassigned {
-                wrong.push(format!("unassigned {}", name(truth[u.marker])));
-            }
-            total += 1;
-            if wrong.is_empty() {
-                exact += 1;
-            } else {
-                println!("{}: {}", trial.name, wrong.join(" "));
-            }
+        }
+        for u in &seg.unassigned {
+            wrong.push(format!("unassigned {}", name(truth[u.marker])));
+        }
+        total += 1;
+        if wrong.is_empty() {
+            exact += 1;
+        } else {
+            println!("{}: {}", trial.name, wrong.join(" "));
         }
     }
     println!("exact {exact}/{total}");

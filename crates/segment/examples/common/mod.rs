@@ -17,6 +17,11 @@ pub fn trial_from_args(args: &[String], frames: usize) -> Trial {
         .unwrap_or(Preset::Hard);
     let seed: u64 = args.get(2).and_then(|s| s.parse().ok()).unwrap_or(1);
     let frames: usize = args.get(3).and_then(|s| s.parse().ok()).unwrap_or(frames);
+    generate(subject, preset, frames, seed)
+}
+
+/// The synthetic trial of one subject, preset, length and seed.
+pub fn generate(subject: Subject, preset: Preset, frames: usize, seed: u64) -> Trial {
     synth::generate(&SynthConfig {
         subject,
         preset,
@@ -25,6 +30,17 @@ pub fn trial_from_args(args: &[String], frames: usize) -> Trial {
         ..SynthConfig::default()
     })
     .expect("synthetic trial")
+}
+
+/// Each marker's true segment (`usize::MAX` for a marker on none).
+pub fn true_segment_of(trial: &Trial) -> Vec<usize> {
+    let mut truth = vec![usize::MAX; trial.trajectories.markers()];
+    for (s, markers) in trial.true_segment_markers().iter().enumerate() {
+        for &m in markers {
+            truth[m] = s;
+        }
+    }
+    truth
 }
 
 /// `segment::Params` from `key=value` words (values parsed as JSON, else strings).
@@ -49,6 +65,17 @@ pub struct TrialSet {
     pub preset: Preset,
     pub frames: usize,
     pub seeds: Vec<u64>,
+}
+
+impl TrialSet {
+    /// Every trial of the set, each subject's seeds in turn.
+    pub fn trials(&self) -> impl Iterator<Item = Trial> + '_ {
+        self.subjects.iter().flat_map(move |&subject| {
+            self.seeds
+                .iter()
+                .map(move |&seed| generate(subject, self.preset, self.frames, seed))
+        })
+    }
 }
 
 /// Parses [`TrialSet`] from argv (after the program name).
