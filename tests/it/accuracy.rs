@@ -1,21 +1,12 @@
 //! Accuracy of the whole pipeline on the committed synthetic fixtures, scored against
 //! their ground truth with `synth::score` (the same scorer `cargo xtask eval` uses).
 
-use crate::support::{Scratch, root, xtask_ok};
+use crate::support::{Scratch, root};
 
 /// Runs the pipeline on a fixture and scores its skeleton.json against the truth.
 fn score_fixture(name: &str) -> synth::score::Score {
     let tmp = Scratch::new(&format!("accuracy-{name}"));
-    let input = root().join(format!("fixtures/{name}.c3d"));
-    let out = tmp.path("out");
-    xtask_ok(&[
-        "run",
-        input.to_str().unwrap(),
-        "--out",
-        out.to_str().unwrap(),
-        "--cache",
-        tmp.path("cache").to_str().unwrap(),
-    ]);
+    let out = tmp.run(&root().join(format!("fixtures/{name}.c3d")));
     let truth = synth::read_truth(&root().join(format!("fixtures/{name}.truth.json"))).unwrap();
     let estimate = synth::score::read_estimate(&out.join("skeleton.json")).unwrap();
     synth::score::score(&truth, &estimate)

@@ -109,14 +109,8 @@ fn a_bad_capture_fails_clearly_and_writes_nothing() {
     bytes[2..4].copy_from_slice(&u16::MAX.to_le_bytes());
     std::fs::write(&bad, &bytes).unwrap();
     let out = tmp.path("out");
-    let result = xtask(&[
-        "run",
-        bad.to_str().unwrap(),
-        "--out",
-        out.to_str().unwrap(),
-        "--cache",
-        tmp.path("cache").to_str().unwrap(),
-    ]);
+    let args = tmp.run_args(&bad);
+    let result = xtask(&args.iter().map(String::as_str).collect::<Vec<_>>());
     assert!(!result.status.success());
     let stderr = String::from_utf8_lossy(&result.stderr);
     assert!(

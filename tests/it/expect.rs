@@ -5,21 +5,12 @@
 
 use std::fmt::Write as _;
 
-use crate::support::{Scratch, read_json, root, xtask_ok};
+use crate::support::{Scratch, read_json, root};
 
 /// The summary text of one fixture's skeleton.json.
 fn summary(fixture: &str) -> String {
     let tmp = Scratch::new(&format!("expect-{fixture}"));
-    let input = root().join(format!("fixtures/{fixture}.c3d"));
-    let out = tmp.path("out");
-    xtask_ok(&[
-        "run",
-        input.to_str().unwrap(),
-        "--out",
-        out.to_str().unwrap(),
-        "--cache",
-        tmp.path("cache").to_str().unwrap(),
-    ]);
+    let out = tmp.run(&root().join(format!("fixtures/{fixture}.c3d")));
     let s = read_json(&out.join("skeleton.json"));
     let mut text = String::new();
     let _ = writeln!(

@@ -63,16 +63,7 @@ fn cmu_02_01_limb_lengths_match_the_vicon_skeleton() {
         return;
     };
     let tmp = Scratch::new("cmu-02-01");
-    let input = data.join("c3d/cmu/02_01.c3d");
-    let out = tmp.path("out");
-    xtask_ok(&[
-        "run",
-        input.to_str().unwrap(),
-        "--out",
-        out.to_str().unwrap(),
-        "--cache",
-        tmp.path("cache").to_str().unwrap(),
-    ]);
+    let out = tmp.run(&data.join("c3d/cmu/02_01.c3d"));
     let skeleton = read_json(&out.join("skeleton.json"));
     let reference = asf_lengths(&data.join("skeletons/cmu/02.asf"));
     // (ASF bone, proximal segment marker, the bone's own marker, distal segment marker).
@@ -130,16 +121,9 @@ fn a_failed_run_shows_what_the_reader_warned() {
         return;
     };
     let tmp = Scratch::new("giant");
-    let input = data.join("c3d/c3d.org/sample16/giant.c3d");
-    let (input, out, cache) = (input.to_str().unwrap(), tmp.path("out"), tmp.path("cache"));
-    let args = [
-        "run",
-        input,
-        "--out",
-        out.to_str().unwrap(),
-        "--cache",
-        cache.to_str().unwrap(),
-    ];
+    let args = tmp.run_args(&data.join("c3d/c3d.org/sample16/giant.c3d"));
+    let args: Vec<&str> = args.iter().map(String::as_str).collect();
+    let out = tmp.path("out");
     let failed = crate::support::xtask(&args);
     assert!(!failed.status.success());
     let stderr = String::from_utf8_lossy(&failed.stderr);

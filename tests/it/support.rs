@@ -16,6 +16,26 @@ impl Scratch {
     pub fn path(&self, rel: &str) -> PathBuf {
         self.0.join(rel)
     }
+
+    /// `run INPUT --out <scratch>/out --cache <scratch>/cache`: the pipeline into this folder.
+    pub fn run_args(&self, input: &Path) -> Vec<String> {
+        let path = |p: PathBuf| p.to_str().expect("UTF-8 path").to_string();
+        vec![
+            "run".into(),
+            path(input.to_path_buf()),
+            "--out".into(),
+            path(self.path("out")),
+            "--cache".into(),
+            path(self.path("cache")),
+        ]
+    }
+
+    /// Runs the pipeline on `input` into this folder, asserting success; the output folder.
+    pub fn run(&self, input: &Path) -> PathBuf {
+        let args = self.run_args(input);
+        xtask_ok(&args.iter().map(String::as_str).collect::<Vec<_>>());
+        self.path("out")
+    }
 }
 
 impl Drop for Scratch {

@@ -259,6 +259,16 @@ mod tests {
         assert!(err.to_string().contains("t.cbor"), "{err}");
     }
 
+    /// The names of the entries of `dir`, sorted (temp files left behind show here).
+    fn file_names(dir: &Path) -> Vec<String> {
+        let mut names: Vec<String> = std::fs::read_dir(dir)
+            .unwrap()
+            .map(|e| e.unwrap().file_name().to_string_lossy().into_owned())
+            .collect();
+        names.sort();
+        names
+    }
+
     #[test]
     fn atomic_write_leaves_no_temp_file() {
         let dir = std::env::temp_dir().join(format!("ossify-art-{}", std::process::id()));
@@ -267,10 +277,7 @@ mod tests {
         let (_, t): (_, Trajectories) = read(&path, "mocap-io").unwrap();
         assert_eq!(t.frames(), 2);
         assert!(read::<Trajectories>(&path, "segment").is_err());
-        let names: Vec<_> = std::fs::read_dir(&dir)
-            .unwrap()
-            .map(|e| e.unwrap().file_name())
-            .collect();
+        let names = file_names(&dir);
         assert_eq!(names.len(), 1, "{names:?}");
         std::fs::remove_dir_all(&dir).unwrap();
     }
@@ -294,10 +301,7 @@ mod tests {
         });
         let last = std::fs::read(&path).unwrap();
         assert!(contents.contains(&last), "mixed bytes");
-        let names: Vec<_> = std::fs::read_dir(&dir)
-            .unwrap()
-            .map(|e| e.unwrap().file_name())
-            .collect();
+        let names = file_names(&dir);
         assert_eq!(names.len(), 1, "{names:?}");
         std::fs::remove_dir_all(&dir).unwrap();
     }
@@ -314,12 +318,7 @@ mod tests {
         let err = write_atomic_all(&[(&a, b"new a"), (&b, b"new b")]).unwrap_err();
         assert!(err.to_string().contains("b.txt"), "{err}");
         assert_eq!(std::fs::read(&a).unwrap(), b"old a");
-        let mut names: Vec<_> = std::fs::read_dir(&dir)
-            .unwrap()
-            .map(|e| e.unwrap().file_name().to_string_lossy().into_owned())
-            .collect();
-        names.sort();
-        assert_eq!(names, ["a.txt", "b.txt"]);
+        assert_eq!(file_names(&dir), ["a.txt", "b.txt"]);
         std::fs::remove_dir_all(&dir).unwrap();
     }
 }
