@@ -4,12 +4,15 @@
 //! (LO,HI: markers per segment, default the generator's).
 //! Per subject and preset (clean, hard) and method: mean and worst joint error over the
 //! true joints (mm and % of height), fraction of frames with a position, whether a
-//! minimum spanning tree on the pair costs equals the true tree, hinge-vs-not right, time.
+//! minimum spanning tree on the pair costs equals the true tree, hinge-vs-not right, time;
+//! and `floor`: the error left by the best centre constant in each segment's marker frame
+//! (from the truth), the limit skin puts on every method here.
 #![allow(clippy::print_stdout)]
 
 use std::collections::BTreeSet;
 use std::time::Instant;
 
+use glam::{DQuat, DVec3};
 use jointfit::{JointKind, Method, Params, run_on_segments};
 use synth::{Preset, Subject, SynthConfig};
 
@@ -44,7 +47,7 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
         if only.is_some_and(|o| !subject.name().contains(o.as_str())) {
             continue;
         }
-        for preset in [Preset::Clean, Preset::Hard] {
+        for preset in [Preset::Clean, Preset::Skin, Preset::Hard] {
             let trial = synth::generate(&SynthConfig {
                 subject,
                 preset,
@@ -180,9 +183,102 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
                     secs
                 );
             }
+            // The floor of any method that keeps a joint at one place in each segment's
+            // marker frame: the best such place, known from the truth.
+            let fits = run_on_segments(traj, &segments, &Params::default())?;
+            let (floor, fit_fits_better) = constant_centre_floor(&fits, truth);
+            let h = truth.height_mm / 100.0;
+            // On clean data both residuals are rounding error: nothing to compare.
+            let versus = if floor > 0.5 {
+                format!(
+                    "   (SCoRE's centres leave a smaller residual than these at {fit_fits_better}/{} joints)",
+                    truth.joints.len()
+                )
+            } else {
+                String::new()
+            };
+            println!(
+                "{:<28} {:<7} {:>8.2} {:>7.3}{versus}",
+                trial.name,
+                "floor",
+                floor,
+                floor / h
+            );
         }
     }
     Ok(())
+}
+
+/// Mean joint error (mm) of the truth's joints placed at their mean position in each
+/// adjacent segment's marker frame (the poses of `fits`), the two sides averaged: what
+/// skin leaves of any estimate that is constant in the segments' frames. Also how many
+/// joints' fitted centres (the pair fit's) have a smaller RMS gap between the two
+/// segments' images than these: where they do, no residual-minimising fit finds the floor.
+fn constant_centre_floor(fits: &jointfit::PairFits, truth: &synth::Truth) -> (f64, usize) {
+    let pose = |s: usize, f: usize| -> Option<(DQuat, DVec3)> {
+        let p = fits.poses.iter().find(|p| p.segment == s)?;
+        let q = DQuat::from_array(p.rotations[f]);
+        let t = DVec3::from_array(p.translations[f]);
+        (q.is_finite() && t.is_finite()).then_some((q, t))
+    };
+    // RMS over frames of the distance between the two sides' images of a centre.
+    let gap = |a: usize, b: usize, ca: DVec3, cb: DVec3, frames: usize| {
+        let (mut sum, mut n) = (0.0, 0usize);
+        for f in 0..frames {
+            if let (Some((qa, ta)), Some((qb, tb))) = (pose(a, f), pose(b, f)) {
+                sum += (qa * ca + ta).distance_squared(qb * cb + tb);
+                n += 1;
+            }
+        }
+        (sum / n.max(1) as f64).sqrt()
+    };
+    let (mut total, mut fit_fits_better) = (0.0, 0);
+    for j in &truth.joints {
+        let at = |f: usize| DVec3::from_array(j.positions[f]);
+        let frames = j.positions.len();
+        let (a, b) = (
+            j.parent_segment.min(j.child_segment),
+            j.parent_segment.max(j.child_segment),
+        );
+        let means: Vec<DVec3> = [a, b]
+            .into_iter()
+            .map(|s| {
+                let locals: Vec<DVec3> = (0..frames)
+                    .filter_map(|f| pose(s, f).map(|(q, t)| q.inverse() * (at(f) - t)))
+                    .collect();
+                locals.iter().copied().sum::<DVec3>() / locals.len().max(1) as f64
+            })
+            .collect();
+        let sides: Vec<Vec<Option<DVec3>>> = [a, b]
+            .into_iter()
+            .zip(&means)
+            .map(|(s, &mean)| {
+                (0..frames)
+                    .map(|f| pose(s, f).map(|(q, t)| q * mean + t))
+                    .collect()
+            })
+            .collect();
+        if let Some(fit) = fits.pairs.iter().find(|p| p.a == a && p.b == b) {
+            let (ca, cb) = (
+                DVec3::from_array(fit.centre_in_a),
+                DVec3::from_array(fit.centre_in_b),
+            );
+            if gap(a, b, ca, cb, frames) < gap(a, b, means[0], means[1], frames) {
+                fit_fits_better += 1;
+            }
+        }
+        let (mut sum, mut n) = (0.0, 0usize);
+        for f in 0..frames {
+            let known: Vec<DVec3> = sides.iter().filter_map(|s| s[f]).collect();
+            if !known.is_empty() {
+                let est = known.iter().copied().sum::<DVec3>() / known.len() as f64;
+                sum += est.distance(at(f));
+                n += 1;
+            }
+        }
+        total += sum / n.max(1) as f64;
+    }
+    (total / truth.joints.len().max(1) as f64, fit_fits_better)
 }
 
 /// Kruskal's minimum spanning tree on the pair costs (ties by pair order).
