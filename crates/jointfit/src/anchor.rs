@@ -648,10 +648,77 @@ struct Prior {
     weight: f64,
 }
 
+/// One pass over a marker's samples about a centre `c`: the sums the radial residual and
+/// its Gauss–Newton system need, so each iteration reads every sample once, with one
+/// square root.
+struct CloudSums {
+    /// Number of samples.
+    n: f64,
+    /// Distance of the first sample: the shift that keeps the sums of squares from
+    /// cancelling (distances of hundreds of mm, residuals of a few).
+    shift: f64,
+    /// Σ (|q − c| − shift).
+    sum_e: f64,
+    /// Σ (|q − c| − shift)².
+    sum_e2: f64,
+    /// Σ of the unit directions (q − c)/|q − c|.
+    sum_u: DVec3,
+    /// Σ u uᵀ (upper triangle: xx, xy, xz, yy, yz, zz); zero unless asked for.
+    outer: [f64; 6],
+}
+
+impl CloudSums {
+    fn new(cloud: &[DVec3], c: DVec3, with_outer: bool) -> Self {
+        let shift = cloud.first().map_or(0.0, |q| (*q - c).length());
+        let mut sums = Self {
+            n: cloud.len() as f64,
+            shift,
+            sum_e: 0.0,
+            sum_e2: 0.0,
+            sum_u: DVec3::ZERO,
+            outer: [0.0; 6],
+        };
+        for q in cloud {
+            let v = *q - c;
+            let d = v.length();
+            let u = if d > 0.0 { v / d } else { DVec3::ZERO };
+            let e = d - shift;
+            sums.sum_e += e;
+            sums.sum_e2 += e * e;
+            sums.sum_u += u;
+            if with_outer {
+                let o = &mut sums.outer;
+                o[0] += u.x * u.x;
+                o[1] += u.x * u.y;
+                o[2] += u.x * u.z;
+                o[3] += u.y * u.y;
+                o[4] += u.y * u.z;
+                o[5] += u.z * u.z;
+            }
+        }
+        sums
+    }
+
+    /// The mean distance: the marker's radius about `c`.
+    fn radius(&self) -> f64 {
+        self.shift + self.sum_e / self.n
+    }
+
+    /// Σ (|q − c| − radius)².
+    fn squared_residual(&self) -> f64 {
+        (self.sum_e2 - self.sum_e * self.sum_e / self.n).max(0.0)
+    }
+}
+
 /// Gauss–Newton on the geometric radial residual `|q − c| − r_m` (each `r_m` at its
 /// optimum, the mean distance, eliminated), from `start`; `c` does not move along the
 /// orthonormal directions `fixed`; `prior` adds a soft constraint on one coordinate.
 /// Keeps `start` if no step lowers the objective.
+///
+/// With u_q the unit direction from c to sample q and m the mean of a marker's u_q, the
+/// Jacobian row of a sample is m − u_q (variable projection of r_m), so JᵀJ = Σ u uᵀ − n m mᵀ
+/// and Jᵀe = r n m − Σ (q − c): one pass per iteration ([`CloudSums`]), which also gives
+/// the objective at the point it was taken at.
 fn geometric_centre(
     clouds: &[Vec<DVec3>],
     used: &[bool],
@@ -659,59 +726,49 @@ fn geometric_centre(
     fixed: &[DVec3],
     prior: Option<Prior>,
 ) -> DVec3 {
-    let count = clouds
-        .iter()
-        .zip(used)
-        .filter(|(_, u)| **u)
-        .map(|(c, _)| c.len())
-        .sum::<usize>()
-        .max(1) as f64;
-    let objective = |c: DVec3| {
-        let rms = radial(clouds, used, c).0;
-        let pen = prior.map_or(0.0, |p| p.weight * (p.dir.dot(c) - p.value).powi(2));
-        rms * rms * count + pen
+    let sample_sums: Vec<DVec3> = clouds.iter().map(|c| c.iter().copied().sum()).collect();
+    // The projection that removes the `fixed` directions from a Jacobian row, as a matrix.
+    let project = |mut j: DVec3| {
+        for axis in fixed {
+            j -= *axis * axis.dot(j);
+        }
+        j
     };
-    let mut c = start;
-    let mut best = objective(c);
-    for _ in 0..20 {
-        let mut jtj = DMat3::ZERO;
-        let mut jte = DVec3::ZERO;
-        for (cloud, &u) in clouds.iter().zip(used) {
+    let p = DMat3::from_cols(project(DVec3::X), project(DVec3::Y), project(DVec3::Z));
+    let outer = |j: DVec3| DMat3::from_cols(j * j.x, j * j.y, j * j.z);
+    // Objective, JᵀJ and Jᵀe at `c`.
+    let system = |c: DVec3| {
+        let (mut value, mut jtj, mut jte) = (0.0, DMat3::ZERO, DVec3::ZERO);
+        for ((cloud, &u), &sum_q) in clouds.iter().zip(used).zip(&sample_sums) {
             if !u || cloud.is_empty() {
                 continue;
             }
-            let len = cloud.len() as f64;
-            let (mut r, mut mean_dir) = (0.0, DVec3::ZERO);
-            for q in cloud {
-                let d = *q - c;
-                r += d.length();
-                mean_dir += d.normalize_or_zero();
-            }
-            r /= len;
-            mean_dir /= len;
-            for q in cloud {
-                let d = *q - c;
-                // ∂(|q − c| − mean_m |q − c|)/∂c, variable projection of r_m.
-                let mut j = mean_dir - d.normalize_or_zero();
-                for axis in fixed {
-                    j -= *axis * axis.dot(j);
-                }
-                jtj += DMat3::from_cols(j * j.x, j * j.y, j * j.z);
-                jte += j * (d.length() - r);
-            }
+            let s = CloudSums::new(cloud, c, true);
+            value += s.squared_residual();
+            let o = s.outer;
+            let uu =
+                DMat3::from_cols_array(&[o[0], o[1], o[2], o[1], o[3], o[4], o[2], o[4], o[5]]);
+            jtj += uu - outer(s.sum_u) * (1.0 / s.n);
+            jte += s.sum_u * s.radius() - (sum_q - c * s.n);
         }
-        if let Some(p) = prior {
-            let mut j = p.dir;
-            for axis in fixed {
-                j -= *axis * axis.dot(j);
-            }
-            jtj += DMat3::from_cols(j * j.x, j * j.y, j * j.z) * p.weight;
-            jte += j * (p.weight * (p.dir.dot(c) - p.value));
+        let mut jtj = p * jtj * p.transpose();
+        let mut jte = p * jte;
+        if let Some(prior) = prior {
+            let gap = prior.dir.dot(c) - prior.value;
+            value += prior.weight * gap * gap;
+            let j = project(prior.dir);
+            jtj += outer(j) * prior.weight;
+            jte += j * (prior.weight * gap);
         }
         for axis in fixed {
             // A fixed direction has no data; keep the system solvable without moving along it.
-            jtj += DMat3::from_cols(*axis * axis.x, *axis * axis.y, *axis * axis.z);
+            jtj += outer(*axis);
         }
+        (value, jtj, jte)
+    };
+    let mut c = start;
+    let (mut best, mut jtj, mut jte) = system(c);
+    for _ in 0..20 {
         if jtj.determinant().abs() < 1e-300 {
             break;
         }
@@ -720,13 +777,13 @@ fn geometric_centre(
             break;
         }
         let next = c + step;
-        let next_value = objective(next);
+        let (next_value, next_jtj, next_jte) = system(next);
         if next_value.partial_cmp(&best) != Some(std::cmp::Ordering::Less) {
             break;
         }
         let small = step.length() < 1e-6;
         c = next;
-        best = next_value;
+        (best, jtj, jte) = (next_value, next_jtj, next_jte);
         if small {
             break;
         }
@@ -743,20 +800,10 @@ fn radial(clouds: &[Vec<DVec3>], used: &[bool], c: DVec3) -> (f64, Vec<(f64, DVe
             radii.push((f64::NAN, DVec3::NAN));
             continue;
         }
-        let len = cloud.len() as f64;
-        let r = cloud.iter().map(|q| (*q - c).length()).sum::<f64>() / len;
-        let dir = cloud
-            .iter()
-            .filter_map(|q| (*q - c).try_normalize())
-            .sum::<DVec3>()
-            .try_normalize()
-            .unwrap_or(DVec3::NAN);
-        for q in cloud {
-            let e = (*q - c).length() - r;
-            sq += e * e;
-        }
+        let s = CloudSums::new(cloud, c, false);
+        sq += s.squared_residual();
         count += cloud.len();
-        radii.push((r, dir));
+        radii.push((s.radius(), s.sum_u.try_normalize().unwrap_or(DVec3::NAN)));
     }
     ((sq / count.max(1) as f64).sqrt(), radii)
 }
