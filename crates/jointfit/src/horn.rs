@@ -9,8 +9,6 @@
 
 use glam::{DQuat, DVec3};
 
-use crate::small::sym_eigen;
-
 /// A rigid motion `observed ≈ rotation * reference + translation`, with its fit quality.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct RigidFit {
@@ -84,8 +82,7 @@ pub fn rotation_from_cross_covariance(s: [[f64; 3]; 3]) -> Option<DQuat> {
     if !m.iter().flatten().all(|x| x.is_finite()) {
         return None;
     }
-    let (_, vecs) = sym_eigen(m);
-    let [w, x, y, z] = vecs[0];
+    let (_, [w, x, y, z]) = segment::eigen4::largest_eigenpair4(m);
     let q = DQuat::from_xyzw(x, y, z, w);
     let len = q.length();
     (len.is_finite() && len > 1e-12).then(|| q / len)

@@ -12,8 +12,8 @@ use mocap_io::Trajectories;
 use rayon::prelude::*;
 
 use crate::eigen::symmetric_eigen;
+use crate::eigen4::largest_eigenvalue4;
 use crate::pairstats::PairStats;
-use crate::reassign::largest_eigenvalue4;
 use crate::rigidity::rms_rho;
 
 /// Largest cluster whose bipartitions are all tried (2^(n−1) candidates).

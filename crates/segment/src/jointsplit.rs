@@ -28,11 +28,10 @@ use mocap_io::Trajectories;
 use rayon::prelude::*;
 
 use crate::eigen::symmetric_eigen;
+use crate::eigen4::largest_eigenpair4;
 use crate::fitsplit::{QUANTILE, median_distances, quantile, reference_shape};
 use crate::pairstats::PairStats;
-use crate::reassign::{
-    Pose, horn, inertia_det, inertia_tensor, invert3, largest_eigenpair4, rotation_matrix,
-};
+use crate::reassign::{Pose, horn, inertia_det, inertia_tensor, invert3, rotation_matrix};
 
 /// Fewest markers in a part: three pose a body's rotation fully.
 pub(crate) const MIN_PART: usize = 3;

@@ -33,6 +33,7 @@
 mod affinity;
 mod cliques;
 mod eigen;
+pub mod eigen4;
 mod error;
 mod fitsplit;
 mod jointsplit;
