@@ -114,29 +114,29 @@ const NEWTON_STEPS: usize = 30;
 /// The largest root of the characteristic polynomial of symmetric `m` by Newton's method
 /// from the Frobenius norm; `None` if it has not converged within [`NEWTON_STEPS`].
 fn largest_root4(m: [[f64; 4]; 4]) -> Option<f64> {
-    let mul = |a: &[[f64; 4]; 4], b: &[[f64; 4]; 4]| {
-        let mut c = [[0.0; 4]; 4];
-        for i in 0..4 {
-            for j in 0..4 {
-                c[i][j] = (0..4).map(|k| a[i][k] * b[k][j]).sum();
-            }
+    // Power sums p_k = tr(mᵏ) (m symmetric: tr(m²) and tr(m⁴) are squared Frobenius
+    // norms), then Newton's identities for λ⁴ + c3 λ³ + c2 λ² + c1 λ + c0.
+    let mut sq = [[0.0; 4]; 4];
+    for i in 0..4 {
+        for j in i..4 {
+            let v = (0..4).map(|k| m[i][k] * m[k][j]).sum();
+            sq[i][j] = v;
+            sq[j][i] = v;
         }
-        c
-    };
-    let trace = |a: &[[f64; 4]; 4]| a[0][0] + a[1][1] + a[2][2] + a[3][3];
-    let shifted = |a: &[[f64; 4]; 4], s: f64| {
-        let mut b = *a;
-        (0..4).for_each(|i| b[i][i] += s);
-        b
-    };
-    // Faddeev–LeVerrier: λ⁴ + c3 λ³ + c2 λ² + c1 λ + c0.
-    let c3 = -trace(&m);
-    let m2 = mul(&m, &shifted(&m, c3));
-    let c2 = -trace(&m2) / 2.0;
-    let m3 = mul(&m, &shifted(&m2, c2));
-    let c1 = -trace(&m3) / 3.0;
-    let m4 = mul(&m, &shifted(&m3, c1));
-    let c0 = -trace(&m4) / 4.0;
+    }
+    let p1 = m[0][0] + m[1][1] + m[2][2] + m[3][3];
+    let p2 = sq[0][0] + sq[1][1] + sq[2][2] + sq[3][3];
+    let (mut p3, mut p4) = (0.0, 0.0);
+    for i in 0..4 {
+        for j in 0..4 {
+            p3 += m[i][j] * sq[i][j];
+            p4 += sq[i][j] * sq[i][j];
+        }
+    }
+    let c3 = -p1;
+    let c2 = -(p2 + c3 * p1) / 2.0;
+    let c1 = -(p3 + c3 * p2 + c2 * p1) / 3.0;
+    let c0 = -(p4 + c3 * p3 + c2 * p2 + c1 * p1) / 4.0;
     let scale = m.iter().flatten().map(|x| x * x).sum::<f64>().sqrt();
     if !scale.is_finite() {
         return None;
