@@ -39,6 +39,7 @@
 
 use glam::{DMat3, DQuat, DVec3};
 use mocap_io::Trajectories;
+use rayon::prelude::*;
 
 use crate::pairfits::SegmentPoses;
 use crate::params::Params;
@@ -125,6 +126,27 @@ pub(crate) fn anchor_segments(
     let mut memo: Vec<Vec<Option<Option<CentreFit>>>> = vec![vec![None; n]; n];
     let mut failed = vec![vec![false; n]; n];
     loop {
+        // This round's new candidates, fitted in parallel (each is independent).
+        let wanted: Vec<(usize, usize)> = (0..n)
+            .filter(|&s| !posed[s] && !segments[s].is_empty())
+            .flat_map(|s| (0..n).map(move |nb| (s, nb)))
+            .filter(|&(s, nb)| nb != s && posed[nb] && !failed[s][nb] && memo[s][nb].is_none())
+            .collect();
+        let fitted: Vec<Option<CentreFit>> = wanted
+            .par_iter()
+            .map(|&(s, nb)| {
+                centre_fit(
+                    traj,
+                    &segments[s],
+                    &tracks[nb],
+                    params,
+                    params.anchor_min_excursion_deg,
+                )
+            })
+            .collect();
+        for (&(s, nb), fit) in wanted.iter().zip(fitted) {
+            memo[s][nb] = Some(fit);
+        }
         let mut best: Option<(f64, usize, usize)> = None;
         for s in 0..n {
             if posed[s] || segments[s].is_empty() {
@@ -134,16 +156,7 @@ pub(crate) fn anchor_segments(
                 if nb == s || !posed[nb] || failed[s][nb] {
                     continue;
                 }
-                let fit = memo[s][nb].get_or_insert_with(|| {
-                    centre_fit(
-                        traj,
-                        &segments[s],
-                        &tracks[nb],
-                        params,
-                        params.anchor_min_excursion_deg,
-                    )
-                });
-                if let Some(fit) = fit
+                if let Some(Some(fit)) = &memo[s][nb]
                     && best.is_none_or(|(c, _, _)| fit.rms_mm < c)
                 {
                     best = Some((fit.rms_mm, s, nb));
@@ -194,21 +207,40 @@ pub(crate) fn anchor_segments(
         if !gappy {
             return None;
         }
-        let mut best: Option<(f64, usize, CentreFit)> = None;
-        for nb in 0..n {
-            let loops_back = anchors[nb].as_ref().is_some_and(|a| a.neighbour == s);
-            if nb == s || Some(nb) == skip || !posed[nb] || loops_back {
-                continue;
-            }
-            let fit = match memo[s][nb].take() {
-                Some(fit) => fit,
-                None => centre_fit(
+        let candidates: Vec<usize> = (0..n)
+            .filter(|&nb| {
+                let loops_back = anchors[nb].as_ref().is_some_and(|a| a.neighbour == s);
+                nb != s && Some(nb) != skip && posed[nb] && !loops_back
+            })
+            .collect();
+        // The fits not yet made, in parallel (each is independent).
+        let missing: Vec<usize> = candidates
+            .iter()
+            .copied()
+            .filter(|&nb| memo[s][nb].is_none())
+            .collect();
+        let shared_tracks: &[Vec<Option<Pose>>] = tracks;
+        let mut fresh: Vec<Option<Option<CentreFit>>> = missing
+            .par_iter()
+            .map(|&nb| {
+                Some(centre_fit(
                     traj,
                     &segments[s],
-                    &tracks[nb],
+                    &shared_tracks[nb],
                     params,
                     params.anchor_min_excursion_deg,
-                ),
+                ))
+            })
+            .collect();
+        let mut best: Option<(f64, usize, CentreFit)> = None;
+        for nb in candidates {
+            let fit = match memo[s][nb].take() {
+                Some(fit) => fit,
+                None => missing
+                    .iter()
+                    .position(|&m| m == nb)
+                    .and_then(|i| fresh[i].take())
+                    .flatten(),
             };
             if let Some(fit) = fit
                 && best.as_ref().is_none_or(|(c, _, _)| fit.rms_mm < *c)
