@@ -928,6 +928,17 @@ mod tests {
     use crate::RotationMethod;
     use crate::testkit::{Scene, scene};
 
+    /// The stage on the scene's capture and segmentation with `fits` and `topo`, defaults.
+    fn run_on(s: &Scene, fits: &PairFits, topo: &Topology) -> Result<Skeleton, Error> {
+        run(
+            &s.trajectories,
+            &s.segmentation,
+            fits,
+            topo,
+            &Params::default(),
+        )
+    }
+
     fn fit(s: &Scene, params: &Params) -> Skeleton {
         match run(
             &s.trajectories,
@@ -1367,43 +1378,19 @@ mod tests {
         let s = scene(20, 100.0);
         let mut topo = s.topology.clone();
         topo.joints[2].pair = 0;
-        let r = run(
-            &s.trajectories,
-            &s.segmentation,
-            &s.fits,
-            &topo,
-            &Params::default(),
-        );
+        let r = run_on(&s, &s.fits, &topo);
         assert!(matches!(r, Err(Error::BadJoint { .. })));
         let mut fits = s.fits.clone();
         fits.poses[2].rotations.pop();
-        let r = run(
-            &s.trajectories,
-            &s.segmentation,
-            &fits,
-            &s.topology,
-            &Params::default(),
-        );
+        let r = run_on(&s, &fits, &s.topology);
         assert!(matches!(r, Err(Error::FrameCountMismatch { .. })));
         let mut fits = s.fits.clone();
         fits.pairs[0].centre_in_b = [f64::NAN; 3];
-        let r = run(
-            &s.trajectories,
-            &s.segmentation,
-            &fits,
-            &s.topology,
-            &Params::default(),
-        );
+        let r = run_on(&s, &fits, &s.topology);
         assert!(matches!(r, Err(Error::UnfittedJoint { segment: 1, .. })));
         let mut topo = s.topology.clone();
         topo.joints.swap(0, 2);
-        let r = run(
-            &s.trajectories,
-            &s.segmentation,
-            &s.fits,
-            &topo,
-            &Params::default(),
-        );
+        let r = run_on(&s, &s.fits, &topo);
         assert!(matches!(r, Err(Error::BadJoint { .. })));
     }
 
@@ -1413,13 +1400,7 @@ mod tests {
         // A 2-segment tree (torso → thigh) against the 4-segment segmentation.
         let mut topo = s.topology.clone();
         topo.joints.truncate(1);
-        let r = run(
-            &s.trajectories,
-            &s.segmentation,
-            &s.fits,
-            &topo,
-            &Params::default(),
-        );
+        let r = run_on(&s, &s.fits, &topo);
         match r {
             Err(e @ Error::TopologyMismatch { .. }) => {
                 let text = e.to_string();
@@ -1432,13 +1413,7 @@ mod tests {
         }
         let mut fits = s.fits.clone();
         fits.poses.pop();
-        let r = run(
-            &s.trajectories,
-            &s.segmentation,
-            &fits,
-            &s.topology,
-            &Params::default(),
-        );
+        let r = run_on(&s, &fits, &s.topology);
         match r {
             Err(e @ Error::SegmentCountMismatch { .. }) => {
                 let text = e.to_string();
@@ -1451,16 +1426,7 @@ mod tests {
         }
         // With the rest of the tree detached it runs.
         topo.detached_segments = vec![2, 3];
-        assert!(
-            run(
-                &s.trajectories,
-                &s.segmentation,
-                &s.fits,
-                &topo,
-                &Params::default()
-            )
-            .is_ok()
-        );
+        assert!(run_on(&s, &s.fits, &topo).is_ok());
     }
 
     #[test]
@@ -1525,14 +1491,7 @@ mod tests {
             detached_segments: vec![0, 1, 3],
             notes: Vec::new(),
         };
-        let k = run(
-            &s.trajectories,
-            &s.segmentation,
-            &s.fits,
-            &topo,
-            &Params::default(),
-        )
-        .unwrap_or_else(|e| panic!("{e}"));
+        let k = run_on(&s, &s.fits, &topo).unwrap_or_else(|e| panic!("{e}"));
         assert!(k.joints.is_empty());
         assert_eq!(k.root_point_in_segment, [0.0; 3]);
         let p = DVec3::from_array(k.root_positions[3]);
