@@ -405,62 +405,22 @@ const REJOIN_CANDIDATES: usize = 3;
 
 #[cfg(test)]
 mod tests {
-    use mocap_io::Trajectories;
-
     use super::split_by_fit;
+    use crate::testscene::{CHILD, PARENT, hinged_capture};
 
     /// Two 3-marker bodies joined by a hinge near a straight limb, the child swinging ±12°
     /// about it while both translate: the cluster of all six splits into the two bodies,
     /// and a six-marker rigid body stays whole.
     #[test]
     fn hinge_splits_rigid_body_stays_whole() {
-        let parent = [
-            [30.0, 0.0, 100.0],
-            [-25.0, 20.0, 200.0],
-            [10.0, -30.0, 300.0],
-        ];
-        let child = [
-            [20.0, 25.0, -100.0],
-            [-30.0, 5.0, -200.0],
-            [15.0, -25.0, -300.0],
-        ];
-        let frames = 200;
-        let mut jointed = Vec::new();
-        let mut rigid = Vec::new();
-        for f in 0..frames {
-            let t = f as f64 * 0.05;
-            let shift = [100.0 * t.sin(), 50.0 * t.cos(), 1000.0];
-            let angle = 12f64.to_radians() * (0.7 * t).sin();
-            let (s, c) = angle.sin_cos();
-            // Tiny deterministic jitter so the fits are not exact.
-            let jitter = |k: usize| 0.2 * ((f * 7 + k * 13) as f64).sin();
-            for (k, p) in parent.iter().chain(child.iter()).enumerate() {
-                let q = if k >= 3 {
-                    // Hinge about the x axis through the origin.
-                    [p[0], c * p[1] - s * p[2], s * p[1] + c * p[2]]
-                } else {
-                    *p
-                };
-                jointed.push([
-                    q[0] + shift[0] + jitter(k),
-                    q[1] + shift[1],
-                    q[2] + shift[2],
-                ]);
-                rigid.push([
-                    p[0] + shift[0] + jitter(k),
-                    p[1] + shift[1],
-                    p[2] + shift[2],
-                ]);
-            }
-        }
-        let labels: Vec<String> = (0..6).map(|m| format!("M{m}")).collect();
+        let (parent, child) = (&PARENT[..3], &CHILD[..3]);
         let all: Vec<usize> = (0..6).collect();
-        let traj = Trajectories::new(labels.clone(), 100.0, 1, frames, jointed).expect("capture");
+        let traj = hinged_capture(parent, child, 200, 12.0, 0.2);
         let mut parts = split_by_fit(&traj, &all, 2.0, 1.0);
         parts.iter_mut().for_each(|p| p.sort_unstable());
         parts.sort();
         assert_eq!(parts, vec![vec![0, 1, 2], vec![3, 4, 5]]);
-        let traj = Trajectories::new(labels, 100.0, 1, frames, rigid).expect("capture");
+        let traj = hinged_capture(parent, child, 200, 0.0, 0.2);
         assert_eq!(split_by_fit(&traj, &all, 2.0, 1.0), vec![all]);
     }
 }

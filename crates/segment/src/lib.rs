@@ -47,6 +47,8 @@ mod segmentation;
 mod spectral;
 #[cfg(test)]
 mod tests;
+#[cfg(test)]
+mod testscene;
 
 pub use error::Error;
 pub use jointsplit::JointEvidence;

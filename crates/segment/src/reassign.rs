@@ -645,46 +645,15 @@ pub(crate) fn sigma_in(traj: &Trajectories, group: &[usize], m: usize) -> Option
 
 #[cfg(test)]
 mod tests {
-    use mocap_io::Trajectories;
-
     use super::{dissolve_pairs, eject, reassign};
+    use crate::testscene::{CHILD, PARENT, hinge_x, hinged_capture, moving_capture};
 
     /// Two 4-marker bodies at a hinge swinging ±15°, with 1 mm deterministic jitter: a child
     /// marker clustered with the parent goes back to the child, and the true partition
     /// stays as it is.
     #[test]
     fn misplaced_marker_returns_to_its_body() {
-        let parent = [
-            [30.0, 0.0, 100.0],
-            [-25.0, 20.0, 200.0],
-            [10.0, -30.0, 300.0],
-            [-20.0, -15.0, 150.0],
-        ];
-        let child = [
-            [20.0, 25.0, -100.0],
-            [-30.0, 5.0, -200.0],
-            [15.0, -25.0, -300.0],
-            [-10.0, 30.0, -250.0],
-        ];
-        let frames = 300;
-        let mut positions = Vec::new();
-        for f in 0..frames {
-            let t = f as f64 * 0.05;
-            let shift = [100.0 * t.sin(), 50.0 * t.cos(), 1000.0];
-            let angle = 15f64.to_radians() * (0.7 * t).sin();
-            let (s, c) = angle.sin_cos();
-            for (k, p) in parent.iter().chain(child.iter()).enumerate() {
-                let q = if k >= 4 {
-                    [p[0], c * p[1] - s * p[2], s * p[1] + c * p[2]]
-                } else {
-                    *p
-                };
-                let jitter = |axis: usize| ((f * 7 + k * 13 + axis * 5) as f64).sin();
-                positions.push(std::array::from_fn(|i| q[i] + shift[i] + jitter(i)));
-            }
-        }
-        let labels: Vec<String> = (0..8).map(|m| format!("M{m}")).collect();
-        let traj = Trajectories::new(labels, 100.0, 1, frames, positions).expect("capture");
+        let traj = hinged_capture(&PARENT, &CHILD, 300, 15.0, 1.0);
         let mut clusters = vec![vec![0, 1, 2, 3, 7], vec![4, 5, 6]];
         reassign(&traj, &mut clusters, 2.0, 1.0, 10);
         clusters.iter_mut().for_each(|c| c.sort_unstable());
@@ -699,33 +668,13 @@ mod tests {
     /// takes it out; the body alone loses nothing.
     #[test]
     fn swinging_marker_is_ejected_and_a_rigid_body_keeps_its_markers() {
-        let body = [
-            [30.0, 0.0, 100.0],
-            [-25.0, 20.0, 200.0],
-            [10.0, -30.0, 300.0],
-            [-20.0, -15.0, 150.0],
-            [25.0, 25.0, 250.0],
-        ];
+        let body: Vec<[f64; 3]> = PARENT
+            .iter()
+            .copied()
+            .chain([[25.0, 25.0, 250.0]])
+            .collect();
         let arm = [0.0, 0.0, -250.0];
-        let frames = 300;
-        let mut positions = Vec::new();
-        for f in 0..frames {
-            let t = f as f64 * 0.05;
-            let shift = [100.0 * t.sin(), 50.0 * t.cos(), 1000.0];
-            let angle = 20f64.to_radians() * (0.7 * t).sin();
-            let (s, c) = angle.sin_cos();
-            for (k, p) in body.iter().chain(std::iter::once(&arm)).enumerate() {
-                let q = if k == 5 {
-                    [p[0], c * p[1] - s * p[2], s * p[1] + c * p[2]]
-                } else {
-                    *p
-                };
-                let jitter = |axis: usize| ((f * 7 + k * 13 + axis * 5) as f64).sin();
-                positions.push(std::array::from_fn(|i| q[i] + shift[i] + jitter(i)));
-            }
-        }
-        let labels: Vec<String> = (0..6).map(|m| format!("M{m}")).collect();
-        let traj = Trajectories::new(labels, 100.0, 1, frames, positions).expect("capture");
+        let traj = hinged_capture(&body, &[arm], 300, 20.0, 1.0);
         let mut clusters = vec![vec![0, 1, 2, 3, 4, 5]];
         assert_eq!(eject(&traj, &mut clusters, 4.0, 1.0), vec![5]);
         assert_eq!(clusters, vec![vec![0, 1, 2, 3, 4], vec![5]]);
@@ -742,48 +691,20 @@ mod tests {
     /// data can tell).
     #[test]
     fn near_axis_pair_dissolves_and_a_true_pair_stays() {
-        let parent = [
-            [30.0, 0.0, 100.0],
-            [-25.0, 20.0, 200.0],
-            [10.0, -30.0, 300.0],
-            [-20.0, -15.0, 150.0],
-            [40.0, 0.0, 15.0],
-        ];
-        let child = [
-            [20.0, 25.0, -100.0],
-            [-30.0, 5.0, -200.0],
-            [15.0, -25.0, -300.0],
-            [-10.0, 30.0, -250.0],
-            [-40.0, 0.0, -15.0],
-        ];
+        let parent = PARENT.iter().copied().chain([[40.0, 0.0, 15.0]]);
+        let child = CHILD.iter().copied().chain([[-40.0, 0.0, -15.0]]);
         let third = [[10.0, 20.0, -450.0], [-15.0, -10.0, -550.0]];
         let riders = [[50.0, 40.0, 250.0], [-45.0, 35.0, 120.0]];
-        let frames = 300;
-        let mut positions = Vec::new();
-        for f in 0..frames {
-            let t = f as f64 * 0.05;
-            let shift = [100.0 * t.sin(), 50.0 * t.cos(), 1000.0];
-            let rot = |angle: f64, p: [f64; 3], pivot_z: f64| {
-                let (s, c) = angle.sin_cos();
-                let z = p[2] - pivot_z;
-                [p[0], c * p[1] - s * z, s * p[1] + c * z + pivot_z]
-            };
+        let points: Vec<[f64; 3]> = parent.chain(child).chain(third).chain(riders).collect();
+        let traj = moving_capture(points.len(), 300, 0.5, |t, k| {
             let a1 = 20f64.to_radians() * (0.7 * t).sin();
             let a2 = 25f64.to_radians() * (0.45 * t).cos();
-            let points: Vec<[f64; 3]> = parent
-                .iter()
-                .copied()
-                .chain(child.iter().map(|&p| rot(a1, p, 0.0)))
-                .chain(third.iter().map(|&p| rot(a1, rot(a2, p, -400.0), 0.0)))
-                .chain(riders.iter().copied())
-                .collect();
-            for (k, q) in points.iter().enumerate() {
-                let jitter = |axis: usize| 0.5 * ((f * 7 + k * 13 + axis * 5) as f64).sin();
-                positions.push(std::array::from_fn(|i| q[i] + shift[i] + jitter(i)));
+            match k {
+                5..=9 => hinge_x(a1, points[k], 0.0),
+                10..=11 => hinge_x(a1, hinge_x(a2, points[k], -400.0), 0.0),
+                _ => points[k],
             }
-        }
-        let labels: Vec<String> = (0..14).map(|m| format!("M{m}")).collect();
-        let traj = Trajectories::new(labels, 100.0, 1, frames, positions).expect("capture");
+        });
         let mut clusters = vec![
             vec![0, 1, 2, 3],
             vec![5, 6, 7, 8],

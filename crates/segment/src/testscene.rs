@@ -1,0 +1,76 @@
+//! Small deterministic captures for the unit tests: rigid bodies hinged about the x axis,
+//! wandering through space, with a smooth jitter standing in for noise.
+
+use mocap_io::Trajectories;
+
+/// Markers of a parent body above the hinge (mm; the axis is x through the origin).
+pub(crate) const PARENT: [[f64; 3]; 4] = [
+    [30.0, 0.0, 100.0],
+    [-25.0, 20.0, 200.0],
+    [10.0, -30.0, 300.0],
+    [-20.0, -15.0, 150.0],
+];
+
+/// Markers of a child body below the hinge (mm).
+pub(crate) const CHILD: [[f64; 3]; 4] = [
+    [20.0, 25.0, -100.0],
+    [-30.0, 5.0, -200.0],
+    [15.0, -25.0, -300.0],
+    [-10.0, 30.0, -250.0],
+];
+
+/// Seconds per frame of every scene (the shapes only care about the phase).
+const STEP: f64 = 0.05;
+
+/// `p` turned by `angle` (rad) about the x axis through (0, 0, `pivot_z`).
+pub(crate) fn hinge_x(angle: f64, p: [f64; 3], pivot_z: f64) -> [f64; 3] {
+    let (s, c) = angle.sin_cos();
+    let z = p[2] - pivot_z;
+    [p[0], c * p[1] - s * z, s * p[1] + c * z + pivot_z]
+}
+
+/// A capture of `markers` markers over `frames` frames at 100 Hz, labels `M0`…: marker `k`
+/// at frame `f` is `place(t, k)` (t = 0.05 f, seconds of the scene's own clock) carried by
+/// a translation that wanders with t, plus a jitter of amplitude `jitter_mm` per coordinate
+/// that is smooth in no way the fits could mistake for motion.
+pub(crate) fn moving_capture(
+    markers: usize,
+    frames: usize,
+    jitter_mm: f64,
+    place: impl Fn(f64, usize) -> [f64; 3],
+) -> Trajectories {
+    let mut positions = Vec::with_capacity(markers * frames);
+    for f in 0..frames {
+        let t = f as f64 * STEP;
+        let shift = [100.0 * t.sin(), 50.0 * t.cos(), 1000.0];
+        for k in 0..markers {
+            let q = place(t, k);
+            let jitter = |axis: usize| jitter_mm * ((f * 7 + k * 13 + axis * 5) as f64).sin();
+            positions.push(std::array::from_fn(|i| q[i] + shift[i] + jitter(i)));
+        }
+    }
+    let labels: Vec<String> = (0..markers).map(|m| format!("M{m}")).collect();
+    match Trajectories::new(labels, 100.0, 1, frames, positions) {
+        Ok(traj) => traj,
+        Err(e) => panic!("test scene: {e}"),
+    }
+}
+
+/// `parent` fixed and `child` hinged about the x axis through the origin, swinging
+/// ±`swing_deg` as sin(0.7 t): parent markers first, then child markers.
+pub(crate) fn hinged_capture(
+    parent: &[[f64; 3]],
+    child: &[[f64; 3]],
+    frames: usize,
+    swing_deg: f64,
+    jitter_mm: f64,
+) -> Trajectories {
+    let n = parent.len();
+    moving_capture(n + child.len(), frames, jitter_mm, |t, k| {
+        if k < n {
+            parent[k]
+        } else {
+            hinge_x(swing_deg.to_radians() * (0.7 * t).sin(), child[k - n], 0.0)
+        }
+    })
+}
