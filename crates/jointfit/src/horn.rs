@@ -72,13 +72,7 @@ pub fn absolute_orientation(pairs: &[(DVec3, DVec3)]) -> Option<RigidFit> {
 ///
 /// `None` when the matrix is not finite. The sign of the quaternion is arbitrary.
 pub fn rotation_from_cross_covariance(s: [[f64; 3]; 3]) -> Option<DQuat> {
-    let [[sxx, sxy, sxz], [syx, syy, syz], [szx, szy, szz]] = s;
-    let m = [
-        [sxx + syy + szz, syz - szy, szx - sxz, sxy - syx],
-        [syz - szy, sxx - syy - szz, sxy + syx, szx + sxz],
-        [szx - sxz, sxy + syx, -sxx + syy - szz, syz + szy],
-        [sxy - syx, szx + sxz, syz + szy, -sxx - syy + szz],
-    ];
+    let m = segment::eigen4::horn_matrix(s);
     if !m.iter().flatten().all(|x| x.is_finite()) {
         return None;
     }

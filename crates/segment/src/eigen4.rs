@@ -5,6 +5,19 @@
 // Index loops read like the matrix formulas they implement.
 #![allow(clippy::needless_range_loop)]
 
+/// Horn's symmetric 4 × 4 matrix of the cross-covariance `s[a][b] = Σ reference_a ·
+/// observed_b`: its largest eigenvector is the quaternion (w, x, y, z) of the best
+/// rotation, its largest eigenvalue Σ observed · (R reference) at that rotation.
+pub fn horn_matrix(s: [[f64; 3]; 3]) -> [[f64; 4]; 4] {
+    let [[sxx, sxy, sxz], [syx, syy, syz], [szx, szy, szz]] = s;
+    [
+        [sxx + syy + szz, syz - szy, szx - sxz, sxy - syx],
+        [syz - szy, sxx - syy - szz, sxy + syx, szx + sxz],
+        [szx - sxz, sxy + syx, -sxx + syy - szz, syz + szy],
+        [sxy - syx, szx + sxz, syz + szy, -sxx - syy + szz],
+    ]
+}
+
 /// Cyclic Jacobi on a symmetric 4 × 4 matrix (allocation-free): the matrix brought to
 /// diagonal form, and with `VECTORS` the accumulated rotations (eigenvectors in columns);
 /// without, the rotations are not accumulated (an eigenvalue alone is cheaper).
@@ -194,18 +207,7 @@ mod tests {
     use rand::{Rng, SeedableRng};
     use rand_chacha::ChaCha8Rng;
 
-    use super::{jacobi4, largest_eigenpair4, largest_eigenvalue4, largest_root4};
-
-    /// Horn's matrix of the cross-covariance `s`.
-    fn horn_matrix(s: [[f64; 3]; 3]) -> [[f64; 4]; 4] {
-        let [[sxx, sxy, sxz], [syx, syy, syz], [szx, szy, szz]] = s;
-        [
-            [sxx + syy + szz, syz - szy, szx - sxz, sxy - syx],
-            [syz - szy, sxx - syy - szz, sxy + syx, szx + sxz],
-            [szx - sxz, sxy + syx, -sxx + syy - szz, syz + szy],
-            [sxy - syx, szx + sxz, syz + szy, -sxx - syy + szz],
-        ]
-    }
+    use super::{horn_matrix, jacobi4, largest_eigenpair4, largest_eigenvalue4, largest_root4};
 
     /// The Newton eigenvalue agrees with Jacobi's to rounding on random symmetric matrices
     /// and on Horn matrices of rigid, noisy, planar and collinear marker sets (the last two

@@ -12,7 +12,7 @@ use mocap_io::Trajectories;
 use rayon::prelude::*;
 
 use crate::eigen::symmetric_eigen;
-use crate::eigen4::largest_eigenvalue4;
+use crate::eigen4::{horn_matrix, largest_eigenvalue4};
 use crate::pairstats::PairStats;
 use crate::rigidity::rms_rho;
 
@@ -189,13 +189,7 @@ fn fit_residual(
                     }
                 }
             }
-            let [[sxx, sxy, sxz], [syx, syy, syz], [szx, szy, szz]] = s;
-            let n = [
-                [sxx + syy + szz, syz - szy, szx - sxz, sxy - syx],
-                [syz - szy, sxx - syy - szz, sxy + syx, szx + sxz],
-                [szx - sxz, sxy + syx, -sxx + syy - szz, syz + szy],
-                [sxy - syx, szx + sxz, syz + szy, -sxx - syy + szz],
-            ];
+            let n = horn_matrix(s);
             let ss = (norms - 2.0 * largest_eigenvalue4(n)).max(0.0);
             fit.push(FitResidual { sum_sq: ss, dof });
         }

@@ -14,7 +14,7 @@
 use mocap_io::Trajectories;
 use rayon::prelude::*;
 
-use crate::eigen4::largest_eigenpair4;
+use crate::eigen4::{horn_matrix, largest_eigenpair4};
 use crate::fitsplit::{QUANTILE, median, median_distances, quantile, reference_shape};
 
 /// Most reassignment sweeps (pose every body, then move); moves only ever follow a clear
@@ -181,13 +181,7 @@ pub(crate) fn horn(p: &[[f64; 3]], q: &[[f64; 3]]) -> (Pose, f64) {
             }
         }
     }
-    let [[sxx, sxy, sxz], [syx, syy, syz], [szx, szy, szz]] = s;
-    let n = [
-        [sxx + syy + szz, syz - szy, szx - sxz, sxy - syx],
-        [syz - szy, sxx - syy - szz, sxy + syx, szx + sxz],
-        [szx - sxz, sxy + syx, -sxx + syy - szz, syz + szy],
-        [sxy - syx, szx + sxz, syz + szy, -sxx - syy + szz],
-    ];
+    let n = horn_matrix(s);
     let (lambda, q) = largest_eigenpair4(n);
     let r = rotation_matrix(q);
     let rc: [f64; 3] = std::array::from_fn(|i| (0..3).map(|j| r[i][j] * cp[j]).sum());
