@@ -485,23 +485,53 @@ fn hard_synthetic_subjects_are_segmented_closely() {
     assert!(mean > 0.8, "mean ARI {mean:.3}: {scores:?}");
 }
 
-#[test]
-fn cmu_02_01_groups_the_body_parts_we_are_sure_of() {
-    let Some(dir) = mocap_io::testdata::shared_data_dir("segment cmu_02_01") else {
-        return;
-    };
-    let capture = mocap_io::read_capture(&dir.join("c3d/cmu/02_01.c3d"), &Default::default())
-        .expect("CMU 02_01 reads");
-    let traj = &capture.trajectories;
-    let seg = run(traj, &Params::default()).expect("segments");
-    // Labels carry the subject prefix ("TakeoMonday:LFHD").
-    let find = |name: &str| {
-        traj.labels()
+/// CMU 02_01 segmented with the defaults; `None` (the test says it skipped) without the
+/// shared data.
+struct SegmentedCmu {
+    traj: Trajectories,
+    seg: Segmentation,
+}
+
+impl SegmentedCmu {
+    fn load(test: &str) -> Option<Self> {
+        let dir = mocap_io::testdata::shared_data_dir(test)?;
+        let capture = mocap_io::read_capture(&dir.join("c3d/cmu/02_01.c3d"), &Default::default())
+            .expect("CMU 02_01 reads");
+        let seg = run(&capture.trajectories, &Params::default()).expect("segments");
+        Some(Self {
+            traj: capture.trajectories,
+            seg,
+        })
+    }
+
+    /// The segment of the marker labelled `name` (labels carry the subject prefix,
+    /// "TakeoMonday:LFHD").
+    fn segment_of(&self, name: &str) -> Option<usize> {
+        let m = self
+            .traj
+            .labels()
             .iter()
             .position(|l| l.rsplit(':').next() == Some(name))
-            .unwrap_or_else(|| panic!("label {name} in 02_01"))
+            .unwrap_or_else(|| panic!("label {name} in 02_01"));
+        self.seg.markers[m].segment
+    }
+
+    /// How many markers segment `id` has.
+    fn size_of(&self, id: Option<usize>) -> Option<usize> {
+        self.seg
+            .segments
+            .iter()
+            .find(|s| Some(s.id) == id)
+            .map(|s| s.markers.len())
+    }
+}
+
+#[test]
+fn cmu_02_01_groups_the_body_parts_we_are_sure_of() {
+    let Some(cmu) = SegmentedCmu::load("segment cmu_02_01") else {
+        return;
     };
-    let segment_of = |name: &str| seg.markers[find(name)].segment;
+    let segment_of = |name: &str| cmu.segment_of(name);
     let same = |names: &[&str]| {
         let first = segment_of(names[0]);
         assert!(first.is_some(), "{} unassigned", names[0]);
@@ -527,20 +557,10 @@ fn cmu_02_01_keeps_two_marker_thighs_shanks_and_upper_arm() {
     // with k = 2 looked past the one mate and merged them into shank or forearm. The
     // rigidity split by scaled complete linkage keeps them (measured: both thighs and the
     // left upper arm come out as their own two-marker segments).
-    let Some(dir) = mocap_io::testdata::shared_data_dir("segment cmu_02_01 two-marker") else {
+    let Some(cmu) = SegmentedCmu::load("segment cmu_02_01 two-marker") else {
         return;
     };
-    let capture = mocap_io::read_capture(&dir.join("c3d/cmu/02_01.c3d"), &Default::default())
-        .expect("CMU 02_01 reads");
-    let traj = &capture.trajectories;
-    let seg = run(traj, &Params::default()).expect("segments");
-    let find = |name: &str| {
-        traj.labels()
-            .iter()
-            .position(|l| l.rsplit(':').next() == Some(name))
-            .unwrap_or_else(|| panic!("label {name} in 02_01"))
-    };
-    let segment_of = |name: &str| seg.markers[find(name)].segment;
+    let segment_of = |name: &str| cmu.segment_of(name);
     for side in ["L", "R"] {
         let thi = segment_of(&format!("{side}THI"));
         assert!(thi.is_some(), "{side}THI unassigned");
@@ -555,11 +575,7 @@ fn cmu_02_01_keeps_two_marker_thighs_shanks_and_upper_arm() {
             segment_of(&format!("{side}FWT")),
             "{side} thigh with pelvis"
         );
-        let size = seg
-            .segments
-            .iter()
-            .find(|s| Some(s.id) == thi)
-            .map(|s| s.markers.len());
+        let size = cmu.size_of(thi);
         assert_eq!(size, Some(2), "{side} thigh is LTHI + LKNE only");
     }
     // The malleolus (ANK) sits near the ankle axis, rigid with shank and foot alike; it
@@ -577,17 +593,13 @@ fn cmu_02_01_keeps_two_marker_thighs_shanks_and_upper_arm() {
             segment_of(&format!("{side}HEE")),
             "{side} shank with foot"
         );
-        let size = seg
-            .segments
-            .iter()
-            .find(|s| Some(s.id) == shank)
-            .map(|s| s.markers.len());
+        let size = cmu.size_of(shank);
         assert_eq!(size, Some(2), "{side} shank is {side}SHN + {side}ANK only");
     }
     assert!(
-        seg.unassigned.is_empty(),
+        cmu.seg.unassigned.is_empty(),
         "unassigned: {:?}",
-        seg.unassigned
+        cmu.seg.unassigned
     );
     let upa = segment_of("LUPA");
     assert!(upa.is_some(), "LUPA unassigned");
