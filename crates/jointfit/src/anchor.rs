@@ -434,8 +434,13 @@ pub(crate) fn centre_fit(
             weight: noise * noise / (variance * effective),
         })
     };
+    // On (nearly) noise-free data a hinge leaves the distances exactly flat along its axis,
+    // and the sphere fit settles anywhere on it, by rounding: far along it, the direction
+    // to the markers is the axis itself and would be refused as radial below. The fit's
+    // own curvature names that axis whatever the centre's place on it.
     let radial_dir = (markers_mean - sphere).try_normalize();
-    let axis = hinge_axis(&clouds, &used, &means, radial_dir);
+    let axis = flat_direction(&clouds, &used, sphere)
+        .or_else(|| hinge_axis(&clouds, &used, &means, radial_dir));
     let planar = axis.map(|axis| {
         let on_axis = sphere + axis * axis.dot(target - sphere);
         geometric_centre(&clouds, &used, on_axis, &[axis], None)
@@ -480,6 +485,36 @@ pub(crate) fn centre_fit(
         hinge,
         radii,
     })
+}
+
+/// Curvature of the radial objective below which a direction counts as flat, relative to
+/// its largest: rounding only (a swing's sagitta or noise off a hinge's planes stays
+/// orders of magnitude above it).
+const FLAT_CURVATURE: f64 = 1e-6;
+
+/// The direction along which the radial residual about `c` does not change at all (a
+/// hinge axis on noise-free data): the Gauss–Newton matrix's least eigenvector when its
+/// eigenvalue is below [`FLAT_CURVATURE`] of the largest; `None` otherwise.
+fn flat_direction(clouds: &[Vec<DVec3>], used: &[bool], c: DVec3) -> Option<DVec3> {
+    let mut jtj = [[0.0f64; 3]; 3];
+    for (cloud, &u) in clouds.iter().zip(used) {
+        if !u || cloud.is_empty() {
+            continue;
+        }
+        let s = CloudSums::new(cloud, c, true);
+        let o = s.outer;
+        let uu = [[o[0], o[1], o[2]], [o[1], o[3], o[4]], [o[2], o[4], o[5]]];
+        let m = s.sum_u.to_array();
+        for i in 0..3 {
+            for j in 0..3 {
+                jtj[i][j] += uu[i][j] - m[i] * m[j] / s.n;
+            }
+        }
+    }
+    let (values, vectors) = sym_eigen(jtj);
+    (values[0] > 0.0 && values[2] <= FLAT_CURVATURE * values[0])
+        .then(|| DVec3::from_array(vectors[2]).try_normalize())
+        .flatten()
 }
 
 /// The direction a hinge would turn S's markers about, in N's frame, or `None` when no
