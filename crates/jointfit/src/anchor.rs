@@ -455,16 +455,24 @@ pub(crate) fn centre_fit(
     // not hand the segment to a worse neighbour). On a true axis the prior would only
     // slide the centre along it, so it applies to ball joints.
     let (rms_mm, base_radii) = radial(&clouds, &used, base);
+    // About a hinge, the turn is measured in the plane across its axis: the centre's place
+    // along the axis is a convention, and from one far along it every direction to the
+    // markers looks nearly the same.
+    let across = |v: DVec3| match axis {
+        Some(a) if hinge => v - a * a.dot(v),
+        _ => v,
+    };
     let excursion_deg = clouds
         .iter()
         .zip(&base_radii)
         .zip(&used)
         .filter(|(_, u)| **u)
         .map(|((cloud, (_, dir)), _)| {
+            let mean = across(*dir).normalize_or_zero();
             let sq = cloud
                 .iter()
-                .filter_map(|q| (*q - base).try_normalize())
-                .map(|u| u.dot(*dir).clamp(-1.0, 1.0).acos().powi(2))
+                .filter_map(|q| across(*q - base).try_normalize())
+                .map(|u| u.dot(mean).clamp(-1.0, 1.0).acos().powi(2))
                 .sum::<f64>();
             (sq / cloud.len() as f64).sqrt().to_degrees()
         })

@@ -384,16 +384,17 @@ fn two_marker_hinge_is_anchored_on_its_axis() {
 /// to rounding, and the sphere fit settles anywhere on it; far along it, the direction
 /// to the markers is the axis itself, which the hinge search refused as radial, and the
 /// excursion about that far centre fell under the minimum: a human's 2-marker foot was
-/// left unposed, or not, by rounding.
+/// left unposed, or not, by rounding (s3001). A hinge's excursion is its turn across the
+/// axis, not the angle seen from a centre put far along it (s3003's foot).
 #[test]
 fn noise_free_sparse_subjects_have_every_segment_posed() {
     let mut unposed = Vec::new();
     for subject in [synth::Subject::Human, synth::Subject::Quadruped] {
-        for seed in [3001, 3002] {
+        for seed in [3001, 3002, 3003] {
             let trial = synth::generate(&synth::SynthConfig {
                 subject,
                 preset: synth::Preset::Clean,
-                frames: 240,
+                frames: 480,
                 seed,
                 markers_per_segment: (2, 3),
                 ..synth::SynthConfig::default()
