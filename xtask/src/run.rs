@@ -59,6 +59,9 @@ pub struct Report {
     pub files: Vec<PathBuf>,
     /// What the reader warned about the capture (units guessed, points not read, ...).
     pub warnings: Vec<String>,
+    /// What skeleton.json says deserves a look: joint warnings, unassigned and sliding
+    /// markers, detached segments, the topology's remarks.
+    pub findings: Vec<String>,
 }
 
 impl Report {
@@ -71,6 +74,7 @@ impl Report {
             "joints": self.joints,
             "files": self.files,
             "warnings": self.warnings,
+            "findings": self.findings,
         })
     }
 }
@@ -124,6 +128,13 @@ pub fn execute(args: &Args, progress: &Progress) -> Result<Report> {
         .context("the export stage produced no outputs")?;
     let files = pipeline::write_outputs(outputs, &out)
         .with_context(|| format!("writing the outputs of {}", input.display()))?;
+    let document: export::SkeletonJson = serde_json::from_slice(
+        outputs
+            .files
+            .get("skeleton.json")
+            .context("the export stage wrote no skeleton.json")?,
+    )
+    .context("reading back skeleton.json")?;
     Ok(Report {
         stages,
         out,
@@ -133,6 +144,7 @@ pub fn execute(args: &Args, progress: &Progress) -> Result<Report> {
             .map_or(0, |s| s.segments.len()),
         joints: products.topology.as_ref().map_or(0, |t| t.joints.len()),
         files,
+        findings: findings(&document),
         warnings: products
             .capture
             .as_ref()
@@ -145,6 +157,68 @@ pub fn execute(args: &Args, progress: &Progress) -> Result<Report> {
             })
             .unwrap_or_default(),
     })
+}
+
+/// Most markers named in one finding line; the rest are counted.
+const NAMED_MARKERS: usize = 6;
+
+/// What a user should look at in `document`, one line each (empty when all is well).
+pub fn findings(document: &export::SkeletonJson) -> Vec<String> {
+    let mut out = Vec::new();
+    for j in &document.joints {
+        for w in &j.warnings {
+            out.push(format!(
+                "joint {} (segment {} → {}): {w}",
+                j.name, j.parent_segment, j.child_segment
+            ));
+        }
+    }
+    let listed = |what: &str, names: Vec<String>| {
+        let shown: Vec<&str> = names
+            .iter()
+            .take(NAMED_MARKERS)
+            .map(String::as_str)
+            .collect();
+        let more = names.len().saturating_sub(NAMED_MARKERS);
+        let tail = if more > 0 {
+            format!(" and {more} more")
+        } else {
+            String::new()
+        };
+        format!("{what}: {} — {}{tail}", names.len(), shown.join("; "))
+    };
+    let unassigned: Vec<String> = document
+        .markers
+        .iter()
+        .filter(|m| m.segment.is_none())
+        .map(|m| match &m.unassigned_reason {
+            Some(why) => format!("{} ({why})", m.label),
+            None => m.label.clone(),
+        })
+        .collect();
+    if !unassigned.is_empty() {
+        out.push(listed("markers in no segment", unassigned));
+    }
+    let sliding: Vec<String> = document
+        .markers
+        .iter()
+        .filter(|m| m.slides)
+        .map(|m| m.label.clone())
+        .collect();
+    if !sliding.is_empty() {
+        out.push(listed(
+            "markers sliding against their segment (skin or a loose marker)",
+            sliding,
+        ));
+    }
+    if !document.detached_segments.is_empty() {
+        out.push(format!(
+            "segments not in the tree: {:?}",
+            document.detached_segments
+        ));
+    }
+    out.extend(document.notes.iter().map(|n| format!("topology: {n}")));
+    out
 }
 
 /// The end-of-run summary for stderr.
@@ -169,6 +243,12 @@ pub fn summary(report: &Report) -> String {
     for f in &report.files {
         if let Some(name) = f.file_name() {
             text.push_str(&format!(" {}", name.to_string_lossy()));
+        }
+    }
+    if !report.findings.is_empty() {
+        text.push_str("\nworth a look (details in skeleton.json):");
+        for f in &report.findings {
+            text.push_str(&format!("\n  - {f}"));
         }
     }
     text
@@ -270,6 +350,58 @@ mod tests {
         assert_eq!(
             std::fs::read(dir.path().join("out/skeleton.json")).unwrap(),
             json
+        );
+    }
+
+    /// The findings name what skeleton.json flags, and only that.
+    #[test]
+    fn findings_list_what_deserves_a_look() {
+        let dir = TempDir::new("run-findings").unwrap();
+        let input = capture(dir.path());
+        let report = execute(&args(&input, dir.path(), &[]), &Progress::hidden()).unwrap();
+        let bytes = std::fs::read(dir.path().join("out/skeleton.json")).unwrap();
+        let mut doc: export::SkeletonJson = serde_json::from_slice(&bytes).unwrap();
+        let clean = findings(&doc);
+        assert_eq!(report.findings, clean);
+        assert!(
+            clean.iter().all(|f| f.starts_with("joint ")),
+            "a clean snowman flags only joints, if anything: {clean:?}"
+        );
+        doc.joints[0].warnings = vec!["range of motion 5.0° is below 20°".into()];
+        for m in doc.markers.iter_mut().take(8) {
+            m.segment = None;
+            m.unassigned_reason = Some("visible in 3 of 150 frames".into());
+        }
+        doc.markers[9].slides = true;
+        doc.detached_segments = vec![2];
+        doc.notes = vec!["a rigid pair".into()];
+        let found = findings(&doc);
+        let joint = &doc.joints[0];
+        assert!(found.contains(&format!(
+            "joint {} (segment {} → {}): range of motion 5.0° is below 20°",
+            joint.name, joint.parent_segment, joint.child_segment
+        )));
+        let unassigned = found
+            .iter()
+            .find(|f| f.starts_with("markers in no segment: 8 — "))
+            .unwrap_or_else(|| panic!("{found:?}"));
+        assert!(
+            unassigned.contains("(visible in 3 of 150 frames)")
+                && unassigned.ends_with("and 2 more")
+        );
+        assert!(
+            found.iter().any(|f| f.starts_with(
+                "markers sliding against their segment (skin or a loose marker): 1 — "
+            ) && f.contains(&doc.markers[9].label))
+        );
+        assert!(found.contains(&"segments not in the tree: [2]".to_owned()));
+        assert!(found.contains(&"topology: a rigid pair".to_owned()));
+        assert!(
+            summary(&Report {
+                findings: found,
+                ..report
+            })
+            .contains("worth a look")
         );
     }
 
