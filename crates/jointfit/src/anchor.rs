@@ -504,22 +504,13 @@ const FLAT_CURVATURE: f64 = 1e-6;
 /// hinge axis on noise-free data): the Gauss–Newton matrix's least eigenvector when its
 /// eigenvalue is below [`FLAT_CURVATURE`] of the largest; `None` otherwise.
 fn flat_direction(clouds: &[Vec<DVec3>], used: &[bool], c: DVec3) -> Option<DVec3> {
-    let mut jtj = [[0.0f64; 3]; 3];
-    for (cloud, &u) in clouds.iter().zip(used) {
-        if !u || cloud.is_empty() {
-            continue;
-        }
-        let s = CloudSums::new(cloud, c, true);
-        let o = s.outer;
-        let uu = [[o[0], o[1], o[2]], [o[1], o[3], o[4]], [o[2], o[4], o[5]]];
-        let m = s.sum_u.to_array();
-        for i in 0..3 {
-            for j in 0..3 {
-                jtj[i][j] += uu[i][j] - m[i] * m[j] / s.n;
-            }
-        }
-    }
-    let (values, vectors) = sym_eigen(jtj);
+    let jtj: DMat3 = clouds
+        .iter()
+        .zip(used)
+        .filter(|(cloud, u)| **u && !cloud.is_empty())
+        .map(|(cloud, _)| CloudSums::new(cloud, c, true).normal_matrix())
+        .sum();
+    let (values, vectors) = sym_eigen(jtj.to_cols_array_2d());
     (values[0] > 0.0 && values[2] <= FLAT_CURVATURE * values[0])
         .then(|| DVec3::from_array(vectors[2]).try_normalize())
         .flatten()
@@ -774,6 +765,15 @@ impl CloudSums {
         sums
     }
 
+    /// This marker's Gauss–Newton matrix JᵀJ = Σ u uᵀ − n m mᵀ (m the mean direction; the
+    /// Jacobian row of a sample is m − u, see [`geometric_centre`]).
+    fn normal_matrix(&self) -> DMat3 {
+        let o = self.outer;
+        let uu = DMat3::from_cols_array(&[o[0], o[1], o[2], o[1], o[3], o[4], o[2], o[4], o[5]]);
+        let m = self.sum_u;
+        uu - DMat3::from_cols(m * m.x, m * m.y, m * m.z) * (1.0 / self.n)
+    }
+
     /// The mean distance: the marker's radius about `c`.
     fn radius(&self) -> f64 {
         self.shift + self.sum_e / self.n
@@ -820,10 +820,7 @@ fn geometric_centre(
             }
             let s = CloudSums::new(cloud, c, true);
             value += s.squared_residual();
-            let o = s.outer;
-            let uu =
-                DMat3::from_cols_array(&[o[0], o[1], o[2], o[1], o[3], o[4], o[2], o[4], o[5]]);
-            jtj += uu - outer(s.sum_u) * (1.0 / s.n);
+            jtj += s.normal_matrix();
             jte += s.sum_u * s.radius() - (sum_q - c * s.n);
         }
         let mut jtj = p * jtj * p.transpose();
