@@ -25,7 +25,8 @@
 //! beyond their own fits' rotation noise, about a common point (`joint_split_z`, see
 //! `jointsplit`); neighbours that move as one rigid body merge (`joint_merge_z`); a marker
 //! no body holds leaves its cluster (`eject_ratio`); a two-marker cluster whose markers
-//! two different bodies hold dissolves into them (`pair_hold`).
+//! two different bodies hold dissolves into them, a lone marker a body holds joins it
+//! (`pair_hold`).
 //! Or agglomeration alone (`method = "linkage"`) or rigid cliques (`method = "cliques"`).
 //!
 //! It does not estimate poses, joints or topology (jointfit, topo) and does no I/O.
@@ -230,7 +231,7 @@ pub fn run(traj: &Trajectories, params: &Params) -> Result<Segmentation, Error> 
         }
     }
     // Not posed at all for pairs when there is none.
-    if params.pair_hold > 0.0 && clusters.iter().any(|c| c.len() == 2) {
+    if params.pair_hold > 0.0 && clusters.iter().any(|c| c.len() <= 2) {
         let hold_mm = params.pair_hold
             * typical_sigma(traj, &clusters, &mut sigma_memo).max(params.tolerance_min_mm);
         if reassign::dissolve_pairs(traj, &mut clusters, hold_mm, min_overlap) > 0 {

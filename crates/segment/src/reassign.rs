@@ -425,8 +425,10 @@ pub(crate) fn reassign(
 /// held within `hold_mm` (scatter as [`marker_sigma`]) by two different other clusters'
 /// bodies, each joins the body that holds it best. Two markers near one joint axis, one on each side,
 /// keep a steady distance and pair up although each moves with its own segment; a true
-/// two-marker segment has a marker no other body holds (CMU's THI, SHN). Returns how many
-/// pairs were dissolved.
+/// two-marker segment has a marker no other body holds (CMU's THI, SHN). A one-marker
+/// cluster a body holds within `hold_mm` joins it: the robust scatter ignores the minority
+/// of frames where a swapped or glitching trajectory was elsewhere, which ρ (over every
+/// frame) does not. Returns how many clusters were dissolved.
 pub(crate) fn dissolve_pairs(
     traj: &Trajectories,
     clusters: &mut Vec<Vec<usize>>,
@@ -439,7 +441,7 @@ pub(crate) fn dissolve_pairs(
     // the clusters nearest it in space (a marker's own segment is among its neighbours).
     let mut candidates = std::collections::BTreeSet::new();
     for (c, ms) in clusters.iter().enumerate() {
-        if ms.len() == 2 {
+        if ms.len() <= 2 {
             for &m in ms {
                 candidates.extend(nearest_clusters(
                     traj,
@@ -481,6 +483,14 @@ pub(crate) fn dissolve_pairs(
         .par_iter()
         .enumerate()
         .map(|(c, ms)| {
+            // A lone marker a body holds is that body's, its outlying frames a swap or a
+            // glitch (a real one-marker segment moves against every body).
+            if let &[a] = &ms[..] {
+                return match best_home(a, c) {
+                    Some((sa, da)) if sa <= hold_mm => vec![(a, da)],
+                    _ => Vec::new(),
+                };
+            }
             let &[a, b] = &ms[..] else { return Vec::new() };
             match (best_home(a, c), best_home(b, c)) {
                 // Held by one body, the pair may be a segment of its own that moved little
@@ -675,6 +685,31 @@ mod tests {
         let mut rigid = vec![vec![0, 1, 2, 3, 4]];
         assert!(eject(&traj, &mut rigid, 4.0, 1.0).is_empty());
         assert_eq!(rigid, vec![vec![0, 1, 2, 3, 4]]);
+    }
+
+    /// A child marker whose trajectory was the parent's for a sixth of the trial (a swap),
+    /// split off alone, rejoins the child; a marker on a third body swinging against both
+    /// stays alone.
+    #[test]
+    fn lone_marker_a_body_holds_rejoins_it() {
+        let swing = |t: f64| 20f64.to_radians() * (0.7 * t).sin();
+        let swapped = [25.0, -20.0, -150.0];
+        let third = [0.0, 30.0, -450.0];
+        let traj = moving_capture(10, 300, 0.5, |t, k| match k {
+            0..=3 => PARENT[k],
+            4..=7 => hinge_x(swing(t), CHILD[k - 4], 0.0),
+            // Frames 100..150 (t 5.0..7.5) on a parent marker's track instead.
+            8 if (5.0..7.5).contains(&t) => PARENT[2],
+            8 => hinge_x(swing(t), swapped, 0.0),
+            _ => hinge_x(swing(t), hinge_x(1.2 * swing(t + 1.0), third, -400.0), 0.0),
+        });
+        let mut clusters = vec![vec![0, 1, 2, 3], vec![4, 5, 6, 7], vec![8], vec![9]];
+        assert_eq!(dissolve_pairs(&traj, &mut clusters, 3.0, 10), 1);
+        clusters.iter_mut().for_each(|c| c.sort_unstable());
+        assert_eq!(
+            clusters,
+            vec![vec![0, 1, 2, 3], vec![4, 5, 6, 7, 8], vec![9]]
+        );
     }
 
     /// Two 4-marker bodies at a hinge about x swinging ±20°, each with a fifth marker 15 mm
