@@ -43,7 +43,7 @@ use rayon::prelude::*;
 
 use crate::pairfits::SegmentPoses;
 use crate::params::Params;
-use crate::poses::{Pose, fit_pairs, fit_shape, pose_track};
+use crate::poses::{FitRules, Pose, fit_pairs, fit_shape, pose_track};
 use crate::small::sym_eigen;
 
 /// How a segment was tied to a neighbour.
@@ -901,7 +901,7 @@ fn anchored_poses(
                 Some(&m) => traj.get(f, m).map(DVec3::from_array),
                 None => n_track[f].as_ref().map(|p| p.apply(c)),
             },
-            params.min_spread_mm,
+            FitRules::of(params),
         );
         return shape.into_poses(id, markers.len());
     }

@@ -86,7 +86,7 @@ pub fn run_on_segments(
             });
         }
     }
-    let mut poses = poses::all_segment_poses(traj, segments, params.min_spread_mm);
+    let mut poses = poses::all_segment_poses(traj, segments, poses::FitRules::of(params));
     let anchors = anchor::anchor_segments(traj, segments, &mut poses, params);
     let tracks: Vec<Vec<Option<poses::Pose>>> = poses.par_iter().map(poses::pose_track).collect();
     let views: Vec<fit::SegmentView<'_>> = segments

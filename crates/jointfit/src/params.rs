@@ -49,6 +49,12 @@ pub struct Params {
     /// Minimum RMS extent (mm) of the visible markers across their second principal
     /// direction for a pose to be fitted (nearly collinear markers fix no spin).
     pub min_spread_mm: f64,
+    /// A marker farther than this × the segment's median per-frame fit RMS from its fitted
+    /// place leaves that frame's pose fit (and the reference shape), while ≥ 3 others stay;
+    /// 0 = off.
+    pub pose_outlier_factor: f64,
+    /// ... and farther than this, mm.
+    pub pose_outlier_floor_mm: f64,
     /// L-BFGS iteration limit for the `aguiar` method.
     pub max_iters: u64,
     /// Pose segments with fewer than 3 markers through a joint with a posed neighbour,
@@ -87,6 +93,8 @@ impl Default for Params {
             rigid_deg: 2.0,
             hinge_ratio: 0.3,
             min_spread_mm: 2.0,
+            pose_outlier_factor: 4.0,
+            pose_outlier_floor_mm: 20.0,
             max_iters: 200,
             anchor: true,
             anchor_min_excursion_deg: 10.0,
@@ -145,6 +153,21 @@ pub const PARAM_DOCS: &[(&str, &str)] = &[
         "min_spread_mm",
         "a pose needs visible markers spread at least this RMS distance across their second \
          principal direction (collinear markers fix no spin); mm; default 2.0",
+    ),
+    (
+        "pose_outlier_factor",
+        "a marker farther from its fitted place than this × the segment's median per-frame \
+         fit RMS (and pose_outlier_floor_mm) is left out of that frame's pose and of the \
+         reference shape, while ≥ 3 others remain: a swapped or glitching trajectory must not \
+         drag the pose (cargo xtask eval --presets swap: seeds 9001,9002,1001,1002,7001,7002 \
+         0.58 → 0.48 % of height, seeds 3001-3004 0.55 → 0.35 %; clean identical, hard \
+         unchanged); 0 = off; default 4.0",
+    ),
+    (
+        "pose_outlier_floor_mm",
+        "the smallest distance from its fitted place at which pose_outlier_factor leaves a \
+         marker out: skin moves markers by up to a few cm, and at 10 mm the rejection already \
+         reshuffled skin-only frames of the hard preset (±0.01 % of height); mm; default 20.0",
     ),
     (
         "max_iters",
@@ -235,6 +258,14 @@ impl Params {
                 self.min_spread_mm,
                 "must be a finite number ≥ 0",
             ));
+        }
+        for (name, value) in [
+            ("pose_outlier_factor", self.pose_outlier_factor),
+            ("pose_outlier_floor_mm", self.pose_outlier_floor_mm),
+        ] {
+            if !(value.is_finite() && value >= 0.0) {
+                return Err(bad(name, value, "must be a finite number ≥ 0"));
+            }
         }
         if !(self.anchor_min_excursion_deg.is_finite() && self.anchor_min_excursion_deg >= 0.0) {
             return Err(bad(

@@ -37,17 +37,39 @@ impl Pose {
     }
 }
 
+/// What a per-frame rigid fit needs and refuses (from [`crate::Params`]).
+#[derive(Clone, Copy, Debug)]
+pub(crate) struct FitRules {
+    /// Least spread of the points across their second principal direction, mm.
+    pub min_spread_mm: f64,
+    /// Outlier bound as a multiple of the median per-frame fit RMS; 0 = no rejection.
+    pub outlier_factor: f64,
+    /// Least outlier bound, mm.
+    pub outlier_floor_mm: f64,
+}
+
+impl FitRules {
+    /// The rules `params` set.
+    pub fn of(params: &crate::Params) -> Self {
+        Self {
+            min_spread_mm: params.min_spread_mm,
+            outlier_factor: params.pose_outlier_factor,
+            outlier_floor_mm: params.pose_outlier_floor_mm,
+        }
+    }
+}
+
 /// Poses of every segment, in parallel over segments (each segment is computed serially,
 /// so results do not depend on the thread count).
 pub(crate) fn all_segment_poses(
     traj: &Trajectories,
     segments: &[Vec<usize>],
-    min_spread_mm: f64,
+    rules: FitRules,
 ) -> Vec<SegmentPoses> {
     segments
         .par_iter()
         .enumerate()
-        .map(|(id, markers)| segment_poses(traj, id, markers, min_spread_mm))
+        .map(|(id, markers)| segment_poses(traj, id, markers, rules))
         .collect()
 }
 
@@ -56,14 +78,14 @@ pub(crate) fn segment_poses(
     traj: &Trajectories,
     id: usize,
     markers: &[usize],
-    min_spread_mm: f64,
+    rules: FitRules,
 ) -> SegmentPoses {
     let shape = fit_shape(
         traj.frames(),
         markers.len(),
         markers.len(),
         |f, k| traj.get(f, markers[k]).map(DVec3::from_array),
-        min_spread_mm,
+        rules,
     );
     shape.into_poses(id, markers.len())
 }
@@ -109,13 +131,20 @@ impl Shape {
 /// point k's global position at frame f (mm) or `None`. The local origin is the centroid
 /// of the first `origin_points` points (a segment's own markers, not the virtual joint
 /// centre an anchored segment adds).
+///
+/// With outlier rejection on, a point farther from its fitted place than the bound
+/// (`outlier_factor` × the median per-frame RMS, at least `outlier_floor_mm`) in some
+/// frame is left out of the reference average there, and of that frame's fit while ≥ 3
+/// points remain (farthest first): least squares lets one swapped or glitching marker
+/// drag the whole pose.
 pub(crate) fn fit_shape(
     frames: usize,
     count: usize,
     origin_points: usize,
     point: impl Fn(usize, usize) -> Option<DVec3>,
-    min_spread_mm: f64,
+    rules: FitRules,
 ) -> Shape {
+    let min_spread_mm = rules.min_spread_mm;
     let visible = |f: usize| (0..count).filter(|&k| point(f, k).is_some()).count();
     // First frame with the most visible points.
     let mut ref_frame = None;
@@ -145,29 +174,115 @@ pub(crate) fn fit_shape(
         for (f, fit) in fits.iter_mut().enumerate() {
             *fit = fit_frame(f, &point, &reference, &mut buf, min_spread_mm);
         }
-        let mut sum = vec![DVec3::ZERO; count];
-        let mut seen = vec![0usize; count];
-        for (f, fit) in fits.iter().enumerate() {
-            let Some(fit) = fit else { continue };
-            let inv = fit.rotation.inverse();
-            for k in 0..count {
-                if let Some(p) = point(f, k) {
-                    sum[k] += inv * (p - fit.translation);
-                    seen[k] += 1;
-                }
-            }
-        }
-        reference = sum
-            .iter()
-            .zip(&seen)
-            .map(|(s, &c)| if c > 0 { *s / c as f64 } else { DVec3::NAN })
-            .collect();
+        reference = mean_shape(&fits, &point, count, None);
         recentre(&mut reference, origin_points);
         for (f, fit) in fits.iter_mut().enumerate() {
             *fit = fit_frame(f, &point, &reference, &mut buf, min_spread_mm);
         }
+        // The outliers inflate the first bound (they bias the mean shape, hence every
+        // frame's RMS); a second round takes it from the fits without them.
+        for _ in 0..OUTLIER_ROUNDS {
+            let Some(limit_mm) = outlier_bound(&fits, rules) else {
+                break;
+            };
+            // A sample's distance from its reference is its residual in that frame's fit:
+            // with none beyond the bound, neither shape nor fits would change.
+            let beyond = fits.iter().enumerate().any(|(f, fit)| {
+                fit.is_some_and(|fit| {
+                    (0..count).any(|k| {
+                        point(f, k).is_some_and(|p| {
+                            (fit.rotation * reference[k] + fit.translation).distance(p) > limit_mm
+                        })
+                    })
+                })
+            });
+            if !beyond {
+                break;
+            }
+            reference = mean_shape(&fits, &point, count, Some((&reference, limit_mm)));
+            recentre(&mut reference, origin_points);
+            for (f, fit) in fits.iter_mut().enumerate() {
+                *fit = fit_frame_robust(f, &point, &reference, &mut buf, min_spread_mm, limit_mm);
+            }
+        }
     }
     Shape { reference, fits }
+}
+
+/// Rounds of outlier rejection (bound, reference, fits).
+const OUTLIER_ROUNDS: usize = 2;
+
+/// The distance (mm) from its fitted place beyond which a point is an outlier, from the
+/// median per-frame RMS of `fits`; `None` when rejection is off or nothing was fitted.
+fn outlier_bound(fits: &[Option<RigidFit>], rules: FitRules) -> Option<f64> {
+    if rules.outlier_factor <= 0.0 {
+        return None;
+    }
+    let mut rms: Vec<f64> = fits.iter().flatten().map(|f| f.rms_mm).collect();
+    if rms.is_empty() {
+        return None;
+    }
+    rms.sort_by(f64::total_cmp);
+    Some((rules.outlier_factor * rms[rms.len() / 2]).max(rules.outlier_floor_mm))
+}
+
+/// Every point's mean position in the local frame over the frames with a fit, NaN where
+/// never seen; with `outliers` (reference, bound), samples farther than the bound from
+/// their reference position are left out.
+fn mean_shape(
+    fits: &[Option<RigidFit>],
+    point: &impl Fn(usize, usize) -> Option<DVec3>,
+    count: usize,
+    outliers: Option<(&[DVec3], f64)>,
+) -> Vec<DVec3> {
+    let mut sum = vec![DVec3::ZERO; count];
+    let mut seen = vec![0usize; count];
+    for (f, fit) in fits.iter().enumerate() {
+        let Some(fit) = fit else { continue };
+        let inv = fit.rotation.inverse();
+        for k in 0..count {
+            let Some(p) = point(f, k) else { continue };
+            let local = inv * (p - fit.translation);
+            if outliers.is_some_and(|(reference, bound)| local.distance(reference[k]) > bound) {
+                continue;
+            }
+            sum[k] += local;
+            seen[k] += 1;
+        }
+    }
+    sum.iter()
+        .zip(&seen)
+        .map(|(s, &c)| if c > 0 { *s / c as f64 } else { DVec3::NAN })
+        .collect()
+}
+
+/// [`fit_frame`], then again without the point farthest from its fitted place while that
+/// is beyond `limit_mm` and at least 4 points are in the fit.
+fn fit_frame_robust(
+    frame: usize,
+    point: &impl Fn(usize, usize) -> Option<DVec3>,
+    reference: &[DVec3],
+    buf: &mut Vec<(DVec3, DVec3)>,
+    min_spread_mm: f64,
+    limit_mm: f64,
+) -> Option<RigidFit> {
+    let mut fit = fit_frame(frame, point, reference, buf, min_spread_mm)?;
+    while buf.len() >= 4 {
+        let (worst, far) = buf
+            .iter()
+            .enumerate()
+            .map(|(i, (r, o))| (i, (fit.rotation * *r + fit.translation).distance(*o)))
+            .fold((0, 0.0), |best, x| if x.1 > best.1 { x } else { best });
+        if far <= limit_mm {
+            break;
+        }
+        buf.swap_remove(worst);
+        match fit_pairs(buf, min_spread_mm) {
+            Some(f) => fit = f,
+            None => break,
+        }
+    }
+    Some(fit)
 }
 
 /// Moves the origin to the centroid of the finite ones among the first `origin_points`
@@ -251,6 +366,75 @@ mod tests {
     use super::*;
     use crate::horn::tests::TestRng;
 
+    /// The default rules.
+    fn rules() -> FitRules {
+        FitRules::of(&crate::Params::default())
+    }
+
+    /// A 5-marker body whose last marker's trajectory is another body's for 50 of 300
+    /// frames (a swap): with rejection the poses there stay exact and the marker's
+    /// reference is its true place; least squares alone lets it drag every one of them.
+    #[test]
+    fn a_swapped_marker_does_not_drag_the_pose() {
+        let mut rng = TestRng(12);
+        let local = [
+            DVec3::new(40.0, 0.0, 100.0),
+            DVec3::new(-35.0, 25.0, 180.0),
+            DVec3::new(10.0, -40.0, 260.0),
+            DVec3::new(-20.0, -15.0, 140.0),
+            DVec3::new(30.0, 30.0, 220.0),
+        ];
+        let frames = 300;
+        let mut truth = Vec::new();
+        let mut positions = Vec::new();
+        for f in 0..frames {
+            let t = f as f64 / 100.0;
+            let q = DQuat::from_rotation_y(0.8 * (1.3 * t).sin()) * DQuat::from_rotation_x(0.4 * t);
+            let trans = DVec3::new(300.0 * t, 50.0 * t.sin(), 900.0);
+            truth.push((q, trans));
+            for (k, l) in local.iter().enumerate() {
+                let p = if k == 4 && (100..150).contains(&f) {
+                    // Elsewhere: where a marker of a swinging neighbour was.
+                    DVec3::new(300.0 * t - 150.0, 400.0 + 80.0 * (3.0 * t).sin(), 600.0)
+                } else {
+                    q * *l + trans
+                };
+                positions.push((p + rng.vec3(0.1)).to_array());
+            }
+        }
+        let labels = (0..5).map(|i| format!("M{i}")).collect();
+        let traj = Trajectories::new(labels, 100.0, 1, frames, positions).unwrap();
+        let worst_error = |sp: &SegmentPoses| {
+            let track = pose_track(sp);
+            let mut worst: f64 = 0.0;
+            for (f, pose) in track.iter().enumerate() {
+                let pose = pose.as_ref().unwrap();
+                let (q, t) = truth[f];
+                // Markers 0..4 never leave: the pose must carry their references onto them.
+                for (r, l) in sp.reference.iter().zip(&local).take(4) {
+                    let g = pose.apply(DVec3::from_array(*r));
+                    worst = worst.max((g - (q * *l + t)).length());
+                }
+            }
+            worst
+        };
+        let robust = segment_poses(&traj, 0, &[0, 1, 2, 3, 4], rules());
+        let plain = segment_poses(
+            &traj,
+            0,
+            &[0, 1, 2, 3, 4],
+            FitRules {
+                outlier_factor: 0.0,
+                ..rules()
+            },
+        );
+        assert!(worst_error(&robust) < 1.0, "{} mm", worst_error(&robust));
+        assert!(worst_error(&plain) > 20.0, "{} mm", worst_error(&plain));
+        // The swapped marker's reference keeps its true distance to the others.
+        let r = |k: usize| DVec3::from_array(robust.reference[k]);
+        assert!((r(4).distance(r(0)) - local[4].distance(local[0])).abs() < 1.0);
+    }
+
     /// One rigid body of 4 markers, random poses, a gap pattern; poses must reproduce it.
     #[test]
     fn poses_reproduce_markers_with_gaps() {
@@ -283,7 +467,7 @@ mod tests {
         }
         let labels = (0..4).map(|i| format!("M{i}")).collect();
         let traj = Trajectories::new(labels, 100.0, 1, frames, positions).unwrap();
-        let sp = segment_poses(&traj, 0, &[0, 1, 2, 3], 2.0);
+        let sp = segment_poses(&traj, 0, &[0, 1, 2, 3], rules());
         let track = pose_track(&sp);
         assert!(sp.reference.iter().all(|r| r[0].is_finite()));
         let mut known = 0;
@@ -317,7 +501,7 @@ mod tests {
             .collect();
         let labels = (0..3).map(|i| format!("M{i}")).collect();
         let traj = Trajectories::new(labels, 100.0, 1, 40, positions).unwrap();
-        let sp = segment_poses(&traj, 0, &[0, 1, 2], 2.0);
+        let sp = segment_poses(&traj, 0, &[0, 1, 2], rules());
         assert!(sp.rotations.iter().all(|q| q[0].is_nan()));
     }
 }
