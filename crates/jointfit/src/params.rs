@@ -50,8 +50,8 @@ pub struct Params {
     /// direction for a pose to be fitted (nearly collinear markers fix no spin).
     pub min_spread_mm: f64,
     /// A marker farther than this × the segment's median per-frame fit RMS from its fitted
-    /// place leaves that frame's pose fit (and the reference shape), while ≥ 3 others stay;
-    /// 0 = off.
+    /// place leaves that frame's pose fit (and the reference shape), while ≥ 3 others stay
+    /// (with 3 left and one still beyond, the frame has no pose); 0 = off.
     pub pose_outlier_factor: f64,
     /// ... and farther than this, mm.
     pub pose_outlier_floor_mm: f64,
@@ -158,9 +158,9 @@ pub const PARAM_DOCS: &[(&str, &str)] = &[
         "pose_outlier_factor",
         "a marker farther from its fitted place than this × the segment's median per-frame \
          fit RMS (and pose_outlier_floor_mm) is left out of that frame's pose and of the \
-         reference shape, while ≥ 3 others remain: a swapped or glitching trajectory must not \
-         drag the pose (cargo xtask eval --presets swap: seeds 9001,9002,1001,1002,7001,7002 \
-         0.58 → 0.48 % of height, seeds 3001-3004 0.55 → 0.35 %; clean identical, hard \
+         reference shape, while ≥ 3 others remain (a frame left with 3 and one still beyond \
+         has no pose): a swapped or glitching trajectory must not drag the pose (cargo xtask eval --presets swap: seeds 9001,9002,1001,1002,7001,7002 \
+         0.58 → 0.47 % of height, seeds 3001-3004 0.55 → 0.33 %; clean identical, hard \
          unchanged); 0 = off; default 4.0",
     ),
     (

@@ -135,8 +135,8 @@ impl Shape {
 /// With outlier rejection on, a point farther from its fitted place than the bound
 /// (`outlier_factor` × the median per-frame RMS, at least `outlier_floor_mm`) in some
 /// frame is left out of the reference average there, and of that frame's fit while ≥ 3
-/// points remain (farthest first): least squares lets one swapped or glitching marker
-/// drag the whole pose.
+/// points remain (farthest first); a frame left with 3 points and an outlier among them
+/// has no pose. Least squares lets one swapped or glitching marker drag the whole pose.
 pub(crate) fn fit_shape(
     frames: usize,
     count: usize,
@@ -257,7 +257,8 @@ fn mean_shape(
 }
 
 /// [`fit_frame`], then again without the point farthest from its fitted place while that
-/// is beyond `limit_mm` and at least 4 points are in the fit.
+/// is beyond `limit_mm` and at least 4 points are in the fit; `None` when 3 points remain
+/// and one is still beyond it.
 fn fit_frame_robust(
     frame: usize,
     point: &impl Fn(usize, usize) -> Option<DVec3>,
@@ -267,7 +268,7 @@ fn fit_frame_robust(
     limit_mm: f64,
 ) -> Option<RigidFit> {
     let mut fit = fit_frame(frame, point, reference, buf, min_spread_mm)?;
-    while buf.len() >= 4 {
+    loop {
         let (worst, far) = buf
             .iter()
             .enumerate()
@@ -275,6 +276,10 @@ fn fit_frame_robust(
             .fold((0, 0.0), |best, x| if x.1 > best.1 { x } else { best });
         if far <= limit_mm {
             break;
+        }
+        if buf.len() < 4 {
+            // Three points and one of them wrong: which one, no fit can tell.
+            return None;
         }
         buf.swap_remove(worst);
         match fit_pairs(buf, min_spread_mm) {
@@ -433,6 +438,12 @@ mod tests {
         // The swapped marker's reference keeps its true distance to the others.
         let r = |k: usize| DVec3::from_array(robust.reference[k]);
         assert!((r(4).distance(r(0)) - local[4].distance(local[0])).abs() < 1.0);
+
+        // Three markers, one of them swapped: no fit can say which, so no pose there.
+        let three = segment_poses(&traj, 0, &[0, 1, 4], rules());
+        for (f, q) in three.rotations.iter().enumerate() {
+            assert_eq!(q[0].is_nan(), (100..150).contains(&f), "frame {f}");
+        }
     }
 
     /// One rigid body of 4 markers, random poses, a gap pattern; poses must reproduce it.
