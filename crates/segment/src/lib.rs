@@ -234,7 +234,7 @@ pub fn run(traj: &Trajectories, params: &Params) -> Result<Segmentation, Error> 
     if params.pair_hold > 0.0 && clusters.iter().any(|c| c.len() <= 2) {
         let hold_mm = params.pair_hold
             * typical_sigma(traj, &clusters, &mut sigma_memo).max(params.tolerance_min_mm);
-        if reassign::dissolve_pairs(traj, &mut clusters, hold_mm, min_overlap) > 0 {
+        if reassign::dissolve_small_clusters(traj, &mut clusters, hold_mm, min_overlap) > 0 {
             rigidity::normalise(&mut clusters);
         }
     }

@@ -429,7 +429,7 @@ pub(crate) fn reassign(
 /// cluster a body holds within `hold_mm` joins it: the robust scatter ignores the minority
 /// of frames where a swapped or glitching trajectory was elsewhere, which ρ (over every
 /// frame) does not. Returns how many clusters were dissolved.
-pub(crate) fn dissolve_pairs(
+pub(crate) fn dissolve_small_clusters(
     traj: &Trajectories,
     clusters: &mut Vec<Vec<usize>>,
     hold_mm: f64,
@@ -519,7 +519,7 @@ pub(crate) fn dissolve_pairs(
     dissolved
 }
 
-/// Clusters [`dissolve_pairs`] poses as possible holders of each pair marker.
+/// Clusters [`dissolve_small_clusters`] poses as possible holders of each lone or paired marker.
 const HOLDER_CANDIDATES: usize = 3;
 
 /// Up to `k` clusters of ≥ 3 markers other than `own`, nearest marker `m` in space: by the
@@ -649,7 +649,7 @@ pub(crate) fn sigma_in(traj: &Trajectories, group: &[usize], m: usize) -> Option
 
 #[cfg(test)]
 mod tests {
-    use super::{dissolve_pairs, eject, reassign};
+    use super::{dissolve_small_clusters, eject, reassign};
     use crate::testscene::{CHILD, PARENT, hinge_x, hinged_capture, moving_capture};
 
     /// Two 4-marker bodies at a hinge swinging ±15°, with 1 mm deterministic jitter: a child
@@ -704,7 +704,7 @@ mod tests {
             _ => hinge_x(swing(t), hinge_x(1.2 * swing(t + 1.0), third, -400.0), 0.0),
         });
         let mut clusters = vec![vec![0, 1, 2, 3], vec![4, 5, 6, 7], vec![8], vec![9]];
-        assert_eq!(dissolve_pairs(&traj, &mut clusters, 3.0, 10), 1);
+        assert_eq!(dissolve_small_clusters(&traj, &mut clusters, 3.0, 10), 1);
         clusters.iter_mut().for_each(|c| c.sort_unstable());
         assert_eq!(
             clusters,
@@ -741,7 +741,7 @@ mod tests {
             vec![10, 11],
             vec![12, 13],
         ];
-        assert_eq!(dissolve_pairs(&traj, &mut clusters, 3.0, 10), 1);
+        assert_eq!(dissolve_small_clusters(&traj, &mut clusters, 3.0, 10), 1);
         clusters.iter_mut().for_each(|c| c.sort_unstable());
         assert_eq!(
             clusters,
