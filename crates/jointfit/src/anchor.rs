@@ -126,27 +126,12 @@ pub(crate) fn anchor_segments(
     let mut memo: Vec<Vec<Option<Option<CentreFit>>>> = vec![vec![None; n]; n];
     let mut failed = vec![vec![false; n]; n];
     loop {
-        // This round's new candidates, fitted in parallel (each is independent).
         let wanted: Vec<(usize, usize)> = (0..n)
             .filter(|&s| !posed[s] && !segments[s].is_empty())
             .flat_map(|s| (0..n).map(move |nb| (s, nb)))
-            .filter(|&(s, nb)| nb != s && posed[nb] && !failed[s][nb] && memo[s][nb].is_none())
+            .filter(|&(s, nb)| nb != s && posed[nb] && !failed[s][nb])
             .collect();
-        let fitted: Vec<Option<CentreFit>> = wanted
-            .par_iter()
-            .map(|&(s, nb)| {
-                centre_fit(
-                    traj,
-                    &segments[s],
-                    &tracks[nb],
-                    params,
-                    params.anchor_min_excursion_deg,
-                )
-            })
-            .collect();
-        for (&(s, nb), fit) in wanted.iter().zip(fitted) {
-            memo[s][nb] = Some(fit);
-        }
+        fit_candidates(traj, segments, &tracks, params, &mut memo, &wanted);
         let mut best: Option<(f64, usize, usize)> = None;
         for s in 0..n {
             if posed[s] || segments[s].is_empty() {
@@ -213,36 +198,11 @@ pub(crate) fn anchor_segments(
                 nb != s && Some(nb) != skip && posed[nb] && !loops_back
             })
             .collect();
-        // The fits not yet made, in parallel (each is independent).
-        let missing: Vec<usize> = candidates
-            .iter()
-            .copied()
-            .filter(|&nb| memo[s][nb].is_none())
-            .collect();
-        let shared_tracks: &[Vec<Option<Pose>>] = tracks;
-        let mut fresh: Vec<Option<Option<CentreFit>>> = missing
-            .par_iter()
-            .map(|&nb| {
-                Some(centre_fit(
-                    traj,
-                    &segments[s],
-                    &shared_tracks[nb],
-                    params,
-                    params.anchor_min_excursion_deg,
-                ))
-            })
-            .collect();
+        let wanted: Vec<(usize, usize)> = candidates.iter().map(|&nb| (s, nb)).collect();
+        fit_candidates(traj, segments, tracks, params, memo, &wanted);
         let mut best: Option<(f64, usize, CentreFit)> = None;
         for nb in candidates {
-            let fit = match memo[s][nb].take() {
-                Some(fit) => fit,
-                None => missing
-                    .iter()
-                    .position(|&m| m == nb)
-                    .and_then(|i| fresh[i].take())
-                    .flatten(),
-            };
-            if let Some(fit) = fit
+            if let Some(fit) = memo[s][nb].take().flatten()
                 && best.as_ref().is_none_or(|(c, _, _)| fit.rms_mm < *c)
             {
                 best = Some((fit.rms_mm, nb, fit));
@@ -301,6 +261,38 @@ pub(crate) fn anchor_segments(
         }
     }
     anchors
+}
+
+/// Fits, in parallel (each is independent), the centre of every `(S, N)` in `wanted` not
+/// yet in `memo`, and keeps them there: N's poses never change once it is posed.
+fn fit_candidates(
+    traj: &Trajectories,
+    segments: &[Vec<usize>],
+    tracks: &[Vec<Option<Pose>>],
+    params: &Params,
+    memo: &mut [Vec<Option<Option<CentreFit>>>],
+    wanted: &[(usize, usize)],
+) {
+    let missing: Vec<(usize, usize)> = wanted
+        .iter()
+        .copied()
+        .filter(|&(s, nb)| memo[s][nb].is_none())
+        .collect();
+    let fitted: Vec<Option<CentreFit>> = missing
+        .par_iter()
+        .map(|&(s, nb)| {
+            centre_fit(
+                traj,
+                &segments[s],
+                &tracks[nb],
+                params,
+                params.anchor_min_excursion_deg,
+            )
+        })
+        .collect();
+    for ((s, nb), fit) in missing.into_iter().zip(fitted) {
+        memo[s][nb] = Some(fit);
+    }
 }
 
 /// Common centre of `markers` (S's) in the frame of a neighbour with poses `track`;

@@ -166,12 +166,15 @@ pub fn run(traj: &Trajectories, params: &Params) -> Result<Segmentation, Error> 
     rigidity::normalise(&mut clusters);
     // The typical fit σ of the clusters as they stand (see `typical_sigma`).
     let mut sigma_memo = None;
+    // The largest fit σ of an ordinary segment: what the fit split leaves whole, and what
+    // each part of a joint must fit within. Never below the smallest tolerance: on
+    // noiseless data every σ is rounding error.
+    let segment_sigma_mm =
+        |typical: f64| (params.fit_split_floor * typical).max(params.tolerance_min_mm);
     if params.fit_split_ratio > 0.0 {
         // ρ is second order in a joint's angle near a straight limb; a rigid fit of the
         // whole cluster is first order (see `fitsplit`), so joined segments come apart here.
-        // Never below the smallest tolerance: on noiseless data every σ is rounding error.
-        let floor_mm = (params.fit_split_floor * typical_sigma(traj, &clusters, &mut sigma_memo))
-            .max(params.tolerance_min_mm);
+        let floor_mm = segment_sigma_mm(typical_sigma(traj, &clusters, &mut sigma_memo));
         clusters = fitsplit::split_and_rejoin(
             traj,
             &stats,
@@ -206,7 +209,7 @@ pub fn run(traj: &Trajectories, params: &Params) -> Result<Segmentation, Error> 
             centre_fraction: params.joint_centre_fraction,
             typical_sigma_mm: typical,
             // Each part must fit like the ordinary segment the fit split accepts.
-            max_part_sigma_mm: (params.fit_split_floor * typical).max(params.tolerance_min_mm),
+            max_part_sigma_mm: segment_sigma_mm(typical),
         };
         let before = clusters.len();
         clusters = jointsplit::split_all(traj, &stats, min_overlap, clusters, test);
@@ -218,7 +221,7 @@ pub fn run(traj: &Trajectories, params: &Params) -> Result<Segmentation, Error> 
     }
     if params.joint_merge_z > 0.0 {
         let typical = typical_sigma(traj, &clusters, &mut sigma_memo);
-        let part_mm = (params.fit_split_floor * typical).max(params.tolerance_min_mm);
+        let part_mm = segment_sigma_mm(typical);
         let merge = jointsplit::RigidMerge {
             near_mm: 2.0 * tolerance_mm,
             max_z: params.joint_merge_z,
@@ -230,7 +233,7 @@ pub fn run(traj: &Trajectories, params: &Params) -> Result<Segmentation, Error> 
             rigidity::normalise(&mut clusters);
         }
     }
-    // Not posed at all for pairs when there is none.
+    // Bodies are posed only when there is a lone marker or a pair to hold.
     if params.pair_hold > 0.0 && clusters.iter().any(|c| c.len() <= 2) {
         let hold_mm = params.pair_hold
             * typical_sigma(traj, &clusters, &mut sigma_memo).max(params.tolerance_min_mm);

@@ -63,11 +63,16 @@ pub(crate) fn inertia_tensor(shape: &[[f64; 3]]) -> ([f64; 3], [[f64; 3]; 3]) {
     (c, j)
 }
 
+/// Determinant of a 3 × 3 matrix.
+fn det3(j: &[[f64; 3]; 3]) -> f64 {
+    j[0][0] * (j[1][1] * j[2][2] - j[1][2] * j[2][1])
+        - j[0][1] * (j[1][0] * j[2][2] - j[1][2] * j[2][0])
+        + j[0][2] * (j[1][0] * j[2][1] - j[1][1] * j[2][0])
+}
+
 /// Inverse of a 3 × 3 matrix by cofactors; `None` when (nearly) singular.
 pub(crate) fn invert3(j: &[[f64; 3]; 3]) -> Option<[[f64; 3]; 3]> {
-    let det = j[0][0] * (j[1][1] * j[2][2] - j[1][2] * j[2][1])
-        - j[0][1] * (j[1][0] * j[2][2] - j[1][2] * j[2][0])
-        + j[0][2] * (j[1][0] * j[2][1] - j[1][1] * j[2][0]);
+    let det = det3(j);
     let scale = j
         .iter()
         .flatten()
@@ -99,9 +104,7 @@ pub(crate) fn invert3(j: &[[f64; 3]; 3]) -> Option<[[f64; 3]; 3]> {
 /// Determinant of an inertia tensor, or `None` when its points are (nearly) collinear:
 /// |det| within 1e-9 × trace³.
 pub(crate) fn inertia_det(j: &[[f64; 3]; 3]) -> Option<f64> {
-    let det = j[0][0] * (j[1][1] * j[2][2] - j[1][2] * j[2][1])
-        - j[0][1] * (j[1][0] * j[2][2] - j[1][2] * j[2][0])
-        + j[0][2] * (j[1][0] * j[2][1] - j[1][1] * j[2][0]);
+    let det = det3(j);
     let scale = (j[0][0] + j[1][1] + j[2][2]).max(1e-300);
     (det.abs() > 1e-9 * scale * scale * scale).then_some(det)
 }
@@ -437,7 +440,7 @@ pub(crate) fn dissolve_small_clusters(
 ) -> usize {
     let stride = stride_of(traj);
     let min_frames = min_overlap.div_ceil(stride);
-    // A body costs a pose per frame: pose only those that could hold a pair's marker,
+    // A body costs a pose per frame: pose only those that could hold a lone or paired marker,
     // the clusters nearest it in space (a marker's own segment is among its neighbours).
     let mut candidates = std::collections::BTreeSet::new();
     for (c, ms) in clusters.iter().enumerate() {
