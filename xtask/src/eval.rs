@@ -49,6 +49,9 @@ pub struct Args {
     /// Print one JSON object on stdout instead of tables.
     #[arg(long)]
     pub json: bool,
+    /// Under each trial, one line per true joint: kind, estimated kind, error, known.
+    #[arg(long)]
+    pub joints: bool,
 }
 
 /// One trial of the suite.
@@ -99,6 +102,27 @@ pub struct TrialResult {
     pub seconds: f64,
     /// The error, when the pipeline failed on this trial.
     pub error: Option<String>,
+    /// Per true joint, in the truth's order.
+    pub joints: Vec<JointResult>,
+}
+
+/// How one true joint did in a trial.
+#[derive(Clone, Debug, Serialize)]
+pub struct JointResult {
+    /// The true joint's name.
+    pub truth: String,
+    /// Its true kind (`ball`, `hinge`, ...).
+    pub kind: String,
+    /// The matched estimated joint (`None`: not found).
+    pub estimate: Option<String>,
+    /// The estimated joint's kind.
+    pub estimated_kind: Option<String>,
+    /// Mean centre error over frames where both are known, mm.
+    pub mean_mm: Option<f64>,
+    /// Worst centre error, mm.
+    pub worst_mm: Option<f64>,
+    /// Share of the truth's frames where the estimate is known.
+    pub known_fraction: f64,
 }
 
 /// The suite the arguments describe, in print order.
@@ -165,6 +189,7 @@ pub fn run_trial(spec: &TrialSpec, params: &Params) -> TrialResult {
         kind_accuracy: f64::NAN,
         seconds: 0.0,
         error: None,
+        joints: Vec::new(),
     };
     if let Err(e) = evaluate(config, params, &mut result) {
         result.error = Some(format!("{e:#}"));
@@ -197,6 +222,31 @@ fn evaluate(config: &SynthConfig, params: &Params, result: &mut TrialResult) -> 
         .context("skeleton.json does not parse as an Estimate")?;
     let score = synth::score::score(&trial.truth, &estimate);
     fill_from_score(result, &score);
+    result.joints = trial
+        .truth
+        .joints
+        .iter()
+        .map(|j| {
+            let matched = score.joints.iter().find(|s| s.truth == j.name);
+            let estimate_name = matched.map(|m| m.estimate.clone());
+            let estimated_kind = estimate_name.as_ref().and_then(|name| {
+                estimate
+                    .joints
+                    .iter()
+                    .find(|e| &e.name == name)
+                    .map(|e| e.kind.clone())
+            });
+            JointResult {
+                truth: j.name.clone(),
+                kind: j.kind.clone(),
+                estimate: estimate_name,
+                estimated_kind,
+                mean_mm: matched.and_then(|m| m.mean_mm),
+                worst_mm: matched.and_then(|m| m.worst_mm),
+                known_fraction: matched.map_or(0.0, |m| m.known_fraction),
+            }
+        })
+        .collect();
     Ok(())
 }
 
@@ -293,7 +343,7 @@ pub fn main(args: &Args) -> Result<()> {
     }
     if all.len() == 1 {
         let (label, results, secs) = &all[0];
-        print_table(results);
+        print_table(results, args.joints);
         println!("{}", summary_line(label, results, *secs));
     } else {
         print_comparison(&all);
@@ -309,7 +359,7 @@ fn fmt_f(x: f64, digits: usize) -> String {
     }
 }
 
-fn print_table(results: &[TrialResult]) {
+fn print_table(results: &[TrialResult], joints: bool) {
     println!(
         "{:<22} {:>7} {:>5} {:>5} {:>5} {:>5} {:>8} {:>8} {:>6} {:>6} {:>6} {:>5} {:>7}",
         "trial",
@@ -351,6 +401,25 @@ fn print_table(results: &[TrialResult]) {
             fmt_f(r.known_fraction * 100.0, 1),
             fmt_f(r.kind_accuracy, 2),
             fmt_f(r.seconds, 2),
+        );
+        if joints {
+            print_joints(&r.joints);
+        }
+    }
+}
+
+fn print_joints(joints: &[JointResult]) {
+    let opt = |x: Option<f64>| x.map_or_else(|| "-".into(), |v| fmt_f(v, 1));
+    for j in joints {
+        println!(
+            "    {:<14} {:<9} {:<14} {:<9} {:>8} {:>8} {:>6}",
+            j.truth,
+            j.kind,
+            j.estimate.as_deref().unwrap_or("(missed)"),
+            j.estimated_kind.as_deref().unwrap_or("-"),
+            opt(j.mean_mm),
+            opt(j.worst_mm),
+            fmt_f(j.known_fraction * 100.0, 1),
         );
     }
 }
