@@ -79,6 +79,7 @@ pub fn run(
             .collect();
         let shifts = match params.hinge_placement {
             HingePlacement::Tree => jointfit::place_hinge_centres(&mut copy, &edges),
+            HingePlacement::Bone => jointfit::place_hinges_across_bones(&mut copy, &edges),
             mode => {
                 // The joint solve, capped, for hinges with no ball joint below them.
                 let mut tree = fits.clone();
@@ -1173,22 +1174,32 @@ mod tests {
         let off = fit(&s, &as_given());
         assert!((off.joints[2].bone_length - 300.0f64.hypot(25.0)).abs() < 1e-6);
         assert_eq!(off.joints[2].hinge_shift_mm, 0.0);
-        let k = fit(&s, &Params::default());
-        assert!((k.joints[2].hinge_shift_mm + 25.0).abs() < 1e-6);
-        assert!((k.joints[2].bone_length - 300.0).abs() < 1e-6);
-        for f in 0..100 {
-            assert!(distance(k.joints[2].positions[f], s.truth[2][f]) < 1e-6);
-        }
-        assert_eq!(k.joints[0].hinge_shift_mm, 0.0);
-        // A slide of a fifth of the bone is refused by default (ill-conditioned systems
-        // give those), accepted when the limit allows it.
-        let s = knee_off(60.0);
-        assert_eq!(fit(&s, &Params::default()).joints[2].hinge_shift_mm, 0.0);
-        let p = Params {
-            hinge_max_shift_ratio: 0.5,
+        let child = Params {
+            hinge_placement: HingePlacement::Child,
             ..Params::default()
         };
+        for params in [&child, &Params::default()] {
+            let k = fit(&s, params);
+            assert!((k.joints[2].hinge_shift_mm + 25.0).abs() < 1e-6);
+            assert!((k.joints[2].bone_length - 300.0).abs() < 1e-6);
+            for f in 0..100 {
+                assert!(distance(k.joints[2].positions[f], s.truth[2][f]) < 1e-6);
+            }
+            assert_eq!(k.joints[0].hinge_shift_mm, 0.0);
+        }
+        // `child` refuses the tree solve's slide of a fifth of the bone (ill-conditioned
+        // systems give those) unless the limit allows it; `bone` (default) has no cap:
+        // the thigh's hip, the shank's markers (centred on the bone) all agree.
+        let s = knee_off(60.0);
+        assert_eq!(fit(&s, &child).joints[2].hinge_shift_mm, 0.0);
+        let p = Params {
+            hinge_max_shift_ratio: 0.5,
+            ..child
+        };
         assert!((fit(&s, &p).joints[2].hinge_shift_mm + 60.0).abs() < 1e-6);
+        let k = fit(&s, &Params::default());
+        assert!((k.joints[2].hinge_shift_mm + 60.0).abs() < 1e-6);
+        assert!((k.joints[2].bone_length - 300.0).abs() < 1e-6);
     }
 
     #[test]
@@ -1275,8 +1286,10 @@ mod tests {
             None => panic!("no knee joint"),
         };
 
-        let child = Params::default();
-        assert_eq!(child.hinge_placement, HingePlacement::Child);
+        let child = Params {
+            hinge_placement: HingePlacement::Child,
+            ..Params::default()
+        };
         let k = knee_joint(&fit(&s, &child));
         assert!(
             (k.hinge_shift_mm + 60.0).abs() < 0.1,
@@ -1291,6 +1304,15 @@ mod tests {
                 "child: frame {f} knee {d} mm from the nearest point"
             );
         }
+        // `bone` (default) too: the ankle is on the shank's bone; the hip, 20 mm off the
+        // ankle's plane, disagrees and is left out; the shank's markers, centred 20 mm off
+        // too, pull by their small weight (σ 14 mm against the ankle's 1 mm).
+        let k = knee_joint(&fit(&s, &Params::default()));
+        assert!(
+            (k.hinge_shift_mm + 60.0).abs() < 0.5,
+            "bone: shift {}",
+            k.hinge_shift_mm
+        );
 
         let tree = Params {
             hinge_placement: HingePlacement::Tree,

@@ -46,16 +46,18 @@
 //!
 //! - Hinges: with `place_hinges`, every hinge centre of the tree first slides along its
 //!   axis (on a copy of the pair fits); the shift is `SkeletonJoint::hinge_shift_mm`.
-//!   `hinge_placement = child` (default): a hinge with ball joints on its child segment
-//!   goes, by itself, nearest their mean (its axis crosses the bone it moves), with no
-//!   length cap; the others take the joint solve of all hinges
+//!   `hinge_placement = bone` (default): every hinge at once where its axis crosses its
+//!   child's bone (`jointfit::place_hinges_across_bones`): the joints the child carries
+//!   and the child's markers, and the parent side's joints and markers where they agree
+//!   (a limb's parent bone crosses squarely too), each weighted by its precision.
+//!   `child`: a hinge with ball joints on its child segment goes, by itself, nearest
+//!   their mean; the others take the joint solve of all hinges
 //!   (`jointfit::place_hinge_centres`) where that slide is at most
-//!   `hinge_max_shift_ratio` of the bone (that solve couples nearly parallel axes, e.g.
-//!   the human knee and ankle, into long common slides). Every slide is kept only if it
-//!   barely changes the pair's residual (`hinge_residual_increase`). Measured (`cargo
-//!   xtask eval`, tree → child): seeds 1001/1002 clean 0.15 % → 0.13 %, hard 1.68 % →
-//!   1.68 %; seeds 7001/7002 clean 0.38 % → 0.31 % (random-clean-s7001 2.52 % → 1.65 %),
-//!   hard 2.21 % → 2.21 %.
+//!   `hinge_max_shift_ratio` of the bone. Every slide is kept only if it barely changes
+//!   the pair's residual (`hinge_residual_increase`). Measured (`cargo xtask eval --seeds
+//!   4001,4002,4003,7001,9001,1001,5001,5002 --compare
+//!   bonefit.hinge_placement=child,bone`): clean 0.34 % → 0.10 % of height, hard 1.83 % →
+//!   1.74 %; random-clean over seeds 4001–4016 1.20 % → 0.56 %.
 //!
 //! It does not fit joint centres (jointfit), choose the tree (topo) or write files (export).
 mod error;
@@ -95,11 +97,15 @@ pub enum HingePlacement {
     Tree,
     /// Each hinge by itself, nearest the mean of its child segment's ball child joints;
     /// hinges with none take the capped `tree` slide.
-    #[default]
     Child,
     /// As `child`, and a hinge with no ball child joint goes nearest its (already
     /// placed) hinge child joints.
     Chain,
+    /// `jointfit::place_hinges_across_bones`: every hinge at once where its axis
+    /// crosses the child's bone (the child's joints and markers; the parent side's where
+    /// they agree), each by its precision; no length cap.
+    #[default]
+    Bone,
 }
 
 /// How each segment's orientation per frame is chosen.
@@ -147,16 +153,16 @@ pub struct Params {
     pub marker_weight: f64,
     /// Longest pose gap filled by interpolation, in seconds (default 0.1 s).
     pub max_gap_s: f64,
-    /// Slide every hinge centre of the tree along its axis to the adjacent joints
-    /// (`jointfit::place_hinge_centres`) before fitting the bones (default true).
+    /// Slide every hinge centre of the tree along its axis (see `hinge_placement`)
+    /// before fitting the bones (default true).
     pub place_hinges: bool,
     /// A hinge keeps its slid centre only if the pair's residual (the centre as the two
     /// segments carry it) grows by at most this fraction (+0.1 mm) (default 0.1).
     pub hinge_residual_increase: f64,
-    /// A hinge keeps its slid centre only if the slide is at most this fraction of its
-    /// bone from the parent joint (default 0.1).
+    /// A `tree` slide (also `child`'s fallback) is kept only if it is at most this
+    /// fraction of the bone from the parent joint (default 0.1).
     pub hinge_max_shift_ratio: f64,
-    /// Where hinge centres go on their axes: `child` (default) or `tree`.
+    /// Where hinge centres go on their axes: `bone` (default), `child`, `chain` or `tree`.
     pub hinge_placement: HingePlacement,
 }
 
@@ -170,7 +176,7 @@ impl Default for Params {
             place_hinges: true,
             hinge_residual_increase: 0.1,
             hinge_max_shift_ratio: 0.1,
-            hinge_placement: HingePlacement::Child,
+            hinge_placement: HingePlacement::Bone,
         }
     }
 }
@@ -201,9 +207,8 @@ pub const PARAM_DOCS: &[(&str, &str)] = &[
     ),
     (
         "place_hinges",
-        "slide each hinge centre of the tree along its axis to where the bones to the \
-         adjacent joints are shortest (jointfit::place_hinge_centres; a hinge fixes a line, \
-         not a point) before fitting bones and rotations; default true",
+        "slide each hinge centre of the tree along its axis (a hinge fixes a line, not a \
+         point) as hinge_placement says, before fitting bones and rotations; default true",
     ),
     (
         "hinge_residual_increase",
@@ -221,10 +226,13 @@ pub const PARAM_DOCS: &[(&str, &str)] = &[
     ),
     (
         "hinge_placement",
-        "where a hinge centre goes on its axis: \"child\" (each hinge by itself, nearest \
-         the mean of its child segment's ball child joints, no length cap; hinges with none \
-         take the capped \"tree\" slide), \"chain\" (as child, else nearest its placed \
-         hinge child joints) or \"tree\" (jointfit::place_hinge_centres, all hinges at \
-         once toward every adjacent joint, capped by hinge_max_shift_ratio); default \"child\"",
+        "where a hinge centre goes on its axis: \"bone\" (jointfit::place_hinges_across_bones: \
+         all hinges at once where each axis crosses its child's bone, from the child's \
+         joints and markers and the parent side's where they agree, each weighted by its \
+         precision), \"child\" (each hinge by itself, nearest the mean of its child \
+         segment's ball child joints; hinges with none take the capped \"tree\" slide), \
+         \"chain\" (as child, else nearest its placed hinge child joints) or \"tree\" \
+         (jointfit::place_hinge_centres, all hinges at once toward every adjacent joint, \
+         capped by hinge_max_shift_ratio); default \"bone\"",
     ),
 ];

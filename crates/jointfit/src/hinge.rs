@@ -218,3 +218,326 @@ fn solve(mut h: Vec<Vec<f64>>, mut r: Vec<f64>) -> Option<Vec<f64>> {
     }
     Some(x)
 }
+
+/// Smallest standard deviation (mm) given to "the bone from a hinge to a neighbouring
+/// joint is perpendicular to the hinge axis" in [`place_hinges_across_bones`]; the two
+/// joints' residual RMS add to it (a centre is about as uncertain as its fit's residual:
+/// noise-free fits pin it, skin moves it by about that much).
+const BONE_SIGMA_FLOOR_MM: f64 = 1.0;
+
+/// Smallest scatter (mm) credited to a segment's markers along a hinge axis in
+/// [`place_hinges_across_bones`], so that markers that happen to sit level with each
+/// other do not pin the centre.
+const MARKER_SPREAD_FLOOR_MM: f64 = 10.0;
+
+/// How many standard deviations a parent-side joint may miss the child side's solution by
+/// and still count ([`place_hinges_across_bones`]).
+const PARENT_JOINT_TEST_SIGMAS: f64 = 3.0;
+
+/// One weighted linear observation `Σ a_k s_k = b` of the hinge shifts.
+#[derive(Clone)]
+struct ShiftRow {
+    terms: Vec<(usize, f64)>,
+    b: f64,
+    weight: f64,
+}
+
+/// What one side of a hinge says about where the axis crosses that side's bone.
+#[derive(Default)]
+struct SideEvidence {
+    /// "The bone from the hinge to this joint of the side crosses the axis squarely."
+    joints: Vec<ShiftRow>,
+    /// The side's markers along the axis.
+    markers: Option<MarkerEvidence>,
+}
+
+/// A segment's markers seen along a hinge axis.
+#[derive(Clone, Copy)]
+struct MarkerEvidence {
+    /// Their mean position along the axis from the centre (mm).
+    mean: f64,
+    /// Sum of their squared deviations from that mean (mm²).
+    squares: f64,
+    /// How many.
+    count: usize,
+    /// Variance (mm²) the axis's tilt puts on the mean, from its distance to the axis.
+    tilt_variance: f64,
+}
+
+/// Moves every free hinge centre of the tree along its axis to where the axis crosses its
+/// child segment's bone, all hinges at once; returns the shifts (mm along the unit axis,
+/// 0 where a hinge did not move) in `edges` order.
+///
+/// A hinge turns its child about an axis across the child's bone (a knee across the
+/// shank, an elbow across the forearm, a robot's joint across its link): the bone, and so
+/// every joint the child carries further out, lies in the plane through the centre
+/// perpendicular to the axis, and the child's markers, which surround its bone, sit on
+/// both sides of that plane. One weighted least-squares solve over all hinges takes:
+/// - each joint the child carries (a ball centre, or a hinge centre on its own axis,
+///   itself unknown): `u·(c_g − c_e) = 0`, σ [`BONE_SIGMA_FLOOR_MM`] and the two fits'
+///   residual RMS;
+/// - the child's markers: their mean along the axis is the centre's, σ = their scatter
+///   about the bone / √n (the larger of their own and the scatter pooled over every
+///   hinge's child, and at least [`MARKER_SPREAD_FLOOR_MM`]). A hinge whose child ends
+///   the chain (a hand, a foot, a robot's last link) has only this;
+/// - each joint on the parent side (its own parent joint, its siblings) where it agrees
+///   with the child side's solution within [`PARENT_JOINT_TEST_SIGMAS`] (that solution's
+///   variance and the row's own): in a limb or a robot the parent's bone crosses the axis
+///   squarely too (the femur and the knee axis), and the joint then settles the centre
+///   far more precisely than markers; a branch leaving a bone at an angle fails the test.
+///
+/// Unlike [`place_hinge_centres`], nothing pulls from the parent side unchecked. The
+/// tree's direction decides which side is the child; where the tree is rooted elsewhere
+/// than the subject (a random tree's root is arbitrary), a child-side bone can meet the
+/// axis at an angle and the centre lands off by that bone's slant; testing each side
+/// by its markers was tried and is not reliable (see the issue 5 notes). `edges` as for
+/// [`place_hinge_centres`].
+pub fn place_hinges_across_bones(fits: &mut PairFits, edges: &[(usize, usize, usize)]) -> Vec<f64> {
+    let segments = fits.poses.len();
+    let mut shifts = vec![0.0; edges.len()];
+    // An edge's centre and unit axis (if any) seen from segment x.
+    let seen_from = |e: usize, x: usize| -> Option<(DVec3, Option<DVec3>)> {
+        let (pair, parent, child) = edges[e];
+        let fit = fits.pairs.get(pair)?;
+        let matches = (parent == fit.a && child == fit.b) || (parent == fit.b && child == fit.a);
+        if !matches || parent >= segments || child >= segments {
+            return None;
+        }
+        let (c, u) = if x == fit.a {
+            (fit.centre_in_a, fit.axis_in_a)
+        } else if x == fit.b {
+            (fit.centre_in_b, fit.axis_in_b)
+        } else {
+            return None;
+        };
+        let c = DVec3::from_array(c);
+        let u = u.and_then(|u| DVec3::from_array(u).try_normalize());
+        c.is_finite().then_some((c, u))
+    };
+    // Unknown index of each free hinge edge.
+    let mut unknown = vec![None; edges.len()];
+    let mut count = 0;
+    for (e, &(pair, _, child)) in edges.iter().enumerate() {
+        let free = fits
+            .pairs
+            .get(pair)
+            .is_some_and(|f| f.kind == JointKind::Hinge && !f.centre_from_distances);
+        if free && matches!(seen_from(e, child), Some((_, Some(_)))) {
+            unknown[e] = Some(count);
+            count += 1;
+        }
+    }
+    if count == 0 {
+        return shifts;
+    }
+    let residual = |e: usize| {
+        fits.pairs
+            .get(edges[e].0)
+            .map_or(0.0, |f| f.residual_rms_mm)
+            .max(0.0)
+    };
+    // How far (radians) hinge e's axis may be tilted: its relative rotation's least
+    // wobble, which is 0 for a noise-free hinge. A tilt turns the plane across the axis,
+    // so evidence far from the centre says less.
+    let tilt = |e: usize| {
+        fits.pairs
+            .get(edges[e].0)
+            .map_or(0.0, |f| f.wobble_deg[0].to_radians())
+            .max(0.0)
+    };
+    // Evidence of edge e's side x (x one of its segments).
+    let side = |e: usize, x: usize| -> SideEvidence {
+        let mut evidence = SideEvidence::default();
+        let (Some(k), Some((c, Some(u)))) = (unknown[e], seen_from(e, x)) else {
+            return evidence;
+        };
+        for (g, &(_, parent_g, child_g)) in edges.iter().enumerate() {
+            if g == e || (parent_g != x && child_g != x) {
+                continue;
+            }
+            let Some((c_g, u_g)) = seen_from(g, x) else {
+                continue;
+            };
+            // u·(c_g + s_g u_g − c − s_e u) = 0.
+            let mut terms = vec![(k, 1.0)];
+            if let (Some(kg), Some(u_g)) = (unknown[g], u_g) {
+                terms.push((kg, -u.dot(u_g)));
+            }
+            let lever = (c_g - c).reject_from_normalized(u).length();
+            let variance = BONE_SIGMA_FLOOR_MM.powi(2)
+                + residual(e).powi(2)
+                + residual(g).powi(2)
+                + (tilt(e) * lever).powi(2);
+            if variance.is_finite() {
+                evidence.joints.push(ShiftRow {
+                    terms,
+                    b: u.dot(c_g - c),
+                    weight: 1.0 / variance,
+                });
+            }
+        }
+        let seen: Vec<DVec3> = fits.poses[x]
+            .reference
+            .iter()
+            .map(|&m| DVec3::from_array(m))
+            .filter(|m| m.is_finite())
+            .collect();
+        if !seen.is_empty() {
+            let n = seen.len() as f64;
+            let centroid = seen.iter().sum::<DVec3>() / n;
+            let mean = u.dot(centroid - c);
+            let squares = seen
+                .iter()
+                .map(|m| (u.dot(*m - c) - mean).powi(2))
+                .sum::<f64>();
+            let tilt_variance =
+                (tilt(e) * (centroid - c).reject_from_normalized(u).length()).powi(2);
+            evidence.markers = Some(MarkerEvidence {
+                mean,
+                squares,
+                count: seen.len(),
+                tilt_variance,
+            });
+        }
+        evidence
+    };
+    // (unknown, child side, parent side) of each free hinge.
+    let hinges: Vec<(usize, SideEvidence, SideEvidence)> = edges
+        .iter()
+        .enumerate()
+        .filter_map(|(e, &(_, parent, child))| Some((unknown[e]?, side(e, child), side(e, parent))))
+        .collect();
+    // A few markers' spread is a poor estimate of their scatter about the bone; the
+    // spread pooled over the hinges' child segments is a steadier one.
+    let (squares, dof) = hinges
+        .iter()
+        .filter_map(|(_, child, _)| child.markers)
+        .fold((0.0, 0usize), |(q, d), m| (q + m.squares, d + m.count - 1));
+    let pooled = if dof > 0 { squares / dof as f64 } else { 0.0 };
+    let marker_row = |k: usize, evidence: &SideEvidence| {
+        evidence.markers.map(|m| {
+            let own = if m.count > 1 {
+                m.squares / (m.count - 1) as f64
+            } else {
+                0.0
+            };
+            let spread = own.max(pooled).max(MARKER_SPREAD_FLOOR_MM.powi(2));
+            ShiftRow {
+                terms: vec![(k, 1.0)],
+                b: m.mean,
+                weight: 1.0 / (spread / m.count as f64 + m.tilt_variance),
+            }
+        })
+    };
+    let with_markers = |k: usize, evidence: &SideEvidence| {
+        let mut rows = evidence.joints.clone();
+        rows.extend(marker_row(k, evidence));
+        rows
+    };
+    // First solve: the child sides' evidence (the tree's convention).
+    let first: Vec<ShiftRow> = hinges
+        .iter()
+        .flat_map(|(k, child, _)| with_markers(*k, child))
+        .collect();
+    let Some(guess) = solve_rows(&first, count) else {
+        return shifts;
+    };
+    // The first solve's covariance, column by column.
+    let mut covariance = vec![vec![0.0; count]; count];
+    {
+        let (h, _) = normal_equations(&first, count);
+        for k in 0..count {
+            let mut unit = vec![0.0; count];
+            unit[k] = 1.0;
+            let Some(column) = solve(h.clone(), unit) else {
+                return shifts;
+            };
+            for (i, x) in column.into_iter().enumerate() {
+                covariance[i][k] = x;
+            }
+        }
+    }
+    let covariance = &covariance;
+    // Where one joint row puts unknown k, the other unknowns at `guess`, and the
+    // variance of that (theirs through the covariance, the row's own σ).
+    let implied = |k: usize, row: &ShiftRow| {
+        let others = || row.terms.iter().filter(|&&(i, _)| i != k);
+        let value = row.b - others().map(|&(i, a)| a * guess[i]).sum::<f64>();
+        let spread: f64 = others()
+            .flat_map(|&(i, ai)| others().map(move |&(j, aj)| ai * aj * covariance[i][j]))
+            .sum();
+        (value, spread.max(0.0) + 1.0 / row.weight)
+    };
+    let mut rows = Vec::new();
+    for (k, child, parent) in &hinges {
+        let k = *k;
+        rows.extend(with_markers(k, child));
+        // A parent joint counts where it agrees with the child side's solution: a limb's
+        // parent bone crosses the axis squarely too, a branch off a bone need not.
+        for row in parent.joints.iter().chain(marker_row(k, parent).as_ref()) {
+            let (value, variance) = implied(k, row);
+            let spread = (variance + covariance[k][k]).sqrt();
+            if (value - guess[k]).abs() <= PARENT_JOINT_TEST_SIGMAS * spread {
+                rows.push(row.clone());
+            }
+        }
+    }
+    let Some(s) = solve_rows(&rows, count) else {
+        return shifts;
+    };
+    let tracks: Vec<_> = fits.poses.iter().map(pose_track).collect();
+    for (e, &(pair, _, _)) in edges.iter().enumerate() {
+        let Some(k) = unknown[e] else { continue };
+        let shift = s[k];
+        if !shift.is_finite() || shift == 0.0 {
+            continue;
+        }
+        let fit = &mut fits.pairs[pair];
+        let (Some(ua), Some(ub)) = (
+            fit.axis_in_a
+                .and_then(|u| DVec3::from_array(u).try_normalize()),
+            fit.axis_in_b
+                .and_then(|u| DVec3::from_array(u).try_normalize()),
+        ) else {
+            continue;
+        };
+        shifts[e] = shift;
+        let c_a = DVec3::from_array(fit.centre_in_a) + shift * ua;
+        let c_b = DVec3::from_array(fit.centre_in_b) + shift * ub;
+        fit.centre_in_a = c_a.to_array();
+        fit.centre_in_b = c_b.to_array();
+        fit.positions = joint_positions(c_a, c_b, &tracks[fit.a], &tracks[fit.b]);
+        fit.evidence.push_str(&format!(
+            "; centre moved {shift:.1} mm along the hinge axis to where it crosses a bone squarely"
+        ));
+    }
+    shifts
+}
+
+/// The weighted least-squares shifts of `count` unknowns from `rows`; an unknown no row
+/// mentions stays at 0. `None` when the normal equations are singular.
+fn solve_rows(rows: &[ShiftRow], count: usize) -> Option<Vec<f64>> {
+    let (h, r) = normal_equations(rows, count);
+    solve(h, r)
+}
+
+/// The normal equations `H s = r` of weighted rows; an unknown no row mentions gets a
+/// unit diagonal (so it stays at 0).
+fn normal_equations(rows: &[ShiftRow], count: usize) -> (Vec<Vec<f64>>, Vec<f64>) {
+    let mut h = vec![vec![0.0; count]; count];
+    let mut r = vec![0.0; count];
+    for row in rows {
+        for &(i, ai) in &row.terms {
+            r[i] += row.weight * ai * row.b;
+            for &(j, aj) in &row.terms {
+                h[i][j] += row.weight * ai * aj;
+            }
+        }
+    }
+    for k in 0..count {
+        if h[k][k] <= 0.0 {
+            h[k][k] = 1.0;
+        }
+    }
+    (h, r)
+}

@@ -40,7 +40,7 @@ mod score;
 mod small;
 
 pub use error::Error;
-pub use hinge::place_hinge_centres;
+pub use hinge::{place_hinge_centres, place_hinges_across_bones};
 pub use horn::{RigidFit, absolute_orientation, rotation_from_cross_covariance};
 pub use pairfits::*;
 pub use params::{Method, PARAM_DOCS, Params};

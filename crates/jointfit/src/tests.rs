@@ -493,6 +493,61 @@ fn hinge_centres_placed_from_the_tree() {
     assert_eq!(none, vec![0.0]);
 }
 
+/// A hinge whose parent bone leaves it at an angle (a branch off a random tree's bone):
+/// the parent's markers sit 150 mm along the axis from the centre. Placement across the
+/// child's bone puts the centre on the child's bone (its ball joint to a grandchild) and
+/// leaves the parent's markers out; a leaf hinge goes between its markers and onto its
+/// parent's bone (which crosses its axis squarely).
+#[test]
+fn hinge_centres_placed_across_the_child_bone() {
+    let mut rng = TestRng(35);
+    let mut bodies = chain(
+        &mut rng,
+        &[
+            Articulation::Hinge(DVec3::X, 50.0),
+            Articulation::Ball(40.0),
+            Articulation::Hinge(DVec3::Y, 50.0),
+        ],
+        4,
+    );
+    // The root's markers along x, around a bone from (300, 0, −500) to the hinge.
+    for (k, m) in bodies[0].markers.iter_mut().enumerate() {
+        *m = DVec3::new(150.0, 0.0, -500.0)
+            + DVec3::new(60.0 * k as f64 - 90.0, 0.0, 0.0)
+            + DVec3::new(0.0, 40.0, 0.0) * if k % 2 == 0 { 1.0 } else { -1.0 };
+    }
+    // The leaf's markers placed evenly on both sides of its bone along its hinge axis (y).
+    for (k, m) in bodies[3].markers.iter_mut().enumerate() {
+        let side = if k % 2 == 0 { 1.0 } else { -1.0 };
+        *m = DVec3::new(
+            40.0 * side,
+            30.0 * side * if k < 2 { 1.0 } else { -1.0 },
+            -100.0 * (k + 1) as f64,
+        );
+    }
+    let trial = generate(&mut rng, &bodies, 300, 0.0, |_, _, _| false);
+    let mut fits = run_on_segments(&trial.traj, &trial.segments, &Params::default()).unwrap();
+    let index = |a: usize, b: usize| fits.pairs.iter().position(|p| p.a == a && p.b == b);
+    let edges: Vec<(usize, usize, usize)> = (1..4)
+        .map(|b| (index(b - 1, b).unwrap(), b - 1, b))
+        .collect();
+    // The pair fit leaves a hinge between the two segments' marker centroids, which the
+    // slanted parent drags along the axis.
+    let before = mean_error(pair(&fits, 0, 1), &trial.joints[1]);
+    assert!(before > 10.0, "{before} mm before placement");
+    let shifts = crate::place_hinges_across_bones(&mut fits, &edges);
+    assert_eq!(shifts[1], 0.0, "the ball joint does not slide");
+    for b in [1, 3] {
+        let fit = pair(&fits, b - 1, b);
+        assert_eq!(fit.kind, JointKind::Hinge);
+        let err = mean_error(fit, &trial.joints[b]);
+        assert!(
+            err < 1.0,
+            "joint {b}: {err} mm after placement (shifts {shifts:?})"
+        );
+    }
+}
+
 /// Chain 0–1–2 whose middle segment shows only 2 of its 4 markers in frames 100..220:
 /// those frames are filled through the 0–1 joint, so they carry that joint by
 /// construction. The 1–2 fit must learn from the other frames only (its centre, kind and
