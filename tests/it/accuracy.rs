@@ -41,3 +41,56 @@ fn hard_human_stays_within_the_papers_clean_figure() {
     assert!(s.known_fraction >= 0.90, "{s}");
     assert!(s.topology_recall >= 0.8, "{s}");
 }
+
+/// A label swap whose markers leave homes of two (robot arm, seed 21): found with its exact
+/// frames, undone, and the segmentation is the truth's; `run` says so.
+#[test]
+fn label_swap_is_found_undone_and_reported() {
+    let tmp = Scratch::new("accuracy-swap");
+    let dir = tmp.path("trial");
+    let dir_arg = dir.to_str().expect("UTF-8 path");
+    crate::support::xtask_ok(&[
+        "synth",
+        "--subject",
+        "robotarm",
+        "--preset",
+        "swap",
+        "--seed",
+        "21",
+        "--frames",
+        "480",
+        "--out",
+        dir_arg,
+    ]);
+    let input = dir.join("robotarm-swap-s21.c3d");
+    let args = tmp.run_args(&input);
+    let out = crate::support::xtask(&args.iter().map(String::as_str).collect::<Vec<_>>());
+    assert!(out.status.success());
+    let truth = synth::read_truth(&dir.join("robotarm-swap-s21.truth.json")).unwrap();
+    let doc = crate::support::read_json(&tmp.path("out").join("skeleton.json"));
+    let [swap] = &truth.swaps[..] else {
+        panic!("the swap preset swaps one pair: {:?}", truth.swaps)
+    };
+    let found = doc["label_swaps"].as_array().expect("label_swaps");
+    assert_eq!(found.len(), 1, "{found:?}");
+    let mut labels: Vec<&str> = found[0]["markers"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .map(|m| m.as_str().unwrap())
+        .collect();
+    labels.sort_unstable();
+    let mut expected: Vec<&str> = swap.labels.iter().map(String::as_str).collect();
+    expected.sort_unstable();
+    assert_eq!(labels, expected);
+    let window = [swap.first_frame, swap.first_frame + swap.frames - 1];
+    assert_eq!(found[0]["frames"], serde_json::json!([window]));
+    let estimate = synth::score::read_estimate(&tmp.path("out").join("skeleton.json")).unwrap();
+    let score = synth::score::score(&truth, &estimate);
+    assert!(
+        (score.ari - 1.0).abs() < 1e-12 && score.topology_exact,
+        "{score}"
+    );
+    let stderr = String::from_utf8_lossy(&out.stderr);
+    assert!(stderr.contains("label swaps found and undone"), "{stderr}");
+}

@@ -211,6 +211,33 @@ pub fn findings(document: &export::SkeletonJson) -> Vec<String> {
             sliding,
         ));
     }
+    let swaps: Vec<String> = document
+        .label_swaps
+        .iter()
+        .map(|s| {
+            let frames: Vec<String> = s
+                .frames
+                .iter()
+                .map(|[a, b]| {
+                    let first = document.first_frame + *a as i64;
+                    let last = document.first_frame + *b as i64;
+                    format!("{first}–{last}")
+                })
+                .collect();
+            format!(
+                "{} ↔ {} in frames {}",
+                s.markers[0],
+                s.markers[1],
+                frames.join(", ")
+            )
+        })
+        .collect();
+    if !swaps.is_empty() {
+        out.push(listed(
+            "label swaps found and undone (trajectories exchanged; frames as in the capture)",
+            swaps,
+        ));
+    }
     if !document.detached_segments.is_empty() {
         out.push(format!(
             "segments not in the tree: {:?}",

@@ -33,6 +33,8 @@ pub fn run(
     topo: &Topology,
     params: &Params,
 ) -> Result<Skeleton, Error> {
+    let untangled = seg.untangle(traj);
+    let traj = untangled.as_ref();
     let frames = traj.frames();
     let segments = fits.poses.len();
     if seg.segments.len() != segments {

@@ -157,6 +157,7 @@ pub fn scene(frames: usize, rate: f64) -> Scene {
         tolerance_mm: 1.0,
         eigenvalues: Vec::new(),
         eigengap_segments: 4,
+        swaps: Vec::new(),
     };
 
     let topology = Topology {

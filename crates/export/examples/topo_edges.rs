@@ -65,17 +65,19 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
         trial.truth.segments.len(),
         topology.root_segment
     );
+    let name = |s: usize| truth_of[s].map_or("?", |t| trial.truth.segments[t].name.as_str());
     let mut pairs: Vec<&jointfit::PairFit> = fits.pairs.iter().collect();
     pairs.sort_by(|x, y| x.cost.total_cmp(&y.cost));
     println!(
-        "{:>3} {:>3} {:>10} {:>8} {:>5} {:>6} {:>7} {:>7} {:>8}  evidence",
-        "a", "b", "cost", "kind", "true", "chosen", "rot-rms", "resid", "frames"
+        "{:>3} {:>3} {:<25} {:>10} {:>8} {:>5} {:>6} {:>7} {:>7} {:>8}  evidence",
+        "a", "b", "true segments", "cost", "kind", "true", "chosen", "rot-rms", "resid", "frames"
     );
     for p in pairs.iter().take(3 * seg.segments.len()) {
         println!(
-            "{:>3} {:>3} {:>10.4} {:>8} {:>5} {:>6} {:>7.1} {:>7.2} {:>8}  {}",
+            "{:>3} {:>3} {:<25} {:>10.4} {:>8} {:>5} {:>6} {:>7.1} {:>7.2} {:>8}  {}",
             p.a,
             p.b,
+            format!("{}-{}", name(p.a), name(p.b)),
             p.cost,
             format!("{:?}", p.kind),
             true_edge(p.a, p.b),

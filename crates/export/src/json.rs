@@ -48,6 +48,19 @@ pub struct SkeletonJson {
     pub detached_segments: Vec<usize>,
     /// Remarks from the topology stage, in words.
     pub notes: Vec<String>,
+    /// Pairs of markers whose trajectories the capture had exchanged for a while (a
+    /// tracker confusing markers that pass close); every stage used them swapped back.
+    #[serde(default)]
+    pub label_swaps: Vec<LabelSwapJson>,
+}
+
+/// Two markers whose trajectories were exchanged, and when.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+pub struct LabelSwapJson {
+    /// The two markers' labels.
+    pub markers: [String; 2],
+    /// Frame index ranges `[first, last]` (0-based like `positions`, inclusive).
+    pub frames: Vec<[usize; 2]>,
 }
 
 /// One segment.
@@ -202,6 +215,20 @@ pub(crate) fn document(input: &Inputs<'_>) -> Result<SkeletonJson, Error> {
         .map(|u| label(u.marker, "the unassigned list"))
         .collect::<Result<Vec<_>, _>>()?;
 
+    let label_swaps = seg
+        .swaps
+        .iter()
+        .map(|s| {
+            Ok(LabelSwapJson {
+                markers: [
+                    label(s.markers[0], "a label swap")?,
+                    label(s.markers[1], "a label swap")?,
+                ],
+                frames: s.frames.clone(),
+            })
+        })
+        .collect::<Result<Vec<_>, Error>>()?;
+
     let mut joints = Vec::with_capacity(skel.joints.len());
     for j in &skel.joints {
         let pair = fits.pairs.get(j.pair).ok_or_else(|| {
@@ -320,6 +347,7 @@ pub(crate) fn document(input: &Inputs<'_>) -> Result<SkeletonJson, Error> {
         markers,
         detached_segments: input.topology.detached_segments.clone(),
         notes: input.topology.notes.clone(),
+        label_swaps,
     })
 }
 

@@ -25,7 +25,7 @@ mod json;
 mod tests;
 
 pub use error::Error;
-pub use json::{JointJson, MarkerJson, RootJson, SegmentJson, SkeletonJson};
+pub use json::{JointJson, LabelSwapJson, MarkerJson, RootJson, SegmentJson, SkeletonJson};
 
 use std::collections::BTreeMap;
 
@@ -35,7 +35,7 @@ use serde::{Deserialize, Serialize};
 pub const STAGE: &str = "export";
 
 /// Schema version of [`Outputs`] and of skeleton.json's layout; bump when either changes.
-pub const SCHEMA_VERSION: u32 = 1;
+pub const SCHEMA_VERSION: u32 = 2;
 
 /// Everything the files are made from.
 #[derive(Clone, Copy, Debug)]

@@ -66,7 +66,7 @@ pub fn run(
         }
         segments.push(s.markers.clone());
     }
-    run_on_segments(traj, &segments, params)
+    run_on_segments(&seg.untangle(traj), &segments, params)
 }
 
 /// [`run`] on bare marker lists: `segments[id]` = marker indices of segment `id` (for

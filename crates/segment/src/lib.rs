@@ -46,6 +46,7 @@ mod reassign;
 mod rigidity;
 mod segmentation;
 mod spectral;
+mod swaps;
 #[cfg(test)]
 mod tests;
 #[cfg(test)]
@@ -66,6 +67,16 @@ pub const STAGE: &str = "segment";
 
 /// Groups the capture's markers into rigid segments (see the crate docs).
 pub fn run(traj: &Trajectories, params: &Params) -> Result<Segmentation, Error> {
+    segment_capture(traj, params, params.repair_swaps)
+}
+
+/// [`run`], looking for label swaps when `find_swaps`: when there are any, the capture is
+/// segmented again with them undone (and not looked for again).
+fn segment_capture(
+    traj: &Trajectories,
+    params: &Params,
+    find_swaps: bool,
+) -> Result<Segmentation, Error> {
     params.validate()?;
     let (frames, markers) = (traj.frames(), traj.markers());
     if frames == 0 || markers == 0 {
@@ -252,6 +263,24 @@ pub fn run(traj: &Trajectories, params: &Params) -> Result<Segmentation, Error> 
         rigidity::normalise(&mut clusters);
     }
 
+    if find_swaps {
+        // A swap's bound is a typical segment's hold on its markers, as for pair_hold.
+        let hold_mm = params.pair_hold.max(1.0)
+            * typical_sigma(traj, &clusters, &mut sigma_memo).max(params.tolerance_min_mm);
+        let found = swaps::find_swaps(traj, &clusters, hold_mm, reassign::stride_of(traj));
+        if !found.is_empty() {
+            let swaps: Vec<LabelSwap> = found
+                .into_iter()
+                .map(|s| LabelSwap {
+                    markers: s.markers,
+                    frames: s.windows,
+                })
+                .collect();
+            let mut again = segment_capture(&untangle(traj, &swaps), params, false)?;
+            again.swaps = swaps;
+            return Ok(again);
+        }
+    }
     // Groups too small to be a segment: their markers are unassigned, with what we saw;
     // except a lone marker with a steady partner across a joint (see `singleton_steady_factor`).
     let singleton_bound = params.singleton_steady_factor * tolerance_mm;
@@ -279,15 +308,16 @@ pub fn run(traj: &Trajectories, params: &Params) -> Result<Segmentation, Error> 
         .enumerate()
         .map(|(id, markers)| Segment { id, markers })
         .collect();
-    let diagnostics = marker_diagnostics(&stats, &segments, params);
+    let markers = marker_diagnostics(&stats, &segments, params);
     Ok(Segmentation {
         segments,
         unassigned,
-        markers: diagnostics,
+        markers,
         noise_mm,
         tolerance_mm,
         eigenvalues,
         eigengap_segments,
+        swaps: Vec::new(),
     })
 }
 

@@ -115,6 +115,8 @@ pub struct Params {
     pub joint_merge_z: f64,
     /// A two-marker cluster dissolves when two different other bodies hold its markers (a one-marker cluster when one does) within this × the typical fit σ; 0 = off.
     pub pair_hold: f64,
+    /// Find label swaps (two markers' trajectories exchanged for a while), undo them and segment again.
+    pub repair_swaps: bool,
 }
 
 impl Default for Params {
@@ -155,6 +157,7 @@ impl Default for Params {
             eject_ratio: 8.0,
             joint_merge_z: 3.0,
             pair_hold: 3.0,
+            repair_swaps: true,
         }
     }
 }
@@ -282,6 +285,10 @@ pub const PARAM_DOCS: &[(&str, &str)] = &[
     (
         "pair_hold",
         "after the rigid merge, a two-marker cluster whose markers are held by two different other clusters' bodies (≥ 3 markers each) within this × the typical segment fit σ (and tolerance_min_mm) dissolves, each marker joining the body that holds it: two markers near one joint axis, one per side, keep a steady distance and pair up although each moves with its own segment. A pair one body holds both of stays: it may be a segment that moved little against that body (Gait.trc's ASIS pair on the trunk, MACsample's heel and toe on the shank, arthuman's labelled bodies), and a true two-marker segment has a marker no other body holds (CMU's THI, SHN). A one-marker cluster a body holds within the same bound joins it (a trajectory swapped or glitching in a minority of frames; Sample_Jump2's virtual hip point VLHI joins its virtual pelvis); cargo xtask eval --presets swap on seeds 9001,9002,1001,1002,7001,7002: 25 -> 29/36 exact, 0.70 -> 0.58 %; 3001-3004: 17 -> 18/24. eval_segment 480, seeds 3001-3006, 5001, 5002: swap exact 23 -> 38/48, skin 19 -> 21, noise 47 -> 48, hard/clean/gaps unchanged; cargo xtask eval --presets swap --seeds 1001,1002: topology 6 -> 10/12; every real capture's segmentation unchanged; 0 = off; default 3.0",
+    ),
+    (
+        "repair_swaps",
+        "look for label swaps on the finished segmentation: two markers of different segments whose distances to their segment-mates (to a nearby cluster's markers, for a marker left in a group of one or two) leave their usual values in the same minority of frames, and in those frames each sits at the other's usual distances from the other's segment (within max(pair_hold, 1) × the typical segment fit σ, at least tolerance_min_mm; ≥ 3 such frames, ≥ 90 % of frames explained either way). Each swap is undone, the capture segmented again, and the swaps listed in the artifact and skeleton.json (label_swaps); jointfit and bonefit read the trajectories with them undone. cargo xtask eval --presets swap on seeds 9001,9002,1001,1002,7001,7002,4001,4002: topology 39 -> 45/48; default true",
     ),
     (
         "eject_ratio",

@@ -136,7 +136,7 @@ fn leverage(shape: &[[f64; 3]], x: [f64; 3]) -> f64 {
 }
 
 /// Frames used: every `stride`-th.
-fn stride_of(traj: &Trajectories) -> usize {
+pub(crate) fn stride_of(traj: &Trajectories) -> usize {
     traj.frames().div_ceil(MAX_FRAMES).max(1)
 }
 
@@ -453,6 +453,7 @@ pub(crate) fn dissolve_small_clusters(
                     c,
                     stride,
                     HOLDER_CANDIDATES,
+                    3,
                 ));
             }
         }
@@ -525,21 +526,22 @@ pub(crate) fn dissolve_small_clusters(
 /// Clusters [`dissolve_small_clusters`] poses as possible holders of each lone or paired marker.
 const HOLDER_CANDIDATES: usize = 3;
 
-/// Up to `k` clusters of ≥ 3 markers other than `own`, nearest marker `m` in space: by the
-/// mean over strided frames of the distance from `m` to the cluster's nearest visible
-/// marker.
-fn nearest_clusters(
+/// Up to `k` clusters of ≥ `min_size` markers other than `own`, nearest marker `m` in
+/// space: by the mean over strided frames of the distance from `m` to the cluster's
+/// nearest visible marker.
+pub(crate) fn nearest_clusters(
     traj: &Trajectories,
     clusters: &[Vec<usize>],
     m: usize,
     own: usize,
     stride: usize,
     k: usize,
+    min_size: usize,
 ) -> Vec<usize> {
     let mut ranked: Vec<(f64, usize)> = clusters
         .iter()
         .enumerate()
-        .filter(|&(d, c)| d != own && c.len() >= 3)
+        .filter(|&(d, c)| d != own && c.len() >= min_size)
         .filter_map(|(d, c)| {
             let (mut sum, mut count) = (0.0, 0usize);
             for f in (0..traj.frames()).step_by(stride) {

@@ -1,9 +1,12 @@
 //! The segment stage's artifact: which markers move rigidly together.
 
+use std::borrow::Cow;
+
+use mocap_io::Trajectories;
 use serde::{Deserialize, Serialize};
 
 /// Schema version of [`Segmentation`]; bump when its fields or the algorithm's output change.
-pub const SCHEMA_VERSION: u32 = 7;
+pub const SCHEMA_VERSION: u32 = 8;
 
 /// The rigid segments found in a capture.
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
@@ -22,6 +25,60 @@ pub struct Segmentation {
     pub eigenvalues: Vec<f64>,
     /// Cluster count spectral clustering chose (eigen-gap or forced), before the rigidity check; 0 for cliques.
     pub eigengap_segments: usize,
+    /// Pairs of markers whose trajectories the capture has exchanged for a while; later
+    /// stages read the trajectories through [`Segmentation::untangle`].
+    #[serde(default)]
+    pub swaps: Vec<LabelSwap>,
+}
+
+/// Two markers of different segments whose trajectories were exchanged (a tracker
+/// confuses markers that pass close to each other), and when.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+pub struct LabelSwap {
+    /// The two marker indices into the capture's labels.
+    pub markers: [usize; 2],
+    /// Frame index ranges `[first, last]` (0-based, inclusive) where each marker's
+    /// trajectory holds the other's.
+    pub frames: Vec<[usize; 2]>,
+}
+
+impl Segmentation {
+    /// The capture's trajectories with every label swap undone: borrowed unchanged when
+    /// there is none.
+    pub fn untangle<'a>(&self, traj: &'a Trajectories) -> Cow<'a, Trajectories> {
+        if self.swaps.is_empty() {
+            Cow::Borrowed(traj)
+        } else {
+            Cow::Owned(untangle(traj, &self.swaps))
+        }
+    }
+}
+
+/// `traj` with the trajectories of each swap's two markers exchanged back in its frames;
+/// markers or frames out of range are left alone.
+pub fn untangle(traj: &Trajectories, swaps: &[LabelSwap]) -> Trajectories {
+    let n = traj.labels().len();
+    let mut positions = traj.positions().to_vec();
+    for swap in swaps {
+        let [a, b] = swap.markers;
+        if a >= n || b >= n {
+            continue;
+        }
+        for &[first, last] in &swap.frames {
+            for f in first..=last.min(traj.frames().saturating_sub(1)) {
+                positions.swap(f * n + a, f * n + b);
+            }
+        }
+    }
+    // The same samples rearranged: valid wherever the input was.
+    Trajectories::new(
+        traj.labels().to_vec(),
+        traj.frame_rate(),
+        traj.first_frame(),
+        traj.frames(),
+        positions,
+    )
+    .unwrap_or_else(|_| traj.clone())
 }
 
 /// A set of markers that move as one rigid body.

@@ -407,7 +407,8 @@ fn ari(a: &[usize], b: &[usize]) -> f64 {
     }
 }
 
-/// Segmentation of a synthetic trial against its truth: (ARI, exact partition).
+/// Segmentation of a synthetic trial against its truth: (ARI, exact partition); no label
+/// swap may be reported where the trial has none.
 fn score_on_synth(subject: synth::Subject, preset: synth::Preset, seed: u64) -> (f64, bool) {
     let config = synth::SynthConfig {
         subject,
@@ -435,6 +436,14 @@ fn score_on_synth(subject: synth::Subject, preset: synth::Preset, seed: u64) -> 
         .collect();
     truth_parts.sort();
     let seg = run(traj, &Params::default()).expect("segments");
+    if trial.truth.swaps.is_empty() {
+        assert!(
+            seg.swaps.is_empty(),
+            "{}: swaps {:?}",
+            trial.truth.name,
+            seg.swaps
+        );
+    }
     let mut truth = vec![usize::MAX; traj.markers()];
     for (s, part) in truth_parts.iter().enumerate() {
         part.iter().for_each(|&m| truth[m] = s);
@@ -483,6 +492,75 @@ fn hard_synthetic_subjects_are_segmented_closely() {
     }
     let mean = scores.iter().sum::<f64>() / scores.len() as f64;
     assert!(mean > 0.8, "mean ARI {mean:.3}: {scores:?}");
+}
+
+/// Every label swap of the `swap` preset is found with its exact frames and undone: the
+/// segments are the truth's (subjects whose swapped markers can leave homes of two).
+#[test]
+fn label_swaps_are_found_with_their_frames() {
+    for subject in [
+        synth::Subject::Human,
+        synth::Subject::Quadruped,
+        synth::Subject::Snowman,
+        synth::Subject::Robotarm,
+    ] {
+        for seed in [51, 52] {
+            let config = synth::SynthConfig {
+                subject,
+                preset: synth::Preset::Swap,
+                seed,
+                ..synth::SynthConfig::default()
+            };
+            let trial = synth::generate(&config).expect("synthetic trial");
+            let traj = &trial.trajectories;
+            let seg = run(traj, &Params::default()).expect("segments");
+            let index = |label: &str| traj.labels().iter().position(|l| l == label).unwrap();
+            let expected: Vec<([usize; 2], Vec<[usize; 2]>)> = trial
+                .truth
+                .swaps
+                .iter()
+                .map(|s| {
+                    let mut pair = [index(&s.labels[0]), index(&s.labels[1])];
+                    pair.sort_unstable();
+                    (pair, vec![[s.first_frame, s.first_frame + s.frames - 1]])
+                })
+                .collect();
+            let found: Vec<([usize; 2], Vec<[usize; 2]>)> = seg
+                .swaps
+                .iter()
+                .map(|s| {
+                    let mut pair = s.markers;
+                    pair.sort_unstable();
+                    (pair, s.frames.clone())
+                })
+                .collect();
+            assert_eq!(found, expected, "{}", trial.truth.name);
+            let (score, exact) = score_on_synth(subject, synth::Preset::Swap, seed);
+            assert!(exact, "{}: ARI {score:.3}", trial.truth.name);
+        }
+    }
+}
+
+/// Undoing a swap exchanges the two trajectories back in its frames only.
+#[test]
+fn untangle_exchanges_the_swapped_frames_back() {
+    let labels: Vec<String> = ["A", "B", "C"].iter().map(|s| s.to_string()).collect();
+    let positions: Vec<[f64; 3]> = (0..4)
+        .flat_map(|f| (0..3).map(move |m| [f as f64, m as f64, 0.0]))
+        .collect();
+    let traj = Trajectories::new(labels, 100.0, 1, 4, positions).unwrap();
+    let swaps = [LabelSwap {
+        markers: [0, 2],
+        frames: vec![[1, 2]],
+    }];
+    let fixed = crate::untangle(&traj, &swaps);
+    for f in 0..4 {
+        let swapped = (1..=2).contains(&f);
+        let (a, c) = if swapped { (2.0, 0.0) } else { (0.0, 2.0) };
+        assert_eq!(fixed.get(f, 0), Some([f as f64, a, 0.0]));
+        assert_eq!(fixed.get(f, 1), Some([f as f64, 1.0, 0.0]));
+        assert_eq!(fixed.get(f, 2), Some([f as f64, c, 0.0]));
+    }
 }
 
 /// CMU 02_01 segmented with the defaults; `None` (the test says it skipped) without the

@@ -315,6 +315,7 @@ mod tests {
             tolerance_mm: 1.0,
             eigenvalues: Vec::new(),
             eigengap_segments: 0,
+            swaps: Vec::new(),
         }
     }
 

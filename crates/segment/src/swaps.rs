@@ -1,0 +1,263 @@
+//! Label swaps: two markers of different segments whose trajectories a tracker exchanged
+//! for a while (it confuses markers that pass close to each other).
+//!
+//! A swapped marker spends the swap where its partner belongs, so distance statistics (ρ
+//! over every frame) can set it apart from its segment, pair it with a stranger, or leave
+//! a home too small to pose. Found on a first segmentation, a swap is undone and the
+//! capture segmented again (`segment::run`), so every stage sees the markers as they were.
+//!
+//! A suspect is a marker whose distances to its segment-mates (for a marker in a group of
+//! one or two, to a nearby cluster's markers) leave their usual values in a minority of
+//! frames. Two suspects of different homes, away in the same frames, are a swap when in
+//! those frames each sits where the other belongs, at its partner's usual distances from
+//! the partner's home. A steady triangle alone is no proof (a marker near a knee's axis
+//! keeps its distances to both the thigh's and the shank's markers); the exchange is.
+
+use mocap_io::Trajectories;
+
+use crate::fitsplit::median;
+use crate::reassign::nearest_clusters;
+
+/// Clusters searched as a swapped marker's home, nearest first.
+const HOME_CANDIDATES: usize = 3;
+
+/// Share of the frames both markers are seen in that must be explained (at home or swapped).
+const MIN_EXPLAINED: f64 = 0.9;
+
+/// Fewest swapped frames that prove a swap (fewer can be two markers passing close).
+const MIN_SWAPPED_FRAMES: usize = 3;
+
+/// Swapped runs this many frames apart or closer are reported as one window, as are runs
+/// apart only by frames that fit both ways (the two markers close together) or are unseen.
+const WINDOW_MERGE_FRAMES: usize = 5;
+
+/// Two markers found exchanged, and when.
+#[derive(Clone, Debug, PartialEq)]
+pub(crate) struct SwapFound {
+    /// The two marker indices.
+    pub markers: [usize; 2],
+    /// Frame ranges `[first, last]` (0-based, inclusive) where they were exchanged.
+    pub windows: Vec<[usize; 2]>,
+}
+
+/// Every label swap among the markers of `clusters` (a segmentation before small groups
+/// are dropped), within `hold_mm` (RMS change of a marker's distances to its home's markers
+/// from their medians); each marker in at most one.
+pub(crate) fn find_swaps(
+    traj: &Trajectories,
+    clusters: &[Vec<usize>],
+    hold_mm: f64,
+    stride: usize,
+) -> Vec<SwapFound> {
+    let mut suspects: Vec<Suspect> = Vec::new();
+    for (c, cluster) in clusters.iter().enumerate() {
+        for &m in cluster {
+            if cluster.len() >= 3 {
+                let mates: Vec<usize> = cluster.iter().copied().filter(|&x| x != m).collect();
+                suspects.extend(Suspect::new(traj, m, c, mates, hold_mm, stride));
+            } else {
+                for h in nearest_clusters(traj, clusters, m, c, stride, HOME_CANDIDATES, 2) {
+                    let home = clusters[h].clone();
+                    suspects.extend(Suspect::new(traj, m, h, home, hold_mm, stride));
+                }
+            }
+        }
+    }
+    // Pairs of suspects away from different homes in the same frames, most shared first.
+    let mut pairs: Vec<(usize, usize, usize)> = Vec::new();
+    for (i, x) in suspects.iter().enumerate() {
+        for (j, y) in suspects.iter().enumerate().skip(i + 1) {
+            if x.marker == y.marker || x.home_cluster == y.home_cluster {
+                continue;
+            }
+            let shared = sorted_overlap(&x.away, &y.away);
+            if 2 * shared >= x.away.len().min(y.away.len()) {
+                pairs.push((shared, i, j));
+            }
+        }
+    }
+    pairs.sort_by(|x, y| y.0.cmp(&x.0).then(x.1.cmp(&y.1)).then(x.2.cmp(&y.2)));
+    let mut found: Vec<SwapFound> = Vec::new();
+    for (_, i, j) in pairs {
+        let (x, y) = (&suspects[i], &suspects[j]);
+        if found
+            .iter()
+            .any(|s| s.markers.contains(&x.marker) || s.markers.contains(&y.marker))
+        {
+            continue;
+        }
+        let test = swap_test(
+            traj,
+            (x.marker, &x.home),
+            (y.marker, &y.home),
+            hold_mm,
+            stride,
+        );
+        if let Some(windows) = test {
+            found.push(SwapFound {
+                markers: [x.marker, y.marker],
+                windows,
+            });
+        }
+    }
+    found
+}
+
+/// A marker that leaves its usual distances to a home's markers in a minority of frames.
+struct Suspect {
+    marker: usize,
+    /// Index of the home's cluster.
+    home_cluster: usize,
+    /// The home's markers (without `marker`).
+    home: Vec<usize>,
+    /// Frames (ascending, strided) where it is farther than the bound from its usual
+    /// distances.
+    away: Vec<usize>,
+}
+
+impl Suspect {
+    fn new(
+        traj: &Trajectories,
+        marker: usize,
+        home_cluster: usize,
+        home: Vec<usize>,
+        hold_mm: f64,
+        stride: usize,
+    ) -> Option<Self> {
+        let distances = Distances::new(traj, marker, &home, stride);
+        let (mut seen, mut away) = (0usize, Vec::new());
+        for f in (0..traj.frames()).step_by(stride) {
+            let Some(change) = distances.change(traj, f, marker) else {
+                continue;
+            };
+            seen += 1;
+            if change > hold_mm {
+                away.push(f);
+            }
+        }
+        (away.len() >= MIN_SWAPPED_FRAMES && 2 * away.len() < seen).then_some(Self {
+            marker,
+            home_cluster,
+            home,
+            away,
+        })
+    }
+}
+
+/// How many values two ascending lists share.
+fn sorted_overlap(x: &[usize], y: &[usize]) -> usize {
+    let (mut i, mut j, mut n) = (0, 0, 0);
+    while i < x.len() && j < y.len() {
+        match x[i].cmp(&y[j]) {
+            std::cmp::Ordering::Less => i += 1,
+            std::cmp::Ordering::Greater => j += 1,
+            std::cmp::Ordering::Equal => {
+                n += 1;
+                i += 1;
+                j += 1;
+            }
+        }
+    }
+    n
+}
+
+/// A marker's usual distances to a set of markers (medians over the strided frames both
+/// are seen in: a swap is a minority of frames).
+struct Distances<'a> {
+    home: &'a [usize],
+    usual: Vec<Option<f64>>,
+}
+
+impl<'a> Distances<'a> {
+    fn new(traj: &Trajectories, m: usize, home: &'a [usize], stride: usize) -> Self {
+        let usual = home
+            .iter()
+            .map(|&h| {
+                let mut d: Vec<f64> = (0..traj.frames())
+                    .step_by(stride)
+                    .filter_map(|f| distance(traj, f, m, h))
+                    .collect();
+                (!d.is_empty()).then(|| median(&mut d))
+            })
+            .collect();
+        Self { home, usual }
+    }
+
+    /// RMS change (mm) of `m`'s distances to the home's markers from these usual ones in
+    /// frame `f`, over ≥ 2 visible home markers.
+    fn change(&self, traj: &Trajectories, f: usize, m: usize) -> Option<f64> {
+        let (mut sum, mut n) = (0.0, 0usize);
+        for (&h, r) in self.home.iter().zip(&self.usual) {
+            if let (Some(d), Some(r)) = (distance(traj, f, m, h), r) {
+                sum += (d - r).powi(2);
+                n += 1;
+            }
+        }
+        (n >= 2).then(|| (sum / n as f64).sqrt())
+    }
+}
+
+/// Distance (mm) between markers `m` and `h` in frame `f`, when both are seen.
+fn distance(traj: &Trajectories, f: usize, m: usize, h: usize) -> Option<f64> {
+    let (p, q) = (traj.get(f, m)?, traj.get(f, h)?);
+    Some(((p[0] - q[0]).powi(2) + (p[1] - q[1]).powi(2) + (p[2] - q[2]).powi(2)).sqrt())
+}
+
+/// Whether markers `a` (home `home_a`) and `b` (home `home_b`) are a swap: each at its
+/// home's distances in most frames, each at the other's home's distances for the other
+/// in the rest. Returns the swap windows.
+fn swap_test(
+    traj: &Trajectories,
+    (a, home_a): (usize, &[usize]),
+    (b, home_b): (usize, &[usize]),
+    hold_mm: f64,
+    stride: usize,
+) -> Option<Vec<[usize; 2]>> {
+    let (usual_a, usual_b) = (
+        Distances::new(traj, a, home_a, stride),
+        Distances::new(traj, b, home_b, stride),
+    );
+    let (mut seen, mut at_home, mut swapped) = (0usize, 0usize, 0usize);
+    let mut windows: Vec<[usize; 2]> = Vec::new();
+    // Frames since the last swapped one that fit the swap as well as home (the two close
+    // together) or are not seen: they do not end a swap window.
+    let mut bridge_from = None;
+    for f in 0..traj.frames() {
+        // At its partner's place, a marker is at the partner's usual distances.
+        let (Some(ha), Some(hb), Some(xa), Some(xb)) = (
+            usual_a.change(traj, f, a),
+            usual_b.change(traj, f, b),
+            usual_b.change(traj, f, a),
+            usual_a.change(traj, f, b),
+        ) else {
+            continue;
+        };
+        seen += 1;
+        let home = ha <= hold_mm && hb <= hold_mm;
+        let exchanged = xa <= hold_mm && xb <= hold_mm;
+        if home {
+            at_home += 1;
+        } else if exchanged {
+            swapped += 1;
+        }
+        match (home, exchanged) {
+            (false, true) => {
+                match windows.last_mut() {
+                    Some(w) if bridge_from.is_some() || f <= w[1] + WINDOW_MERGE_FRAMES + 1 => {
+                        w[1] = f;
+                    }
+                    _ => windows.push([f, f]),
+                }
+                bridge_from = Some(f);
+            }
+            (true, true) => {}
+            _ => bridge_from = None,
+        }
+    }
+    let explained = (at_home + swapped) as f64 / seen.max(1) as f64;
+    let proven = swapped >= MIN_SWAPPED_FRAMES && at_home > swapped && explained >= MIN_EXPLAINED;
+    if !proven {
+        return None;
+    }
+    Some(windows)
+}
