@@ -31,8 +31,8 @@
 use glam::DVec3;
 
 use crate::fit::joint_positions;
-use crate::pairfits::{JointKind, PairFits};
-use crate::poses::pose_track;
+use crate::pairfits::{JointKind, PairFit, PairFits};
+use crate::poses::{Pose, pose_track};
 
 /// Moves every hinge centre of the tree along its axis (see the module docs) and
 /// recomputes its `centre_in_a`, `centre_in_b` and `positions`.
@@ -160,20 +160,38 @@ pub fn place_hinge_centres(fits: &mut PairFits, edges: &[(usize, usize, usize)])
             continue;
         }
         shifts[e] = shift;
-        let fit = &mut fits.pairs[pair];
-        let (Some(ua), Some(ub)) = (fit.axis_in_a, fit.axis_in_b) else {
-            continue;
-        };
-        let c_a = DVec3::from_array(fit.centre_in_a) + shift * DVec3::from_array(ua);
-        let c_b = DVec3::from_array(fit.centre_in_b) + shift * DVec3::from_array(ub);
-        fit.centre_in_a = c_a.to_array();
-        fit.centre_in_b = c_b.to_array();
-        fit.positions = joint_positions(c_a, c_b, &tracks[fit.a], &tracks[fit.b]);
-        fit.evidence.push_str(&format!(
-            "; centre moved {shift:.1} mm along the hinge axis toward the adjacent joints"
-        ));
+        slide_along_axis(
+            &mut fits.pairs[pair],
+            shift,
+            &tracks,
+            "toward the adjacent joints",
+        );
     }
     shifts
+}
+
+/// Moves a hinge's centre `shift` mm along its (unit) axis in both segments, recomputes
+/// its positions from the segments' `tracks` and says why in its evidence; false (nothing
+/// changed) when the fit has no axis.
+fn slide_along_axis(
+    fit: &mut PairFit,
+    shift: f64,
+    tracks: &[Vec<Option<Pose>>],
+    why: &str,
+) -> bool {
+    let unit = |u: Option<[f64; 3]>| u.and_then(|u| DVec3::from_array(u).try_normalize());
+    let (Some(ua), Some(ub)) = (unit(fit.axis_in_a), unit(fit.axis_in_b)) else {
+        return false;
+    };
+    let c_a = DVec3::from_array(fit.centre_in_a) + shift * ua;
+    let c_b = DVec3::from_array(fit.centre_in_b) + shift * ub;
+    fit.centre_in_a = c_a.to_array();
+    fit.centre_in_b = c_b.to_array();
+    fit.positions = joint_positions(c_a, c_b, &tracks[fit.a], &tracks[fit.b]);
+    fit.evidence.push_str(&format!(
+        "; centre moved {shift:.1} mm along the hinge axis {why}"
+    ));
+    true
 }
 
 /// Scale (mm) below which two joints count as one point in [`place_hinge_centres`]'s
@@ -492,24 +510,14 @@ pub fn place_hinges_across_bones(fits: &mut PairFits, edges: &[(usize, usize, us
         if !shift.is_finite() || shift == 0.0 {
             continue;
         }
-        let fit = &mut fits.pairs[pair];
-        let (Some(ua), Some(ub)) = (
-            fit.axis_in_a
-                .and_then(|u| DVec3::from_array(u).try_normalize()),
-            fit.axis_in_b
-                .and_then(|u| DVec3::from_array(u).try_normalize()),
-        ) else {
-            continue;
-        };
-        shifts[e] = shift;
-        let c_a = DVec3::from_array(fit.centre_in_a) + shift * ua;
-        let c_b = DVec3::from_array(fit.centre_in_b) + shift * ub;
-        fit.centre_in_a = c_a.to_array();
-        fit.centre_in_b = c_b.to_array();
-        fit.positions = joint_positions(c_a, c_b, &tracks[fit.a], &tracks[fit.b]);
-        fit.evidence.push_str(&format!(
-            "; centre moved {shift:.1} mm along the hinge axis to where it crosses a bone squarely"
-        ));
+        if slide_along_axis(
+            &mut fits.pairs[pair],
+            shift,
+            &tracks,
+            "to where it crosses a bone squarely",
+        ) {
+            shifts[e] = shift;
+        }
     }
     shifts
 }
