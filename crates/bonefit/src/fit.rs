@@ -33,6 +33,7 @@ pub fn run(
     topo: &Topology,
     params: &Params,
 ) -> Result<Skeleton, Error> {
+    // The markers as they were, where the capture had exchanged two.
     let untangled = seg.untangle(traj);
     let traj = untangled.as_ref();
     let frames = traj.frames();

@@ -53,7 +53,8 @@ use rayon::prelude::*;
 pub const STAGE: &str = "jointfit";
 
 /// Runs the stage: poses of every segment, then every pair's joint fit (in parallel;
-/// each pair is computed serially, so the output does not depend on the thread count).
+/// each pair is computed serially, so the output does not depend on the thread count),
+/// on the trajectories with the segmentation's label swaps undone.
 pub fn run(
     traj: &Trajectories,
     seg: &segment::Segmentation,

@@ -26,7 +26,9 @@
 //! `jointsplit`); neighbours that move as one rigid body merge (`joint_merge_z`); a marker
 //! no body holds leaves its cluster (`eject_ratio`); a two-marker cluster whose markers
 //! two different bodies hold dissolves into them, a lone marker a body holds joins it
-//! (`pair_hold`).
+//! (`pair_hold`). Last, label swaps (two markers' trajectories exchanged for a while; see
+//! `swaps`) are looked for on the result; any found are undone and the capture segmented
+//! again, and listed in [`Segmentation::swaps`] (`repair_swaps`).
 //! Or agglomeration alone (`method = "linkage"`) or rigid cliques (`method = "cliques"`).
 //!
 //! It does not estimate poses, joints or topology (jointfit, topo) and does no I/O.
@@ -267,15 +269,8 @@ fn segment_capture(
         // A swap's bound is a typical segment's hold on its markers, as for pair_hold.
         let hold_mm = params.pair_hold.max(1.0)
             * typical_sigma(traj, &clusters, &mut sigma_memo).max(params.tolerance_min_mm);
-        let found = swaps::find_swaps(traj, &clusters, hold_mm, reassign::stride_of(traj));
-        if !found.is_empty() {
-            let swaps: Vec<LabelSwap> = found
-                .into_iter()
-                .map(|s| LabelSwap {
-                    markers: s.markers,
-                    frames: s.windows,
-                })
-                .collect();
+        let swaps = swaps::find_swaps(traj, &clusters, hold_mm, reassign::stride_of(traj));
+        if !swaps.is_empty() {
             let mut again = segment_capture(&untangle(traj, &swaps), params, false)?;
             again.swaps = swaps;
             return Ok(again);

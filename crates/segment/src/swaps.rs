@@ -17,6 +17,7 @@ use mocap_io::Trajectories;
 
 use crate::fitsplit::median;
 use crate::reassign::nearest_clusters;
+use crate::segmentation::LabelSwap;
 
 /// Clusters searched as a swapped marker's home, nearest first.
 const HOME_CANDIDATES: usize = 3;
@@ -31,15 +32,6 @@ const MIN_SWAPPED_FRAMES: usize = 3;
 /// apart only by frames that fit both ways (the two markers close together) or are unseen.
 const WINDOW_MERGE_FRAMES: usize = 5;
 
-/// Two markers found exchanged, and when.
-#[derive(Clone, Debug, PartialEq)]
-pub(crate) struct SwapFound {
-    /// The two marker indices.
-    pub markers: [usize; 2],
-    /// Frame ranges `[first, last]` (0-based, inclusive) where they were exchanged.
-    pub windows: Vec<[usize; 2]>,
-}
-
 /// Every label swap among the markers of `clusters` (a segmentation before small groups
 /// are dropped), within `hold_mm` (RMS change of a marker's distances to its home's markers
 /// from their medians); each marker in at most one.
@@ -48,7 +40,7 @@ pub(crate) fn find_swaps(
     clusters: &[Vec<usize>],
     hold_mm: f64,
     stride: usize,
-) -> Vec<SwapFound> {
+) -> Vec<LabelSwap> {
     let mut suspects: Vec<Suspect> = Vec::new();
     for (c, cluster) in clusters.iter().enumerate() {
         for &m in cluster {
@@ -77,7 +69,7 @@ pub(crate) fn find_swaps(
         }
     }
     pairs.sort_by(|x, y| y.0.cmp(&x.0).then(x.1.cmp(&y.1)).then(x.2.cmp(&y.2)));
-    let mut found: Vec<SwapFound> = Vec::new();
+    let mut found: Vec<LabelSwap> = Vec::new();
     for (_, i, j) in pairs {
         let (x, y) = (&suspects[i], &suspects[j]);
         if found
@@ -94,9 +86,9 @@ pub(crate) fn find_swaps(
             stride,
         );
         if let Some(windows) = test {
-            found.push(SwapFound {
+            found.push(LabelSwap {
                 markers: [x.marker, y.marker],
-                windows,
+                frames: windows,
             });
         }
     }
