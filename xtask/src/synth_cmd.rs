@@ -11,7 +11,7 @@ pub struct Args {
     /// Subject: human, quadruped, robotarm, snowman, hexapod, random.
     #[arg(long, default_value = "human")]
     pub subject: String,
-    /// Degradation: clean, noise, skin, gaps, swap, hard.
+    /// Degradation: clean, noise, skin, gaps, swap, hard (noise + skin + gaps), messy (hard + swap).
     #[arg(long, default_value = "clean")]
     pub preset: String,
     /// Number of frames [default: the generator's, 240].

@@ -28,8 +28,12 @@ const MIN_EXPLAINED: f64 = 0.9;
 /// Fewest swapped frames that prove a swap (fewer can be two markers passing close).
 const MIN_SWAPPED_FRAMES: usize = 3;
 
-/// Swapped runs this many frames apart or closer are reported as one window, as are runs
-/// apart only by frames that fit both ways (the two markers close together) or are unseen.
+/// A marker's own bound: this many times the median change of its distances from their
+/// usual values (a marker skin moves a lot is judged by its own scatter).
+const OWN_BOUND_FACTOR: f64 = 3.0;
+
+/// Swapped runs apart by this many seen frames that home explains better, or fewer, are
+/// one window (a frame or two where the two markers pass close can go either way).
 const WINDOW_MERGE_FRAMES: usize = 5;
 
 /// Every label swap among the markers of `clusters` (a segmentation before small groups
@@ -209,47 +213,95 @@ fn swap_test(
         Distances::new(traj, a, home_a, stride),
         Distances::new(traj, b, home_b, stride),
     );
-    let (mut seen, mut at_home, mut swapped) = (0usize, 0usize, 0usize);
-    let mut windows: Vec<[usize; 2]> = Vec::new();
-    // Frames since the last swapped one that fit the swap as well as home (the two close
-    // together) or are not seen: they do not end a swap window.
-    let mut bridge_from = None;
-    for f in 0..traj.frames() {
-        // At its partner's place, a marker is at the partner's usual distances.
-        let (Some(ha), Some(hb), Some(xa), Some(xb)) = (
-            usual_a.change(traj, f, a),
-            usual_b.change(traj, f, b),
-            usual_b.change(traj, f, a),
-            usual_a.change(traj, f, b),
-        ) else {
-            continue;
-        };
-        seen += 1;
-        let home = ha <= hold_mm && hb <= hold_mm;
-        let exchanged = xa <= hold_mm && xb <= hold_mm;
-        if home {
+    // Per seen frame: how far each marker is from its home's usual distances, and from
+    // its partner's home's usual distances for the partner (at its partner's place, a
+    // marker is at the partner's usual distances).
+    let changes: Vec<(usize, [Option<f64>; 4])> = (0..traj.frames())
+        .map(|f| {
+            (
+                f,
+                [
+                    usual_a.change(traj, f, a),
+                    usual_b.change(traj, f, b),
+                    usual_b.change(traj, f, a),
+                    usual_a.change(traj, f, b),
+                ],
+            )
+        })
+        .collect();
+    // Frames where both markers are judged, for the proof.
+    let both: Vec<[f64; 4]> = changes
+        .iter()
+        .filter_map(|(_, c)| Some([c[0]?, c[1]?, c[2]?, c[3]?]))
+        .collect();
+    // Skin moves some markers more than others: each marker is held within its own usual
+    // change, if that is looser than the common bound.
+    let own_bound = |i: usize| {
+        let mut v: Vec<f64> = both.iter().map(|c| c[i]).collect();
+        if v.is_empty() {
+            hold_mm
+        } else {
+            (OWN_BOUND_FACTOR * median(&mut v)).max(hold_mm)
+        }
+    };
+    let (hold_a, hold_b) = (own_bound(0), own_bound(1));
+    let (mut at_home, mut swapped) = (0usize, 0usize);
+    for &[ha, hb, xa, xb] in &both {
+        if ha <= hold_a && hb <= hold_b {
             at_home += 1;
-        } else if exchanged {
+        } else if xa <= hold_b && xb <= hold_a {
             swapped += 1;
         }
-        match (home, exchanged) {
-            (false, true) => {
-                match windows.last_mut() {
-                    Some(w) if bridge_from.is_some() || f <= w[1] + WINDOW_MERGE_FRAMES + 1 => {
-                        w[1] = f;
-                    }
-                    _ => windows.push([f, f]),
-                }
-                bridge_from = Some(f);
-            }
-            (true, true) => {}
-            _ => bridge_from = None,
-        }
     }
-    let explained = (at_home + swapped) as f64 / seen.max(1) as f64;
+    let explained = (at_home + swapped) as f64 / both.len().max(1) as f64;
     let proven = swapped >= MIN_SWAPPED_FRAMES && at_home > swapped && explained >= MIN_EXPLAINED;
     if !proven {
         return None;
     }
+    // Proven, the swap's frames are those the exchange explains better than home does
+    // (skin moves both alike), judged on whichever of the two markers is seen, in runs;
+    // unseen frames inside a run belong to it, and so do frames that do not clearly
+    // belong home; runs apart by a few frames that only home explains are one window. A window must hold frames the exchange alone
+    // explains, as in the proof (two markers passing close can look exchanged briefly).
+    let mut windows: Vec<([usize; 2], usize)> = Vec::new();
+    let mut home_since_last = usize::MAX;
+    for &(f, [ha, hb, xa, xb]) in &changes {
+        let ratio = |x: Option<f64>, bound: f64| x.map(|x| x / bound);
+        let (home_a, home_b) = (ratio(ha, hold_a), ratio(hb, hold_b));
+        let (away_a, away_b) = (ratio(xa, hold_b), ratio(xb, hold_a));
+        let (home, exchange) = match (home_a.zip(away_a), home_b.zip(away_b)) {
+            (Some((h1, x1)), Some((h2, x2))) => (h1 + h2, x1 + x2),
+            (Some((h, x)), None) | (None, Some((h, x))) => (h, x),
+            (None, None) => continue,
+        };
+        if exchange >= home {
+            // Only a frame home explains and the exchange clearly does not (beyond twice
+            // the bounds) ends a window: where the two pass close both fit, and skin can
+            // leave either just outside its bound.
+            let within =
+                |ratios: [Option<f64>; 2], bound: f64| ratios.iter().flatten().all(|&x| x <= bound);
+            if within([home_a, home_b], 1.0) && !within([away_a, away_b], 2.0) {
+                home_since_last = home_since_last.saturating_add(1);
+            }
+            continue;
+        }
+        let proof = [home_a, home_b, away_a, away_b].iter().all(Option::is_some)
+            && !(home_a.unwrap_or(0.0) <= 1.0 && home_b.unwrap_or(0.0) <= 1.0)
+            && away_a.unwrap_or(2.0) <= 1.0
+            && away_b.unwrap_or(2.0) <= 1.0;
+        match windows.last_mut() {
+            Some((w, n)) if home_since_last <= WINDOW_MERGE_FRAMES => {
+                w[1] = f;
+                *n += usize::from(proof);
+            }
+            _ => windows.push(([f, f], usize::from(proof))),
+        }
+        home_since_last = 0;
+    }
+    let windows: Vec<[usize; 2]> = windows
+        .into_iter()
+        .filter(|&(_, n)| n >= MIN_SWAPPED_FRAMES)
+        .map(|(w, _)| w)
+        .collect();
     Some(windows)
 }

@@ -541,6 +541,56 @@ fn label_swaps_are_found_with_their_frames() {
     }
 }
 
+/// With skin, noise and gaps as well (`messy`), a swap reported is the truth's pair within
+/// the truth's frames (never a wrong pair, never frames outside), and most are found.
+#[test]
+fn label_swaps_under_skin_noise_and_gaps_are_never_wrong() {
+    let (mut trials, mut found_any) = (0, 0);
+    for subject in [
+        synth::Subject::Human,
+        synth::Subject::Quadruped,
+        synth::Subject::Snowman,
+        synth::Subject::Robotarm,
+    ] {
+        for seed in [51, 52] {
+            let config = synth::SynthConfig {
+                subject,
+                preset: synth::Preset::Messy,
+                seed,
+                ..synth::SynthConfig::default()
+            };
+            let trial = synth::generate(&config).expect("synthetic trial");
+            let traj = &trial.trajectories;
+            let seg = run(traj, &Params::default()).expect("segments");
+            let index = |label: &str| traj.labels().iter().position(|l| l == label).unwrap();
+            let [truth] = &trial.truth.swaps[..] else {
+                panic!("{}: one swap expected", trial.truth.name)
+            };
+            let mut pair = [index(&truth.labels[0]), index(&truth.labels[1])];
+            pair.sort_unstable();
+            let window = [truth.first_frame, truth.first_frame + truth.frames - 1];
+            trials += 1;
+            for swap in &seg.swaps {
+                let mut markers = swap.markers;
+                markers.sort_unstable();
+                assert_eq!(markers, pair, "{}: {:?}", trial.truth.name, seg.swaps);
+                for w in &swap.frames {
+                    assert!(
+                        w[0] >= window[0] && w[1] <= window[1],
+                        "{}: {w:?} outside {window:?}",
+                        trial.truth.name
+                    );
+                }
+                found_any += 1;
+            }
+        }
+    }
+    assert!(
+        2 * found_any >= trials,
+        "{found_any} of {trials} swaps found"
+    );
+}
+
 /// Undoing a swap exchanges the two trajectories back in its frames only.
 #[test]
 fn untangle_exchanges_the_swapped_frames_back() {

@@ -55,7 +55,7 @@ pub const CONFIG_DOCS: &[(&str, &str)] = &[
     ),
     (
         "preset",
-        "degradation: clean, noise, skin, gaps, swap, hard; default clean",
+        "degradation: clean, noise, skin, gaps, swap, hard (noise + skin + gaps), messy (hard + swap); default clean",
     ),
     ("frames", "number of frames (>= 2); default 240"),
     ("rate", "frame rate in Hz (> 0); default 120"),
@@ -192,17 +192,20 @@ pub enum Preset {
     Swap,
     /// noise + skin + gaps.
     Hard,
+    /// hard + swap: everything a real capture does at once.
+    Messy,
 }
 
 impl Preset {
     /// Every preset, in documentation order.
-    pub const ALL: [Preset; 6] = [
+    pub const ALL: [Preset; 7] = [
         Preset::Clean,
         Preset::Noise,
         Preset::Skin,
         Preset::Gaps,
         Preset::Swap,
         Preset::Hard,
+        Preset::Messy,
     ];
 
     /// Lower-case name, as on the command line and in trial names.
@@ -214,24 +217,25 @@ impl Preset {
             Preset::Gaps => "gaps",
             Preset::Swap => "swap",
             Preset::Hard => "hard",
+            Preset::Messy => "messy",
         }
     }
 
     /// True when this preset adds Gaussian noise.
     pub fn has_noise(self) -> bool {
-        matches!(self, Preset::Noise | Preset::Hard)
+        matches!(self, Preset::Noise | Preset::Hard | Preset::Messy)
     }
     /// True when this preset adds soft-tissue artefact.
     pub fn has_skin(self) -> bool {
-        matches!(self, Preset::Skin | Preset::Hard)
+        matches!(self, Preset::Skin | Preset::Hard | Preset::Messy)
     }
     /// True when this preset punches holes.
     pub fn has_gaps(self) -> bool {
-        matches!(self, Preset::Gaps | Preset::Hard)
+        matches!(self, Preset::Gaps | Preset::Hard | Preset::Messy)
     }
     /// True when this preset swaps two labels.
     pub fn has_swap(self) -> bool {
-        matches!(self, Preset::Swap)
+        matches!(self, Preset::Swap | Preset::Messy)
     }
 }
 
