@@ -50,6 +50,13 @@ pub fn run(seg: &Segmentation, fits: &PairFits, params: &Params) -> Result<Topol
         let rank = u8::from(!(params.rigid_first && p.kind == JointKind::Rigid));
         edges.push((rank, p.cost, p.a, p.b, i));
     }
+    if params.composite_rotation_ratio > 0.0 {
+        for e in edges.iter_mut().filter(|e| e.0 == 1) {
+            if let Some(after) = composite_of(fits, n, e.2, e.3, params) {
+                e.1 = e.1.max(after);
+            }
+        }
+    }
     edges.sort_by(|x, y| {
         x.0.cmp(&y.0)
             .then(x.1.total_cmp(&y.1))
@@ -60,7 +67,8 @@ pub fn run(seg: &Segmentation, fits: &PairFits, params: &Params) -> Result<Topol
 
     let mut sets = DisjointSets::new(n);
     let mut accepted = Vec::new();
-    for &(rank, cost, a, b, pair) in &edges {
+    for &(rank, _, a, b, pair) in &edges {
+        let cost = fits.pairs[pair].cost;
         if sets.union(a, b) {
             if rank == 0 {
                 notes.push(format!(
@@ -213,6 +221,34 @@ fn break_near_ties(edges: &mut [(u8, f64, usize, usize, usize)], fits: &PairFits
         });
         start = end;
     }
+}
+
+/// When pair (b, c) looks like the composite of two joints through a third segment a
+/// (a–b and a–c both cost at most `composite_cost_ratio` × its cost, and it turns at least
+/// `composite_rotation_ratio` × as much as either), the cost it should be taken after:
+/// the cheapest such a's dearer edge. A pair across two joints composes both joints'
+/// motions, so it turns more than either; where the joints are close (two clavicles on
+/// the sternum, two legs on one tip) it can still fit a centre as well as they do.
+fn composite_of(fits: &PairFits, n: usize, b: usize, c: usize, params: &Params) -> Option<f64> {
+    let pair = |x: usize, y: usize| {
+        let (lo, hi) = (x.min(y), x.max(y));
+        fits.pairs
+            .iter()
+            .find(|p| p.a == lo && p.b == hi)
+            .filter(|p| p.cost.is_finite() && p.rotation_rms_deg.is_finite())
+    };
+    let own = pair(b, c)?;
+    (0..n)
+        .filter(|&a| a != b && a != c)
+        .filter_map(|a| {
+            let (ab, ac) = (pair(a, b)?, pair(a, c)?);
+            let dearer = ab.cost.max(ac.cost);
+            let turns = ab.rotation_rms_deg.max(ac.rotation_rms_deg);
+            let explained = dearer <= params.composite_cost_ratio * own.cost
+                && own.rotation_rms_deg >= params.composite_rotation_ratio * turns;
+            explained.then_some(dearer)
+        })
+        .min_by(f64::total_cmp)
 }
 
 /// The tree's centre: minimum eccentricity in hops, ties by most markers, then lowest id.
@@ -520,6 +556,45 @@ mod tests {
             ..Params::default()
         };
         let t = run(&seg, &f, &exact).unwrap_or_else(|e| panic!("{e}"));
+        assert!(edge_set(&t).contains(&(0, 1)));
+    }
+
+    #[test]
+    fn composite_pairs_are_taken_after_their_joints() {
+        // Thorax 2 carries clavicles 0 and 1 at nearby points; with skin the clavicle pair
+        // fits a centre a little better than either clavicle fits the thorax, but it turns
+        // the most: its motion composes both sternoclavicular joints'.
+        let seg = segmentation(&[3, 3, 6, 3]);
+        let mut f = fits(4, |a, b| match (a, b) {
+            (0, 1) => (7.6, JointKind::Ball),
+            (0, 2) => (8.4, JointKind::Ball),
+            (1, 2) => (8.0, JointKind::Ball),
+            (2, 3) => (5.0, JointKind::Ball),
+            _ => (40.0, JointKind::Ball),
+        });
+        for p in &mut f.pairs {
+            p.rotation_rms_deg = match (p.a, p.b) {
+                (0, 1) => 31.0,
+                (0, 2) => 21.0,
+                (1, 2) => 23.0,
+                _ => 30.0,
+            };
+        }
+        let t = run(&seg, &f, &Params::default()).unwrap_or_else(|e| panic!("{e}"));
+        assert_eq!(edge_set(&t), [(0, 2), (1, 2), (2, 3)]);
+        // Off, or with the two only a little apart in rotation, the cheapest pair wins.
+        let off = Params {
+            composite_rotation_ratio: 0.0,
+            ..Params::default()
+        };
+        let t = run(&seg, &f, &off).unwrap_or_else(|e| panic!("{e}"));
+        assert!(edge_set(&t).contains(&(0, 1)));
+        for p in &mut f.pairs {
+            if (p.a, p.b) == (0, 1) {
+                p.rotation_rms_deg = 25.0;
+            }
+        }
+        let t = run(&seg, &f, &Params::default()).unwrap_or_else(|e| panic!("{e}"));
         assert!(edge_set(&t).contains(&(0, 1)));
     }
 
