@@ -494,49 +494,59 @@ fn hard_synthetic_subjects_are_segmented_closely() {
     assert!(mean > 0.8, "mean ARI {mean:.3}: {scores:?}");
 }
 
+/// Subjects whose swapped markers can leave homes of two.
+const SWAP_SUBJECTS: [synth::Subject; 4] = [
+    synth::Subject::Human,
+    synth::Subject::Quadruped,
+    synth::Subject::Snowman,
+    synth::Subject::Robotarm,
+];
+
+/// A synthetic trial with one label swap, segmented: its name, the swap's two marker
+/// indices (ascending) and frames `[first, last]` from the truth, and what was found.
+fn segment_swap_trial(
+    subject: synth::Subject,
+    preset: synth::Preset,
+    seed: u64,
+) -> (String, [usize; 2], [usize; 2], Vec<LabelSwap>) {
+    let config = synth::SynthConfig {
+        subject,
+        preset,
+        seed,
+        ..synth::SynthConfig::default()
+    };
+    let trial = synth::generate(&config).expect("synthetic trial");
+    let traj = &trial.trajectories;
+    let seg = run(traj, &Params::default()).expect("segments");
+    let index = |label: &str| traj.labels().iter().position(|l| l == label).unwrap();
+    let [truth] = &trial.truth.swaps[..] else {
+        panic!("{}: one swap expected", trial.truth.name)
+    };
+    let mut pair = [index(&truth.labels[0]), index(&truth.labels[1])];
+    pair.sort_unstable();
+    let window = [truth.first_frame, truth.first_frame + truth.frames - 1];
+    let mut found = seg.swaps;
+    for swap in &mut found {
+        swap.markers.sort_unstable();
+    }
+    (trial.truth.name, pair, window, found)
+}
+
 /// Every label swap of the `swap` preset is found with its exact frames and undone: the
-/// segments are the truth's (subjects whose swapped markers can leave homes of two).
+/// segments are the truth's.
 #[test]
 fn label_swaps_are_found_with_their_frames() {
-    for subject in [
-        synth::Subject::Human,
-        synth::Subject::Quadruped,
-        synth::Subject::Snowman,
-        synth::Subject::Robotarm,
-    ] {
+    for subject in SWAP_SUBJECTS {
         for seed in [51, 52] {
-            let config = synth::SynthConfig {
-                subject,
-                preset: synth::Preset::Swap,
-                seed,
-                ..synth::SynthConfig::default()
-            };
-            let trial = synth::generate(&config).expect("synthetic trial");
-            let traj = &trial.trajectories;
-            let seg = run(traj, &Params::default()).expect("segments");
-            let index = |label: &str| traj.labels().iter().position(|l| l == label).unwrap();
-            let expected: Vec<([usize; 2], Vec<[usize; 2]>)> = trial
-                .truth
-                .swaps
-                .iter()
-                .map(|s| {
-                    let mut pair = [index(&s.labels[0]), index(&s.labels[1])];
-                    pair.sort_unstable();
-                    (pair, vec![[s.first_frame, s.first_frame + s.frames - 1]])
-                })
-                .collect();
-            let found: Vec<([usize; 2], Vec<[usize; 2]>)> = seg
-                .swaps
-                .iter()
-                .map(|s| {
-                    let mut pair = s.markers;
-                    pair.sort_unstable();
-                    (pair, s.frames.clone())
-                })
-                .collect();
-            assert_eq!(found, expected, "{}", trial.truth.name);
+            let (name, markers, window, found) =
+                segment_swap_trial(subject, synth::Preset::Swap, seed);
+            let expected = vec![LabelSwap {
+                markers,
+                frames: vec![window],
+            }];
+            assert_eq!(found, expected, "{name}");
             let (score, exact) = score_on_synth(subject, synth::Preset::Swap, seed);
-            assert!(exact, "{}: ARI {score:.3}", trial.truth.name);
+            assert!(exact, "{name}: ARI {score:.3}");
         }
     }
 }
@@ -546,39 +556,17 @@ fn label_swaps_are_found_with_their_frames() {
 #[test]
 fn label_swaps_under_skin_noise_and_gaps_are_never_wrong() {
     let (mut trials, mut found_any) = (0, 0);
-    for subject in [
-        synth::Subject::Human,
-        synth::Subject::Quadruped,
-        synth::Subject::Snowman,
-        synth::Subject::Robotarm,
-    ] {
+    for subject in SWAP_SUBJECTS {
         for seed in [51, 52] {
-            let config = synth::SynthConfig {
-                subject,
-                preset: synth::Preset::Messy,
-                seed,
-                ..synth::SynthConfig::default()
-            };
-            let trial = synth::generate(&config).expect("synthetic trial");
-            let traj = &trial.trajectories;
-            let seg = run(traj, &Params::default()).expect("segments");
-            let index = |label: &str| traj.labels().iter().position(|l| l == label).unwrap();
-            let [truth] = &trial.truth.swaps[..] else {
-                panic!("{}: one swap expected", trial.truth.name)
-            };
-            let mut pair = [index(&truth.labels[0]), index(&truth.labels[1])];
-            pair.sort_unstable();
-            let window = [truth.first_frame, truth.first_frame + truth.frames - 1];
+            let (name, pair, window, found) =
+                segment_swap_trial(subject, synth::Preset::Messy, seed);
             trials += 1;
-            for swap in &seg.swaps {
-                let mut markers = swap.markers;
-                markers.sort_unstable();
-                assert_eq!(markers, pair, "{}: {:?}", trial.truth.name, seg.swaps);
+            for swap in &found {
+                assert_eq!(swap.markers, pair, "{name}: {found:?}");
                 for w in &swap.frames {
                     assert!(
                         w[0] >= window[0] && w[1] <= window[1],
-                        "{}: {w:?} outside {window:?}",
-                        trial.truth.name
+                        "{name}: {w:?} outside {window:?}"
                     );
                 }
                 found_any += 1;
