@@ -345,6 +345,9 @@ pub fn main(args: &Args) -> Result<()> {
         let (label, results, secs) = &all[0];
         print_table(results, args.joints);
         println!("{}", summary_line(label, results, *secs));
+        for line in subject_lines(results) {
+            println!("{line}");
+        }
     } else {
         print_comparison(&all);
     }
@@ -491,16 +494,61 @@ fn presets_of(results: &[TrialResult]) -> Vec<String> {
     presets
 }
 
+fn subjects_of(results: &[TrialResult]) -> Vec<String> {
+    let mut subjects: Vec<String> = Vec::new();
+    for r in results {
+        if !subjects.contains(&r.subject) {
+            subjects.push(r.subject.clone());
+        }
+    }
+    subjects
+}
+
 fn summary_json(results: &[TrialResult]) -> serde_json::Value {
     let mut map = serde_json::Map::new();
     map.insert("all".into(), json!(aggregate(results.iter())));
+    let mut by_subject = serde_json::Map::new();
     for p in presets_of(results) {
-        map.insert(
-            p.clone(),
-            json!(aggregate(results.iter().filter(|r| r.preset == p))),
-        );
+        let of_preset = || results.iter().filter(|r| r.preset == p);
+        map.insert(p.clone(), json!(aggregate(of_preset())));
+        let subjects: serde_json::Map<String, serde_json::Value> = subjects_of(results)
+            .into_iter()
+            .map(|s| {
+                let a = aggregate(of_preset().filter(|r| r.subject == s));
+                (s, json!(a))
+            })
+            .collect();
+        by_subject.insert(p, serde_json::Value::Object(subjects));
     }
+    map.insert("by_subject".into(), serde_json::Value::Object(by_subject));
     serde_json::Value::Object(map)
+}
+
+/// One line per preset with each subject's exact trees and mean error, when the suite
+/// has more than one subject.
+fn subject_lines(results: &[TrialResult]) -> Vec<String> {
+    let subjects = subjects_of(results);
+    if subjects.len() < 2 {
+        return Vec::new();
+    }
+    presets_of(results)
+        .into_iter()
+        .map(|p| {
+            let parts: Vec<String> = subjects
+                .iter()
+                .map(|s| {
+                    let a = aggregate(results.iter().filter(|r| r.preset == p && &r.subject == s));
+                    format!(
+                        "{s} {}/{} {}%",
+                        a.topology_exact,
+                        a.trials,
+                        fmt_f(a.mean_error_pct, 2)
+                    )
+                })
+                .collect();
+            format!("  {p} by subject: {}", parts.join(", "))
+        })
+        .collect()
 }
 
 fn summary_line(label: &str, results: &[TrialResult], wall: f64) -> String {
@@ -565,6 +613,9 @@ fn print_comparison(all: &[(String, Vec<TrialResult>, f64)]) {
     }
     for (label, results, wall) in all {
         println!("{}", summary_line(label, results, *wall));
+        for line in subject_lines(results) {
+            println!("{line}");
+        }
         for r in results.iter().filter(|r| r.error.is_some()) {
             println!("  {} FAILED: {}", r.trial, r.error.as_deref().unwrap_or(""));
         }
