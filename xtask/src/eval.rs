@@ -625,3 +625,56 @@ fn print_comparison(all: &[(String, Vec<TrialResult>, f64)]) {
 fn truncate(s: &str, n: usize) -> String {
     s.chars().take(n).collect()
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn result(subject: &str, preset: &str, exact: bool, mean_pct: f64) -> TrialResult {
+        TrialResult {
+            trial: format!("{subject}-{preset}"),
+            subject: subject.into(),
+            preset: preset.into(),
+            markers_per_segment: (3, 6),
+            segments: 7,
+            true_segments: 7,
+            adjusted_rand: 1.0,
+            topology_exact: exact,
+            equivalent_joints: 0,
+            precision: 1.0,
+            recall: 1.0,
+            mean_error_mm: 10.0 * mean_pct,
+            worst_error_mm: 20.0 * mean_pct,
+            mean_error_pct: mean_pct,
+            worst_error_pct: 2.0 * mean_pct,
+            known_fraction: 1.0,
+            kind_accuracy: 1.0,
+            seconds: 0.1,
+            error: None,
+            joints: Vec::new(),
+        }
+    }
+
+    #[test]
+    fn subjects_are_summarised_per_preset() {
+        let results = [
+            result("human", "clean", true, 0.1),
+            result("human", "clean", false, 0.3),
+            result("snowman", "clean", true, 0.0),
+            result("human", "hard", true, 1.0),
+            result("snowman", "hard", false, 2.0),
+        ];
+        assert_eq!(
+            subject_lines(&results),
+            [
+                "  clean by subject: human 1/2 0.20%, snowman 1/1 0.00%",
+                "  hard by subject: human 1/1 1.00%, snowman 0/1 2.00%",
+            ]
+        );
+        let json = summary_json(&results);
+        assert_eq!(json["by_subject"]["hard"]["snowman"]["topology_exact"], 0);
+        assert_eq!(json["by_subject"]["clean"]["human"]["trials"], 2);
+        // One subject: the summary line says it all.
+        assert!(subject_lines(&results[..2]).is_empty());
+    }
+}
