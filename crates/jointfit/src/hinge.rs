@@ -1,6 +1,12 @@
 //! Hinge centres placed on their axes from the tree (issue 5, item 1).
 //!
 //! A hinge fixes a line, not a point: every point of its axis is fixed in both segments.
+//! Two rules, both given the tree's edges:
+//! - [`place_hinges_across_bones`] (bonefit's default): each hinge where its axis crosses
+//!   its child's bone, from the child's joints and markers and the parent side's evidence
+//!   where it agrees, weighted by precision (see its docs).
+//! - [`place_hinge_centres`], the issue's first rule, described here.
+//!
 //! Once the tree is known, each hinge centre slides along its axis to where the bones
 //! to the adjacent joints are shortest. All hinges move at once: with `s_e` the shift of
 //! hinge `e` along its axis, we minimise over every segment X and every two tree joints
