@@ -184,7 +184,7 @@ fn largest_root4(m: [[f64; 4]; 4]) -> Option<f64> {
 ///
 /// The eigenvalue as [`largest_eigenvalue4`] finds it; the eigenvector is the largest
 /// column of the adjugate of m − λI, which spans its null space when λ is a simple root (the
-/// slope test in [`largest_root4`] guarantees that). Otherwise cyclic Jacobi with
+/// slope test in `largest_root4` guarantees that). Otherwise cyclic Jacobi with
 /// accumulated rotations.
 pub fn largest_eigenpair4(m: [[f64; 4]; 4]) -> (f64, [f64; 4]) {
     if let Some(lambda) = largest_root4(m) {
