@@ -298,13 +298,16 @@ struct MarkerEvidence {
 /// perpendicular to the axis, and the child's markers, which surround its bone, sit on
 /// both sides of that plane. One weighted least-squares solve over all hinges takes:
 /// - each joint the child carries (a ball centre, or a hinge centre on its own axis,
-///   itself unknown): `u·(c_g − c_e) = 0`, σ `BONE_SIGMA_FLOOR_MM` (1 mm) and the two fits'
-///   residual RMS;
+///   itself unknown): `u·(c_g − c_e) = 0`, σ `BONE_SIGMA_FLOOR_MM` (1 mm), the two fits'
+///   residual RMS and the axis's tilt (the fit's least wobble) times the joint's distance
+///   from the axis;
 /// - the child's markers: their mean along the axis is the centre's, σ = their scatter
 ///   about the bone / √n (the larger of their own and the scatter pooled over every
-///   hinge's child, and at least `MARKER_SPREAD_FLOOR_MM` (10 mm)). A hinge whose child ends
-///   the chain (a hand, a foot, a robot's last link) has only this;
-/// - each joint on the parent side (its own parent joint, its siblings) where it agrees
+///   hinge's child, and at least `MARKER_SPREAD_FLOOR_MM` (10 mm), with the tilt's share).
+///   A hinge whose child ends the chain (a hand, a foot, a robot's last link) has only
+///   this;
+/// - each joint on the parent side (its own parent joint, its siblings), and the parent's
+///   markers, taken as for the child, where each agrees
 ///   with the child side's solution within `PARENT_JOINT_TEST_SIGMAS` (3) (that solution's
 ///   variance and the row's own): in a limb or a robot the parent's bone crosses the axis
 ///   squarely too (the femur and the knee axis), and the joint then settles the centre
