@@ -14,10 +14,14 @@
 //! keeps its distances to both the thigh's and the shank's markers); the exchange is.
 
 use mocap_io::Trajectories;
+use rayon::prelude::*;
 
 use crate::fitsplit::median;
 use crate::reassign::nearest_clusters;
 use crate::segmentation::LabelSwap;
+
+/// Most suspect pairs tested, those away together the most first.
+const MAX_SWAP_TESTS: usize = 256;
 
 /// Clusters searched as a swapped marker's home, nearest first.
 const HOME_CANDIDATES: usize = 3;
@@ -45,20 +49,30 @@ pub(crate) fn find_swaps(
     hold_mm: f64,
     stride: usize,
 ) -> Vec<LabelSwap> {
-    let mut suspects: Vec<Suspect> = Vec::new();
-    for (c, cluster) in clusters.iter().enumerate() {
-        for &m in cluster {
+    // Every marker is judged on its own: in parallel, collected in marker order.
+    let markers: Vec<(usize, usize)> = clusters
+        .iter()
+        .enumerate()
+        .flat_map(|(c, cluster)| cluster.iter().map(move |&m| (c, m)))
+        .collect();
+    let suspects: Vec<Suspect> = markers
+        .par_iter()
+        .map(|&(c, m)| {
+            let cluster = &clusters[c];
             if cluster.len() >= 3 {
                 let mates: Vec<usize> = cluster.iter().copied().filter(|&x| x != m).collect();
-                suspects.extend(Suspect::new(traj, m, c, mates, hold_mm, stride));
+                Suspect::new(traj, m, c, mates, hold_mm, stride)
+                    .into_iter()
+                    .collect::<Vec<_>>()
             } else {
-                for h in nearest_clusters(traj, clusters, m, c, stride, HOME_CANDIDATES, 2) {
-                    let home = clusters[h].clone();
-                    suspects.extend(Suspect::new(traj, m, h, home, hold_mm, stride));
-                }
+                nearest_clusters(traj, clusters, m, c, stride, HOME_CANDIDATES, 2)
+                    .into_iter()
+                    .filter_map(|h| Suspect::new(traj, m, h, clusters[h].clone(), hold_mm, stride))
+                    .collect()
             }
-        }
-    }
+        })
+        .flatten()
+        .collect();
     // Pairs of suspects away from different homes in the same frames, most shared first.
     let mut pairs: Vec<(usize, usize, usize)> = Vec::new();
     for (i, x) in suspects.iter().enumerate() {
@@ -73,6 +87,9 @@ pub(crate) fn find_swaps(
         }
     }
     pairs.sort_by(|x, y| y.0.cmp(&x.0).then(x.1.cmp(&y.1)).then(x.2.cmp(&y.2)));
+    // Each test reads every frame: on a long capture where skin sends many markers away
+    // in the same frames, only the pairs sharing the most are tried.
+    pairs.truncate(MAX_SWAP_TESTS);
     let mut found: Vec<LabelSwap> = Vec::new();
     for (_, i, j) in pairs {
         let (x, y) = (&suspects[i], &suspects[j]);
