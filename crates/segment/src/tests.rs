@@ -407,16 +407,21 @@ fn ari(a: &[usize], b: &[usize]) -> f64 {
     }
 }
 
-/// Segmentation of a synthetic trial against its truth: (ARI, exact partition); no label
-/// swap may be reported where the trial has none.
-fn score_on_synth(subject: synth::Subject, preset: synth::Preset, seed: u64) -> (f64, bool) {
+/// A synthetic trial with the generator's defaults.
+fn synth_trial(subject: synth::Subject, preset: synth::Preset, seed: u64) -> synth::Trial {
     let config = synth::SynthConfig {
         subject,
         preset,
         seed,
         ..synth::SynthConfig::default()
     };
-    let trial = synth::generate(&config).expect("synthetic trial");
+    synth::generate(&config).expect("synthetic trial")
+}
+
+/// Segmentation of a synthetic trial against its truth: (ARI, exact partition); no label
+/// swap may be reported where the trial has none.
+fn score_on_synth(subject: synth::Subject, preset: synth::Preset, seed: u64) -> (f64, bool) {
+    let trial = synth_trial(subject, preset, seed);
     let traj = &trial.trajectories;
     let index = |label: &str| {
         traj.labels()
@@ -509,13 +514,7 @@ fn segment_swap_trial(
     preset: synth::Preset,
     seed: u64,
 ) -> (String, [usize; 2], [usize; 2], Vec<LabelSwap>) {
-    let config = synth::SynthConfig {
-        subject,
-        preset,
-        seed,
-        ..synth::SynthConfig::default()
-    };
-    let trial = synth::generate(&config).expect("synthetic trial");
+    let trial = synth_trial(subject, preset, seed);
     let traj = &trial.trajectories;
     let seg = run(traj, &Params::default()).expect("segments");
     let index = |label: &str| traj.labels().iter().position(|l| l == label).unwrap();
