@@ -402,7 +402,21 @@ mod tests {
         doc.markers[9].slides = true;
         doc.detached_segments = vec![2];
         doc.notes = vec!["a rigid pair".into()];
+        doc.label_swaps = vec![export::LabelSwapJson {
+            markers: ["M001".into(), "M007".into()],
+            frames: vec![[10, 19], [40, 41]],
+        }];
         let found = findings(&doc);
+        // Frames as the capture numbers them (first_frame on).
+        let at = |i: i64| doc.first_frame + i;
+        assert!(found.contains(&format!(
+            "label swaps found and undone (trajectories exchanged; frames as in the capture): \
+             1 — M001 ↔ M007 in frames {}–{}, {}–{}",
+            at(10),
+            at(19),
+            at(40),
+            at(41)
+        )));
         let joint = &doc.joints[0];
         assert!(found.contains(&format!(
             "joint {} (segment {} → {}): range of motion 5.0° is below 20°",

@@ -622,7 +622,7 @@ fn place_hinges_on_child(
             continue;
         };
         // A centre the markers' distances fixed (jointfit) is not free along its axis.
-        let free = fit.kind == jointfit::JointKind::Hinge && !fit.centre_from_distances;
+        let free = fit.free_hinge();
         if !free || !(fit.a == x || fit.b == x) {
             continue;
         }
@@ -664,44 +664,9 @@ fn place_hinges_on_child(
             continue;
         }
         shifts[e] = shift;
-        slide_hinge(fits, joint.pair, shift);
+        jointfit::slide_hinge_centre(fits, joint.pair, shift, "toward its child bone's far end");
     }
     shifts
-}
-
-/// Moves pair `pair`'s centre by `shift` (mm) along its hinge axis in both segments and
-/// recomputes its positions (the mean of both segments' view where both are posed).
-fn slide_hinge(fits: &mut PairFits, pair: usize, shift: f64) {
-    let Some(fit) = fits.pairs.get(pair) else {
-        return;
-    };
-    let (Some(ua), Some(ub)) = (fit.axis_in_a, fit.axis_in_b) else {
-        return;
-    };
-    let c_a = DVec3::from_array(fit.centre_in_a) + shift * DVec3::from_array(ua);
-    let c_b = DVec3::from_array(fit.centre_in_b) + shift * DVec3::from_array(ub);
-    let (a, b) = (fit.a, fit.b);
-    let view = |s: usize, f: usize, c: DVec3| {
-        let p = fits.poses.get(s)?;
-        let q = DQuat::from_array(*p.rotations.get(f)?);
-        let t = DVec3::from_array(*p.translations.get(f)?);
-        let v = q.normalize() * c + t;
-        v.is_finite().then_some(v)
-    };
-    let positions: Vec<[f64; 3]> = (0..fit.positions.len())
-        .map(|f| match (view(a, f, c_a), view(b, f, c_b)) {
-            (Some(x), Some(y)) => (0.5 * (x + y)).to_array(),
-            (Some(x), None) | (None, Some(x)) => x.to_array(),
-            (None, None) => [f64::NAN; 3],
-        })
-        .collect();
-    let fit = &mut fits.pairs[pair];
-    fit.centre_in_a = c_a.to_array();
-    fit.centre_in_b = c_b.to_array();
-    fit.positions = positions;
-    fit.evidence.push_str(&format!(
-        "; centre moved {shift:.1} mm along the hinge axis toward its child bone's far end"
-    ));
 }
 
 /// Length (mm) of topology joint `e`'s bone from its parent segment's anchor (the parent

@@ -37,14 +37,14 @@
 use glam::DVec3;
 
 use crate::fit::joint_positions;
-use crate::pairfits::{JointKind, PairFit, PairFits};
+use crate::pairfits::{PairFit, PairFits};
 use crate::poses::{Pose, pose_track};
 
 /// Moves every hinge centre of the tree along its axis (see the module docs) and
 /// recomputes its `centre_in_a`, `centre_in_b` and `positions`.
 ///
 /// `edges`: the tree's joints as `(pair index into fits.pairs, parent segment, child
-/// segment)`. Only pairs of kind [`JointKind::Hinge`] with an axis and a finite centre
+/// segment)`. Only pairs of kind [`crate::JointKind::Hinge`] with an axis and a finite centre
 /// move; every other edge is a fixed neighbour. Returns the shift of each edge along its
 /// axis (mm; 0 for edges that did not move), in `edges` order. Edges naming a pair index
 /// out of range, or segments that are not that pair's, are ignored.
@@ -73,7 +73,7 @@ pub fn place_hinge_centres(fits: &mut PairFits, edges: &[(usize, usize, usize)])
     for &(e, pair, _) in &usable {
         let fit = &fits.pairs[pair];
         // A centre the distances fixed is a fixed neighbour, not a free point of its axis.
-        let free = fit.kind == JointKind::Hinge && !fit.centre_from_distances;
+        let free = fit.free_hinge();
         if free && fit.axis_in_a.is_some() && fit.axis_in_b.is_some() {
             unknown[e] = Some(count);
             count += 1;
@@ -174,6 +174,23 @@ pub fn place_hinge_centres(fits: &mut PairFits, edges: &[(usize, usize, usize)])
         );
     }
     shifts
+}
+
+/// Moves pair `pair`'s hinge centre `shift` mm along its axis in both segments and
+/// recomputes its positions (the mean of both segments' view where both are posed);
+/// `why` ends the note in its evidence ("centre moved … along the hinge axis {why}").
+/// False (nothing changed) when there is no such pair or it has no axis.
+pub fn slide_hinge_centre(fits: &mut PairFits, pair: usize, shift: f64, why: &str) -> bool {
+    let Some(&PairFit { a, b, .. }) = fits.pairs.get(pair) else {
+        return false;
+    };
+    let (Some(pa), Some(pb)) = (fits.poses.get(a), fits.poses.get(b)) else {
+        return false;
+    };
+    let mut tracks = vec![Vec::new(); fits.poses.len()];
+    tracks[a] = pose_track(pa);
+    tracks[b] = pose_track(pb);
+    slide_along_axis(&mut fits.pairs[pair], shift, &tracks, why)
 }
 
 /// Moves a hinge's centre `shift` mm along its (unit) axis in both segments, recomputes
@@ -345,10 +362,7 @@ pub fn place_hinges_across_bones(fits: &mut PairFits, edges: &[(usize, usize, us
     let mut unknown = vec![None; edges.len()];
     let mut count = 0;
     for (e, &(pair, _, child)) in edges.iter().enumerate() {
-        let free = fits
-            .pairs
-            .get(pair)
-            .is_some_and(|f| f.kind == JointKind::Hinge && !f.centre_from_distances);
+        let free = fits.pairs.get(pair).is_some_and(PairFit::free_hinge);
         if free && matches!(seen_from(e, child), Some((_, Some(_)))) {
             unknown[e] = Some(count);
             count += 1;

@@ -22,8 +22,8 @@
 //! fix the centre.
 //!
 //! It does not choose which pairs are joints (topo does, from the costs); hinge centres
-//! are placed on their axes from the tree by [`place_hinge_centres`], which the caller
-//! runs once the tree is known.
+//! are placed on their axes from the tree by [`place_hinges_across_bones`] (or the older
+//! [`place_hinge_centres`]), which the caller (bonefit) runs once the tree is known.
 
 mod aguiar;
 mod anchor;
@@ -40,7 +40,7 @@ mod score;
 mod small;
 
 pub use error::Error;
-pub use hinge::{place_hinge_centres, place_hinges_across_bones};
+pub use hinge::{place_hinge_centres, place_hinges_across_bones, slide_hinge_centre};
 pub use horn::{RigidFit, absolute_orientation, rotation_from_cross_covariance};
 pub use pairfits::*;
 pub use params::{Method, PARAM_DOCS, Params};

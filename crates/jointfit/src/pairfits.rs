@@ -98,3 +98,11 @@ pub struct PairFit {
     #[serde(default)]
     pub centre_from_distances: bool,
 }
+
+impl PairFit {
+    /// A hinge whose centre may slide along its axis: every point of the axis fits the
+    /// motion, and no marker distances fixed it.
+    pub fn free_hinge(&self) -> bool {
+        self.kind == JointKind::Hinge && !self.centre_from_distances
+    }
+}

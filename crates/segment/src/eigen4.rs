@@ -18,6 +18,13 @@ pub fn horn_matrix(s: [[f64; 3]; 3]) -> [[f64; 4]; 4] {
     ]
 }
 
+/// Determinant of a 3 × 3 matrix.
+pub(crate) fn det3(j: &[[f64; 3]; 3]) -> f64 {
+    j[0][0] * (j[1][1] * j[2][2] - j[1][2] * j[2][1])
+        - j[0][1] * (j[1][0] * j[2][2] - j[1][2] * j[2][0])
+        + j[0][2] * (j[1][0] * j[2][1] - j[1][1] * j[2][0])
+}
+
 /// Cyclic Jacobi on a symmetric 4 × 4 matrix (allocation-free): the matrix brought to
 /// diagonal form, and with `VECTORS` the accumulated rotations (eigenvectors in columns);
 /// without, the rotations are not accumulated (an eigenvalue alone is cheaper).
@@ -94,9 +101,7 @@ fn null_vector4(a: &[[f64; 4]; 4]) -> Option<[f64; 4]> {
                 m[r][c] = a[i][j];
             }
         }
-        m[0][0] * (m[1][1] * m[2][2] - m[1][2] * m[2][1])
-            - m[0][1] * (m[1][0] * m[2][2] - m[1][2] * m[2][0])
-            + m[0][2] * (m[1][0] * m[2][1] - m[1][1] * m[2][0])
+        det3(&m)
     };
     let mut best = ([0.0; 4], 0.0);
     for j in 0..4 {
@@ -287,6 +292,9 @@ mod tests {
             let m = horn_matrix(cov);
             let (lambda, v) = largest_eigenpair4(m);
             let scale = m.iter().flatten().map(|x| x * x).sum::<f64>().sqrt();
+            // The largest: no eigenvalue Jacobi finds is above it.
+            let (d, _) = jacobi4::<false>(m);
+            assert!((0..4).all(|r| d[r][r] <= lambda + 1e-11 * scale));
             assert!((v.iter().map(|x| x * x).sum::<f64>() - 1.0).abs() < 1e-12);
             for (i, row) in m.iter().enumerate() {
                 let mv: f64 = row.iter().zip(&v).map(|(a, b)| a * b).sum();

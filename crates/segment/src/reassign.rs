@@ -14,7 +14,7 @@
 use mocap_io::Trajectories;
 use rayon::prelude::*;
 
-use crate::eigen4::{horn_matrix, largest_eigenpair4};
+use crate::eigen4::{det3, horn_matrix, largest_eigenpair4};
 use crate::fitsplit::{QUANTILE, median, median_distances, quantile, reference_shape};
 
 /// Most reassignment sweeps (pose every body, then move); moves only ever follow a clear
@@ -61,13 +61,6 @@ pub(crate) fn inertia_tensor(shape: &[[f64; 3]]) -> ([f64; 3], [[f64; 3]; 3]) {
         }
     }
     (c, j)
-}
-
-/// Determinant of a 3 × 3 matrix.
-fn det3(j: &[[f64; 3]; 3]) -> f64 {
-    j[0][0] * (j[1][1] * j[2][2] - j[1][2] * j[2][1])
-        - j[0][1] * (j[1][0] * j[2][2] - j[1][2] * j[2][0])
-        + j[0][2] * (j[1][0] * j[2][1] - j[1][1] * j[2][0])
 }
 
 /// Inverse of a 3 × 3 matrix by cofactors; `None` when (nearly) singular.

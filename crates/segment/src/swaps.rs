@@ -262,50 +262,42 @@ fn swap_test(
         }
     };
     let (hold_a, hold_b) = (own_bound(0), own_bound(1));
+    // One pass: the proof counts frames where both markers are judged (at home, or each
+    // at the other's place and not at home); the windows are runs of frames the exchange
+    // explains better than home does (skin moves both alike), judged on whichever marker
+    // is seen. Unseen frames inside a run belong to it, and so do frames that do not
+    // clearly belong home; runs apart by a few frames that only home explains are one
+    // window. A window must hold frames of proof (two markers passing close can look
+    // exchanged briefly).
     let (mut at_home, mut swapped) = (0usize, 0usize);
-    for &[ha, hb, xa, xb] in &both {
-        if ha <= hold_a && hb <= hold_b {
-            at_home += 1;
-        } else if xa <= hold_b && xb <= hold_a {
-            swapped += 1;
-        }
-    }
-    let explained = (at_home + swapped) as f64 / both.len().max(1) as f64;
-    let proven = swapped >= MIN_SWAPPED_FRAMES && at_home > swapped && explained >= MIN_EXPLAINED;
-    if !proven {
-        return None;
-    }
-    // Proven, the swap's frames are those the exchange explains better than home does
-    // (skin moves both alike), judged on whichever of the two markers is seen, in runs;
-    // unseen frames inside a run belong to it, and so do frames that do not clearly
-    // belong home; runs apart by a few frames that only home explains are one window. A window must hold frames the exchange alone
-    // explains, as in the proof (two markers passing close can look exchanged briefly).
     let mut windows: Vec<([usize; 2], usize)> = Vec::new();
     let mut home_since_last = usize::MAX;
     for &(f, [ha, hb, xa, xb]) in &changes {
         let ratio = |x: Option<f64>, bound: f64| x.map(|x| x / bound);
-        let (home_a, home_b) = (ratio(ha, hold_a), ratio(hb, hold_b));
-        let (away_a, away_b) = (ratio(xa, hold_b), ratio(xb, hold_a));
-        let (home, exchange) = match (home_a.zip(away_a), home_b.zip(away_b)) {
+        let home = [ratio(ha, hold_a), ratio(hb, hold_b)];
+        let away = [ratio(xa, hold_b), ratio(xb, hold_a)];
+        let within =
+            |ratios: [Option<f64>; 2], bound: f64| ratios.iter().flatten().all(|&x| x <= bound);
+        let judged = home.iter().chain(&away).all(Option::is_some);
+        let proof = judged && !within(home, 1.0) && within(away, 1.0);
+        if judged && within(home, 1.0) {
+            at_home += 1;
+        }
+        swapped += usize::from(proof);
+        let (home_cost, away_cost) = match (home[0].zip(away[0]), home[1].zip(away[1])) {
             (Some((h1, x1)), Some((h2, x2))) => (h1 + h2, x1 + x2),
             (Some((h, x)), None) | (None, Some((h, x))) => (h, x),
             (None, None) => continue,
         };
-        if exchange >= home {
+        if away_cost >= home_cost {
             // Only a frame home explains and the exchange clearly does not (beyond twice
             // the bounds) ends a window: where the two pass close both fit, and skin can
             // leave either just outside its bound.
-            let within =
-                |ratios: [Option<f64>; 2], bound: f64| ratios.iter().flatten().all(|&x| x <= bound);
-            if within([home_a, home_b], 1.0) && !within([away_a, away_b], 2.0) {
+            if within(home, 1.0) && !within(away, 2.0) {
                 home_since_last = home_since_last.saturating_add(1);
             }
             continue;
         }
-        let proof = [home_a, home_b, away_a, away_b].iter().all(Option::is_some)
-            && !(home_a.unwrap_or(0.0) <= 1.0 && home_b.unwrap_or(0.0) <= 1.0)
-            && away_a.unwrap_or(2.0) <= 1.0
-            && away_b.unwrap_or(2.0) <= 1.0;
         match windows.last_mut() {
             Some((w, n)) if home_since_last <= WINDOW_MERGE_FRAMES => {
                 w[1] = f;
@@ -315,10 +307,16 @@ fn swap_test(
         }
         home_since_last = 0;
     }
+    let explained = (at_home + swapped) as f64 / both.len().max(1) as f64;
+    let proven = swapped >= MIN_SWAPPED_FRAMES && at_home > swapped && explained >= MIN_EXPLAINED;
     let windows: Vec<[usize; 2]> = windows
         .into_iter()
         .filter(|&(_, n)| n >= MIN_SWAPPED_FRAMES)
         .map(|(w, _)| w)
         .collect();
+    // Proven in scattered frames only, the swap has no window to undo: not reported.
+    if !proven || windows.is_empty() {
+        return None;
+    }
     Some(windows)
 }

@@ -51,8 +51,14 @@ pub fn run(seg: &Segmentation, fits: &PairFits, params: &Params) -> Result<Topol
         edges.push((rank, p.cost, p.a, p.b, i));
     }
     if params.composite_rotation_ratio > 0.0 {
+        // Pair index by segments, so each triangle costs three lookups, not three scans.
+        let mut index = vec![None; n * n];
+        for (i, p) in fits.pairs.iter().enumerate() {
+            index[p.a * n + p.b] = Some(i);
+            index[p.b * n + p.a] = Some(i);
+        }
         for e in edges.iter_mut().filter(|e| e.0 == 1) {
-            if let Some(after) = composite_of(fits, n, e.2, e.3, params) {
+            if let Some(after) = composite_of(fits, &index, n, e.2, e.3, params) {
                 e.1 = e.1.max(after);
             }
         }
@@ -229,12 +235,18 @@ fn break_near_ties(edges: &mut [(u8, f64, usize, usize, usize)], fits: &PairFits
 /// the cheapest such a's dearer edge. A pair across two joints composes both joints'
 /// motions, so it turns more than either; where the joints are close (two clavicles on
 /// the sternum, two legs on one tip) it can still fit a centre as well as they do.
-fn composite_of(fits: &PairFits, n: usize, b: usize, c: usize, params: &Params) -> Option<f64> {
+/// `index[x * n + y]` is the pair of segments x and y.
+fn composite_of(
+    fits: &PairFits,
+    index: &[Option<usize>],
+    n: usize,
+    b: usize,
+    c: usize,
+    params: &Params,
+) -> Option<f64> {
     let pair = |x: usize, y: usize| {
-        let (lo, hi) = (x.min(y), x.max(y));
-        fits.pairs
-            .iter()
-            .find(|p| p.a == lo && p.b == hi)
+        index[x * n + y]
+            .map(|i| &fits.pairs[i])
             .filter(|p| p.cost.is_finite() && p.rotation_rms_deg.is_finite())
     };
     let own = pair(b, c)?;
