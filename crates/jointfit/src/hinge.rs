@@ -260,6 +260,59 @@ fn solve(mut h: Vec<Vec<f64>>, mut r: Vec<f64>) -> Option<Vec<f64>> {
     Some(x)
 }
 
+/// Smallest variance (mm²) each parent-side row of one hinge may count with, so that it
+/// moves the centre only as far as it is believed ([`place_hinges_across_bones`]).
+///
+/// `candidates` are (row, value it implies for the shift, that value's variance); the
+/// child side put the shift at `guess` with variance `guess_variance`. A row is believed
+/// by the odds that the parent's bone crosses the axis squarely, which puts its value near
+/// the rest of the evidence, against a bone leaving at a random angle, which puts it
+/// anywhere within its distance r of the centre (uniform on [−r, r]). The rest of the
+/// evidence is the child side and the other rows as believed so far, so that rows which
+/// agree with each other (a body's legs mounted level with each other) confirm each other
+/// while a lone row meeting a vague child side by chance does not take over. Even odds
+/// a priori; a row believed with probability b gets the variance that moves the solution
+/// b of the way to it.
+fn parent_row_floors(
+    guess: f64,
+    guess_variance: f64,
+    candidates: &[(ShiftRow, f64, f64)],
+) -> Vec<f64> {
+    let mut floors = vec![f64::INFINITY; candidates.len()];
+    for _ in 0..PARENT_BELIEF_ROUNDS {
+        let weights: Vec<f64> = candidates
+            .iter()
+            .zip(&floors)
+            .map(|((_, _, variance), floor)| 1.0 / variance.max(*floor))
+            .collect();
+        let next: Vec<f64> = candidates
+            .iter()
+            .enumerate()
+            .map(|(i, (row, value, variance))| {
+                let (mut precision, mut sum) = (1.0 / guess_variance, guess / guess_variance);
+                for (j, (_, v, _)) in candidates.iter().enumerate() {
+                    if j != i {
+                        precision += weights[j];
+                        sum += weights[j] * v;
+                    }
+                }
+                let rest_variance = 1.0 / precision;
+                let miss = value - sum * rest_variance;
+                let spread2 = rest_variance + variance;
+                let square =
+                    (-0.5 * miss * miss / spread2).exp() / (std::f64::consts::TAU * spread2).sqrt();
+                let reach = (row.lever * row.lever + miss * miss)
+                    .sqrt()
+                    .max(spread2.sqrt());
+                let belief = square / (square + 1.0 / (2.0 * reach));
+                rest_variance * (1.0 - belief) / belief.max(1e-12)
+            })
+            .collect();
+        floors = next;
+    }
+    floors
+}
+
 /// Smallest standard deviation (mm) given to "the bone from a hinge to a neighbouring
 /// joint is perpendicular to the hinge axis" in [`place_hinges_across_bones`]; the two
 /// joints' residual RMS add to it (a centre is about as uncertain as its fit's residual:
@@ -275,12 +328,18 @@ const MARKER_SPREAD_FLOOR_MM: f64 = 10.0;
 /// and still count ([`place_hinges_across_bones`]).
 const PARENT_JOINT_TEST_SIGMAS: f64 = 3.0;
 
+/// Rounds of [`parent_row_floors`]: the first judges each parent-side row against the
+/// child side alone, the second against the child side and the other rows as believed.
+const PARENT_BELIEF_ROUNDS: usize = 2;
+
 /// One weighted linear observation `Σ a_k s_k = b` of the hinge shifts.
 #[derive(Clone)]
 struct ShiftRow {
     terms: Vec<(usize, f64)>,
     b: f64,
     weight: f64,
+    /// Distance (mm) of the evidence (a joint, a markers' centroid) from the hinge axis.
+    lever: f64,
 }
 
 /// What one side of a hinge says about where the axis crosses that side's bone.
@@ -303,6 +362,8 @@ struct MarkerEvidence {
     count: usize,
     /// Variance (mm²) the axis's tilt puts on the mean, from its distance to the axis.
     tilt_variance: f64,
+    /// Distance (mm) of their centroid from the axis.
+    lever: f64,
 }
 
 /// Moves every free hinge centre of the tree along its axis to where the axis crosses its
@@ -324,11 +385,13 @@ struct MarkerEvidence {
 ///   A hinge whose child ends the chain (a hand, a foot, a robot's last link) has only
 ///   this;
 /// - each joint on the parent side (its own parent joint, its siblings), and the parent's
-///   markers, taken as for the child, where each agrees
-///   with the child side's solution within `PARENT_JOINT_TEST_SIGMAS` (3) (that solution's
-///   variance and the row's own): in a limb or a robot the parent's bone crosses the axis
-///   squarely too (the femur and the knee axis), and the joint then settles the centre
-///   far more precisely than markers; a branch leaving a bone at an angle fails the test.
+///   markers, taken as for the child where each agrees with the child side's solution
+///   within `PARENT_JOINT_TEST_SIGMAS` (3) (that solution's variance and the row's own),
+///   and only as far as it is believed ([`parent_row_floors`]): in a limb or a robot the
+///   parent's bone crosses the axis squarely too (the femur and the knee axis), and the
+///   joint then settles the centre far more precisely than markers; a branch leaving a
+///   bone at an angle lands near a vague child-side solution only by chance, and then
+///   must not take it over.
 ///
 /// Unlike [`place_hinge_centres`], nothing pulls from the parent side unchecked. The
 /// tree's direction decides which side is the child; where the tree is rooted elsewhere
@@ -414,6 +477,7 @@ pub fn place_hinges_across_bones(fits: &mut PairFits, edges: &[(usize, usize, us
                     terms,
                     b: u.dot(c_g - c),
                     weight: 1.0 / variance,
+                    lever,
                 });
             }
         }
@@ -431,13 +495,13 @@ pub fn place_hinges_across_bones(fits: &mut PairFits, edges: &[(usize, usize, us
                 .iter()
                 .map(|m| (u.dot(*m - c) - mean).powi(2))
                 .sum::<f64>();
-            let tilt_variance =
-                (tilt(e) * (centroid - c).reject_from_normalized(u).length()).powi(2);
+            let lever = (centroid - c).reject_from_normalized(u).length();
             evidence.markers = Some(MarkerEvidence {
                 mean,
                 squares,
                 count: seen.len(),
-                tilt_variance,
+                tilt_variance: (tilt(e) * lever).powi(2),
+                lever,
             });
         }
         evidence
@@ -467,6 +531,7 @@ pub fn place_hinges_across_bones(fits: &mut PairFits, edges: &[(usize, usize, us
                 terms: vec![(k, 1.0)],
                 b: m.mean,
                 weight: 1.0 / (spread / m.count as f64 + m.tilt_variance),
+                lever: m.lever,
             }
         })
     };
@@ -513,14 +578,23 @@ pub fn place_hinges_across_bones(fits: &mut PairFits, edges: &[(usize, usize, us
     for (k, child, parent) in &hinges {
         let k = *k;
         rows.extend(with_markers(k, child));
-        // A parent joint counts where it agrees with the child side's solution: a limb's
-        // parent bone crosses the axis squarely too, a branch off a bone need not.
-        for row in parent.joints.iter().chain(marker_row(k, parent).as_ref()) {
-            let (value, variance) = implied(k, row);
-            let spread = (variance + covariance[k][k]).sqrt();
-            if (value - guess[k]).abs() <= PARENT_JOINT_TEST_SIGMAS * spread {
-                rows.push(row.clone());
-            }
+        // A parent joint counts as far as it agrees with the child side's solution: a
+        // limb's parent bone crosses the axis squarely too, a branch off a bone need not.
+        let candidates: Vec<(ShiftRow, f64, f64)> = parent
+            .joints
+            .iter()
+            .chain(marker_row(k, parent).as_ref())
+            .filter_map(|row| {
+                let (value, variance) = implied(k, row);
+                let miss = value - guess[k];
+                let limit = PARENT_JOINT_TEST_SIGMAS * (variance + covariance[k][k]).sqrt();
+                (miss.abs() <= limit).then(|| (row.clone(), value, variance))
+            })
+            .collect();
+        let floors = parent_row_floors(guess[k], covariance[k][k], &candidates);
+        for ((mut row, ..), floor) in candidates.into_iter().zip(floors) {
+            row.weight = row.weight.min(1.0 / floor.max(f64::MIN_POSITIVE));
+            rows.push(row);
         }
     }
     let Some(s) = solve_rows(&rows, count) else {
@@ -571,4 +645,47 @@ fn normal_equations(rows: &[ShiftRow], count: usize) -> (Vec<Vec<f64>>, Vec<f64>
         }
     }
     (h, r)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn row(value: f64, lever: f64) -> (ShiftRow, f64, f64) {
+        let row = ShiftRow {
+            terms: vec![(0, 1.0)],
+            b: value,
+            weight: 1.0,
+            lever,
+        };
+        (row, value, 1.0)
+    }
+
+    /// Where the child side and the believed rows put the shift.
+    fn settled(guess: f64, variance: f64, candidates: &[(ShiftRow, f64, f64)]) -> f64 {
+        let floors = parent_row_floors(guess, variance, candidates);
+        let (mut precision, mut sum) = (1.0 / variance, guess / variance);
+        for ((_, value, own), floor) in candidates.iter().zip(floors) {
+            precision += 1.0 / own.max(floor);
+            sum += value / own.max(floor);
+        }
+        sum / precision
+    }
+
+    #[test]
+    fn parent_rows_count_as_far_as_they_are_believed() {
+        // A vague child side (σ 20 mm) at 0.
+        let variance = 400.0;
+        // A precise row far from the axis agreeing exactly is taken (nearly) whole.
+        assert!(settled(0.0, variance, &[row(5.0, 300.0)]) > 4.5);
+        // The same row 2.5 σ off is more likely a bone at an angle: it moves the centre
+        // less than half-way, where the old all-or-nothing test took it whole.
+        let lone = settled(0.0, variance, &[row(50.0, 300.0)]);
+        assert!(lone > 0.0 && lone < 25.0, "{lone}");
+        // Three rows agreeing with each other there confirm each other.
+        let three = [row(50.0, 300.0), row(50.5, 250.0), row(49.5, 200.0)];
+        assert!(settled(0.0, variance, &three) > 45.0);
+        // Nothing to judge: nothing changes.
+        assert!(parent_row_floors(0.0, variance, &[]).is_empty());
+    }
 }
