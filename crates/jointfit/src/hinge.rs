@@ -391,7 +391,8 @@ struct MarkerEvidence {
 ///   parent's bone crosses the axis squarely too (the femur and the knee axis), and the
 ///   joint then settles the centre far more precisely than markers; a branch leaving a
 ///   bone at an angle lands near a vague child-side solution only by chance, and then
-///   must not take it over.
+///   must not take it over. A parent-side joint on the axis itself (a sibling on the same
+///   tip) is taken as it is: it is the centre.
 ///
 /// Unlike [`place_hinge_centres`], nothing pulls from the parent side unchecked. The
 /// tree's direction decides which side is the child; where the tree is rooted elsewhere
@@ -580,9 +581,16 @@ pub fn place_hinges_across_bones(fits: &mut PairFits, edges: &[(usize, usize, us
         rows.extend(with_markers(k, child));
         // A parent joint counts as far as it agrees with the child side's solution: a
         // limb's parent bone crosses the axis squarely too, a branch off a bone need not.
+        // A parent-side joint on the axis (within its own σ; a point, not a hinge centre
+        // free on its own axis) is where the hinge is: two joints of one segment meeting
+        // its axis by chance would be a coincidence.
+        let on_axis =
+            |row: &ShiftRow| row.terms.len() == 1 && row.lever * row.lever * row.weight <= 1.0;
+        rows.extend(parent.joints.iter().filter(|row| on_axis(row)).cloned());
         let candidates: Vec<(ShiftRow, f64, f64)> = parent
             .joints
             .iter()
+            .filter(|row| !on_axis(row))
             .chain(marker_row(k, parent).as_ref())
             .filter_map(|row| {
                 let (value, variance) = implied(k, row);
