@@ -1,7 +1,8 @@
 //! Prints, for one synthetic trial, every pair near the tree: its cost, kind, motion and
 //! whether it is a true joint and a chosen edge, so wrong trees can be diagnosed.
 //!
-//! `cargo run --release -p export --example topo_edges [-- subject preset seed frames]`
+//! `cargo run --release -p export --example topo_edges [-- subject preset seed frames markers]`
+//! (markers per segment as `MIN:MAX`, default the generator's).
 #![allow(clippy::print_stdout)]
 
 use synth::{Preset, Subject, SynthConfig};
@@ -12,11 +13,17 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
     let preset: Preset = args.get(2).map_or("clean", |s| s.as_str()).parse()?;
     let seed = args.get(3).and_then(|a| a.parse().ok()).unwrap_or(1001);
     let frames = args.get(4).and_then(|a| a.parse().ok()).unwrap_or(480);
+    let markers_per_segment = args
+        .get(5)
+        .and_then(|a| a.split_once(':'))
+        .and_then(|(lo, hi)| Some((lo.parse().ok()?, hi.parse().ok()?)))
+        .unwrap_or(SynthConfig::default().markers_per_segment);
     let trial = synth::generate(&SynthConfig {
         subject,
         preset,
         frames,
         seed,
+        markers_per_segment,
         ..SynthConfig::default()
     })?;
     let traj = &trial.trajectories;
