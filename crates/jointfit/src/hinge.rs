@@ -684,7 +684,8 @@ mod tests {
     fn parent_rows_count_as_far_as_they_are_believed() {
         // A vague child side (σ 20 mm) at 0.
         let variance = 400.0;
-        // A precise row far from the axis agreeing exactly is taken (nearly) whole.
+        // A precise row far from the axis, a quarter σ from the child side, is taken nearly
+        // whole: a bone at a random angle would rarely land that close.
         assert!(settled(0.0, variance, &[row(5.0, 300.0)]) > 4.5);
         // The same row 2.5 σ off is more likely a bone at an angle: it moves the centre
         // less than half-way, where the old all-or-nothing test took it whole.
