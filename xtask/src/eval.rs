@@ -484,24 +484,23 @@ fn aggregate<'a>(results: impl Iterator<Item = &'a TrialResult>) -> Aggregate {
     a
 }
 
-fn presets_of(results: &[TrialResult]) -> Vec<String> {
-    let mut presets: Vec<String> = Vec::new();
+/// The distinct values of `field` over `results`, in first-seen order.
+fn distinct(results: &[TrialResult], field: impl Fn(&TrialResult) -> &String) -> Vec<String> {
+    let mut values: Vec<String> = Vec::new();
     for r in results {
-        if !presets.contains(&r.preset) {
-            presets.push(r.preset.clone());
+        if !values.contains(field(r)) {
+            values.push(field(r).clone());
         }
     }
-    presets
+    values
+}
+
+fn presets_of(results: &[TrialResult]) -> Vec<String> {
+    distinct(results, |r| &r.preset)
 }
 
 fn subjects_of(results: &[TrialResult]) -> Vec<String> {
-    let mut subjects: Vec<String> = Vec::new();
-    for r in results {
-        if !subjects.contains(&r.subject) {
-            subjects.push(r.subject.clone());
-        }
-    }
-    subjects
+    distinct(results, |r| &r.subject)
 }
 
 fn summary_json(results: &[TrialResult]) -> serde_json::Value {

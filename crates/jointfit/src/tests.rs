@@ -20,6 +20,18 @@ fn pair(fits: &crate::PairFits, a: usize, b: usize) -> &PairFit {
         .expect("pair present")
 }
 
+/// The placement functions' `(pair index, parent, child)` edges for the tree `links`
+/// (parent, child), each pair fitted with `a < b` as `run_on_segments` orders them.
+fn tree_edges(fits: &crate::PairFits, links: &[(usize, usize)]) -> Vec<(usize, usize, usize)> {
+    links
+        .iter()
+        .map(|&(a, b)| {
+            let index = fits.pairs.iter().position(|p| p.a == a && p.b == b);
+            (index.expect("pair present"), a, b)
+        })
+        .collect()
+}
+
 /// Distances (mm) of the fitted centre from the truth in a's and b's local frames. The
 /// true centre in a local frame is the mean over frames of the true global centre mapped
 /// by the fitted pose, so pose noise averages out and only the centre's error remains.
@@ -467,10 +479,7 @@ fn hinge_centres_placed_from_the_tree() {
     );
     let trial = generate(&mut rng, &bodies, 300, 0.1, |_, _, _| false);
     let mut fits = run_on_segments(&trial.traj, &trial.segments, &Params::default()).unwrap();
-    let index = |a: usize, b: usize| fits.pairs.iter().position(|p| p.a == a && p.b == b);
-    let edges: Vec<(usize, usize, usize)> = (1..4)
-        .map(|b| (index(b - 1, b).unwrap(), b - 1, b))
-        .collect();
+    let edges = tree_edges(&fits, &[(0, 1), (1, 2), (2, 3)]);
     let before: Vec<f64> = (1..4)
         .map(|b| mean_error(pair(&fits, b - 1, b), &trial.joints[b]))
         .collect();
@@ -527,10 +536,7 @@ fn hinge_centres_placed_across_the_child_bone() {
     }
     let trial = generate(&mut rng, &bodies, 300, 0.0, |_, _, _| false);
     let mut fits = run_on_segments(&trial.traj, &trial.segments, &Params::default()).unwrap();
-    let index = |a: usize, b: usize| fits.pairs.iter().position(|p| p.a == a && p.b == b);
-    let edges: Vec<(usize, usize, usize)> = (1..4)
-        .map(|b| (index(b - 1, b).unwrap(), b - 1, b))
-        .collect();
+    let edges = tree_edges(&fits, &[(0, 1), (1, 2), (2, 3)]);
     // The pair fit leaves a hinge between the two segments' marker centroids, which the
     // slanted parent drags along the axis.
     let before = mean_error(pair(&fits, 0, 1), &trial.joints[1]);
@@ -834,11 +840,7 @@ fn hinge_beside_a_coincident_ball_joint_takes_its_point() {
     });
     let trial = generate(&mut rng, &bodies, 300, 0.1, |_, _, _| false);
     let mut fits = run_on_segments(&trial.traj, &trial.segments, &Params::default()).unwrap();
-    let index = |a: usize, b: usize| fits.pairs.iter().position(|p| p.a == a && p.b == b);
-    let edges: Vec<(usize, usize, usize)> = [(0, 1), (1, 2), (1, 3)]
-        .iter()
-        .map(|&(a, b)| (index(a, b).unwrap(), a, b))
-        .collect();
+    let edges = tree_edges(&fits, &[(0, 1), (1, 2), (1, 3)]);
     assert_eq!(pair(&fits, 1, 3).kind, JointKind::Hinge);
     // The leaf's markers are scattered about, so only the ball joint pins the centre.
     let mut across = fits.clone();
