@@ -332,6 +332,204 @@ const PARENT_JOINT_TEST_SIGMAS: f64 = 3.0;
 /// child side alone, the second against the child side and the other rows as believed.
 const PARENT_BELIEF_ROUNDS: usize = 2;
 
+/// How sure [`parent_side_is_square`] must be that only the parent side is square before
+/// it turns a hinge's sides round (posterior probability). Less makes a human's ankle,
+/// where shank and foot are both a few degrees oblique to the axis, turn now and then.
+const TURN_CONFIDENCE: f64 = 0.95;
+
+/// Prior probabilities of what crosses a hinge's axis squarely ([`parent_side_is_square`]):
+/// the tree's child side only, both sides (a knee: femur and shank), the parent side only
+/// (the tree rooted elsewhere than the subject). They sum to 1.
+const SQUARE_PRIOR: [f64; 3] = [0.45, 0.45, 0.1];
+
+/// Variance (mm²) [`FirstSolve`] gives a shift that no row mentions: a metre's worth, so
+/// nothing judged through it counts.
+const UNMENTIONED_VARIANCE_MM2: f64 = 1.0e6;
+
+/// A weighted least-squares solution of every hinge shift from some of the rows, and its
+/// covariance.
+struct FirstSolve {
+    guess: Vec<f64>,
+    covariance: Vec<Vec<f64>>,
+}
+
+impl FirstSolve {
+    /// Solves `rows` for `count` shifts; `None` when singular.
+    fn of(rows: &[ShiftRow], count: usize) -> Option<Self> {
+        let (h, r) = normal_equations(rows, count);
+        let guess = solve(h.clone(), r)?;
+        let mut covariance = vec![vec![0.0; count]; count];
+        for k in 0..count {
+            let mut unit = vec![0.0; count];
+            unit[k] = 1.0;
+            for (i, x) in solve(h.clone(), unit)?.into_iter().enumerate() {
+                covariance[i][k] = x;
+            }
+        }
+        // An unknown no row mentions is not known to ±1 mm (its unit diagonal).
+        for k in 0..count {
+            if !rows
+                .iter()
+                .any(|row| row.terms.iter().any(|&(i, _)| i == k))
+            {
+                covariance[k][k] = UNMENTIONED_VARIANCE_MM2;
+            }
+        }
+        Some(Self { guess, covariance })
+    }
+
+    /// Where one row puts unknown k, the other unknowns at the solution, and the variance
+    /// of that (theirs through the covariance, the row's own σ).
+    fn implied(&self, k: usize, row: &ShiftRow) -> (f64, f64) {
+        let others = || row.terms.iter().filter(|&&(i, _)| i != k);
+        let value = row.b - others().map(|&(i, a)| a * self.guess[i]).sum::<f64>();
+        let spread: f64 = others()
+            .flat_map(|&(i, ai)| others().map(move |&(j, aj)| ai * aj * self.covariance[i][j]))
+            .sum();
+        (value, spread.max(0.0) + 1.0 / row.weight)
+    }
+}
+
+/// One piece of a hinge side's evidence seen as a point of the axis.
+#[derive(Clone, Copy, Debug)]
+struct SideItem {
+    /// Where it puts the shift (mm).
+    value: f64,
+    /// That value's variance (mm²).
+    variance: f64,
+    /// Its offset (mm) from the axis, perpendicular to it, in the side's frame.
+    across: DVec3,
+}
+
+/// Whether a hinge's parent side, and not its child side, is the one crossing the axis
+/// squarely: the tree was rooted beyond the hinge, and the parent side is the subject's
+/// child.
+///
+/// A side's items (joints, the markers' centroid) lie in one plane through the centre:
+/// across the axis when the side is square to it (`value = s`), tilted when it is not
+/// (`value = s + g·across`, the tilt g two numbers per side, a priori N(0, τ²) each
+/// with τ from [`TILT_SCALES`]: a bone's direction uniform on the sphere puts |cot| < 1
+/// half the time). Three explanations are weighed by [`SQUARE_PRIOR`], each by its
+/// linear-Gaussian evidence with s free: the child side square and the parent tilted,
+/// both square, the parent square and the child tilted. Two items of one side that fit a
+/// tilt are no sign of a square side (a shank under an oblique ankle axis: the knee and
+/// the shank's markers both off by the tilt); a lone item cannot confirm its side, so
+/// only a parent side with two or more can win. `child_axis` and `parent_axis` are the
+/// axis in each side's frame.
+fn parent_side_is_square(
+    child: &[SideItem],
+    child_axis: DVec3,
+    parent: &[SideItem],
+    parent_axis: DVec3,
+) -> bool {
+    if parent.len() < 2 || child.is_empty() {
+        return false;
+    }
+    let values: Vec<f64> = child.iter().chain(parent).map(|i| i.value).collect();
+    // The plane coordinates of each item's offset across its side's axis, and None for
+    // the other side's items.
+    let coordinates = |items: &[SideItem], axis: DVec3, first: bool| -> Vec<Option<[f64; 2]>> {
+        let e1 = axis.any_orthonormal_vector();
+        let e2 = axis.cross(e1);
+        let mine = items
+            .iter()
+            .map(|i| Some([i.across.dot(e1), i.across.dot(e2)]));
+        let none = std::iter::repeat_n(None, if first { parent.len() } else { child.len() });
+        if first {
+            mine.chain(none).collect()
+        } else {
+            none.chain(mine).collect()
+        }
+    };
+    let child_tilt = coordinates(child, child_axis, true);
+    let parent_tilt = coordinates(parent, parent_axis, false);
+    let variances: Vec<f64> = child.iter().chain(parent).map(|i| i.variance).collect();
+    let evidence = |tilted: &[Option<[f64; 2]>], tilt_sigma: f64| -> f64 {
+        let n = values.len();
+        let mut covariance = vec![vec![0.0; n]; n];
+        for i in 0..n {
+            for j in 0..n {
+                let tilt = match (tilted[i], tilted[j]) {
+                    (Some(a), Some(b)) => tilt_sigma * tilt_sigma * (a[0] * b[0] + a[1] * b[1]),
+                    _ => 0.0,
+                };
+                covariance[i][j] = SHIFT_PRIOR_MM * SHIFT_PRIOR_MM + tilt;
+            }
+            covariance[i][i] += variances[i].max(f64::MIN_POSITIVE);
+        }
+        log_gaussian(&values, covariance)
+    };
+    // A tilted side's evidence, its slopes' scale drawn from `TILT_SCALES` (a heavy tail:
+    // a bone nearly along the axis is rare, not impossible).
+    let tilted = |tilted: &[Option<[f64; 2]>]| -> f64 {
+        let logs = TILT_SCALES.map(|sigma| evidence(tilted, sigma));
+        let top = logs.iter().copied().fold(f64::NEG_INFINITY, f64::max);
+        if top == f64::NEG_INFINITY {
+            return top;
+        }
+        let mean = logs.iter().map(|l| (l - top).exp()).sum::<f64>() / logs.len() as f64;
+        top + mean.ln()
+    };
+    let square = vec![None; values.len()];
+    let [child_only, both, parent_only] = SQUARE_PRIOR.map(f64::ln);
+    let child_only = child_only + tilted(&parent_tilt);
+    let both = both + evidence(&square, 0.0);
+    let parent_only = parent_only + tilted(&child_tilt);
+    // Turning the tree's convention round needs the parent side to be nearly certain.
+    let odds = TURN_CONFIDENCE / (1.0 - TURN_CONFIDENCE);
+    parent_only - ln_sum_exp(child_only, both) >= odds.ln()
+}
+
+/// ln(e^a + e^b) without overflow.
+fn ln_sum_exp(a: f64, b: f64) -> f64 {
+    let top = a.max(b);
+    if top == f64::NEG_INFINITY {
+        return top;
+    }
+    top + ((a - top).exp() + (b - top).exp()).ln()
+}
+
+/// Tilt prior of [`parent_side_is_square`]: equally likely σ of each of a side's two slopes
+/// (axis mm per mm across), a scale mixture with a heavy tail like the cotangent of a
+/// direction uniform on the sphere (|cot| < 1 half the time, > 6 one time in seventy).
+const TILT_SCALES: [f64; 4] = [0.3, 1.0, 3.0, 10.0];
+
+/// Prior σ (mm) of the centre's shift in [`parent_side_is_square`], broad enough to be flat
+/// over any bone; the same for every explanation, so it cancels.
+const SHIFT_PRIOR_MM: f64 = 1.0e4;
+
+/// Log density of `values` under a zero-mean Gaussian with `covariance` (Cholesky);
+/// −∞ when the covariance is not positive definite.
+fn log_gaussian(values: &[f64], mut covariance: Vec<Vec<f64>>) -> f64 {
+    let n = values.len();
+    for j in 0..n {
+        for k in 0..j {
+            let l = covariance[j][k];
+            for i in j..n {
+                covariance[i][j] -= covariance[i][k] * l;
+            }
+        }
+        let d = covariance[j][j];
+        if d.is_nan() || d <= 0.0 {
+            return f64::NEG_INFINITY;
+        }
+        let d = d.sqrt();
+        for i in j..n {
+            covariance[i][j] /= d;
+        }
+    }
+    // Forward substitution of L z = values; the density is exp(−|z|²/2) / ((2π)^(n/2) det L).
+    let mut z = vec![0.0; n];
+    let mut log_det = 0.0;
+    for i in 0..n {
+        let sum: f64 = (0..i).map(|k| covariance[i][k] * z[k]).sum();
+        z[i] = (values[i] - sum) / covariance[i][i];
+        log_det += covariance[i][i].ln();
+    }
+    let squares: f64 = z.iter().map(|x| x * x).sum();
+    -0.5 * squares - log_det - 0.5 * n as f64 * std::f64::consts::TAU.ln()
+}
+
 /// One weighted linear observation `Σ a_k s_k = b` of the hinge shifts.
 #[derive(Clone)]
 struct ShiftRow {
@@ -340,11 +538,15 @@ struct ShiftRow {
     weight: f64,
     /// Distance (mm) of the evidence (a joint, a markers' centroid) from the hinge axis.
     lever: f64,
+    /// Its offset (mm) from the axis, perpendicular to it, in the side's frame.
+    across: DVec3,
 }
 
 /// What one side of a hinge says about where the axis crosses that side's bone.
 #[derive(Default)]
 struct SideEvidence {
+    /// The hinge axis in the side's frame (unit).
+    axis: DVec3,
     /// "The bone from the hinge to this joint of the side crosses the axis squarely."
     joints: Vec<ShiftRow>,
     /// The side's markers along the axis.
@@ -364,6 +566,8 @@ struct MarkerEvidence {
     tilt_variance: f64,
     /// Distance (mm) of their centroid from the axis.
     lever: f64,
+    /// Their centroid's offset (mm) from the axis, perpendicular to it.
+    across: DVec3,
 }
 
 /// Moves every free hinge centre of the tree along its axis to where the axis crosses its
@@ -395,11 +599,12 @@ struct MarkerEvidence {
 ///   tip) is taken as it is: it is the centre.
 ///
 /// Unlike [`place_hinge_centres`], nothing pulls from the parent side unchecked. The
-/// tree's direction decides which side is the child; where the tree is rooted elsewhere
-/// than the subject (a random tree's root is arbitrary), a child-side bone can meet the
-/// axis at an angle and the centre lands off by that bone's slant; testing each side
-/// by its markers was tried and is not reliable (see the issue 5 notes). `edges` as for
-/// [`place_hinge_centres`].
+/// tree's direction says which side is the child, but a tree rooted elsewhere than the
+/// subject (a random tree's root is arbitrary) puts the subject's child on the parent
+/// side: before the solve, a hinge whose parent side's joints and markers lie square to
+/// the axis while its child side's are tilted, nearly certainly ([`parent_side_is_square`],
+/// judged with every hinge where its own child side's markers and point joints put it),
+/// takes its sides the other way round. `edges` as for [`place_hinge_centres`].
 pub fn place_hinges_across_bones(fits: &mut PairFits, edges: &[(usize, usize, usize)]) -> Vec<f64> {
     let segments = fits.poses.len();
     let mut shifts = vec![0.0; edges.len()];
@@ -456,6 +661,7 @@ pub fn place_hinges_across_bones(fits: &mut PairFits, edges: &[(usize, usize, us
         let (Some(k), Some((c, Some(u)))) = (unknown[e], seen_from(e, x)) else {
             return evidence;
         };
+        evidence.axis = u;
         for (g, &(_, parent_g, child_g)) in edges.iter().enumerate() {
             if g == e || (parent_g != x && child_g != x) {
                 continue;
@@ -468,7 +674,8 @@ pub fn place_hinges_across_bones(fits: &mut PairFits, edges: &[(usize, usize, us
             if let (Some(kg), Some(u_g)) = (unknown[g], u_g) {
                 terms.push((kg, -u.dot(u_g)));
             }
-            let lever = (c_g - c).reject_from_normalized(u).length();
+            let across = (c_g - c).reject_from_normalized(u);
+            let lever = across.length();
             let variance = BONE_SIGMA_FLOOR_MM.powi(2)
                 + residual(e).powi(2)
                 + residual(g).powi(2)
@@ -479,6 +686,7 @@ pub fn place_hinges_across_bones(fits: &mut PairFits, edges: &[(usize, usize, us
                     b: u.dot(c_g - c),
                     weight: 1.0 / variance,
                     lever,
+                    across,
                 });
             }
         }
@@ -496,13 +704,15 @@ pub fn place_hinges_across_bones(fits: &mut PairFits, edges: &[(usize, usize, us
                 .iter()
                 .map(|m| (u.dot(*m - c) - mean).powi(2))
                 .sum::<f64>();
-            let lever = (centroid - c).reject_from_normalized(u).length();
+            let across = (centroid - c).reject_from_normalized(u);
+            let lever = across.length();
             evidence.markers = Some(MarkerEvidence {
                 mean,
                 squares,
                 count: seen.len(),
                 tilt_variance: (tilt(e) * lever).powi(2),
                 lever,
+                across,
             });
         }
         evidence
@@ -533,6 +743,7 @@ pub fn place_hinges_across_bones(fits: &mut PairFits, edges: &[(usize, usize, us
                 b: m.mean,
                 weight: 1.0 / (spread / m.count as f64 + m.tilt_variance),
                 lever: m.lever,
+                across: m.across,
             }
         })
     };
@@ -541,40 +752,55 @@ pub fn place_hinges_across_bones(fits: &mut PairFits, edges: &[(usize, usize, us
         rows.extend(marker_row(k, evidence));
         rows
     };
-    // First solve: the child sides' evidence (the tree's convention).
-    let first: Vec<ShiftRow> = hinges
-        .iter()
-        .flat_map(|(k, child, _)| with_markers(*k, child))
-        .collect();
-    let Some(guess) = solve_rows(&first, count) else {
-        return shifts;
-    };
-    // The first solve's covariance, column by column.
-    let mut covariance = vec![vec![0.0; count]; count];
+    // First solve: the child sides' evidence (the tree's convention). Then each hinge
+    // whose parent side crosses the axis squarely and whose child side does not (a tree
+    // rooted elsewhere than the subject) takes its sides the other way round, and the
+    // first solve is made again with them.
+    // Which side of each hinge crosses its axis squarely, judged with every hinge where
+    // its child side's markers and point joints alone put it: a row coupling two hinges
+    // must not vouch for itself through the other hinge's guess.
+    let mut hinges = hinges;
     {
-        let (h, _) = normal_equations(&first, count);
-        for k in 0..count {
-            let mut unit = vec![0.0; count];
-            unit[k] = 1.0;
-            let Some(column) = solve(h.clone(), unit) else {
-                return shifts;
+        let points: Vec<ShiftRow> = hinges
+            .iter()
+            .flat_map(|(k, child, _)| with_markers(*k, child))
+            .filter(|row| row.terms.len() == 1)
+            .collect();
+        let Some(alone) = FirstSolve::of(&points, count) else {
+            return shifts;
+        };
+        for (k, child, parent) in hinges.iter_mut() {
+            let items = |evidence: &SideEvidence| -> Vec<SideItem> {
+                evidence
+                    .joints
+                    .iter()
+                    .cloned()
+                    .chain(marker_row(*k, evidence))
+                    .map(|row| {
+                        let (value, variance) = alone.implied(*k, &row);
+                        SideItem {
+                            value,
+                            variance,
+                            across: row.across,
+                        }
+                    })
+                    .collect()
             };
-            for (i, x) in column.into_iter().enumerate() {
-                covariance[i][k] = x;
+            if parent_side_is_square(&items(child), child.axis, &items(parent), parent.axis) {
+                std::mem::swap(child, parent);
             }
         }
     }
-    let covariance = &covariance;
-    // Where one joint row puts unknown k, the other unknowns at `guess`, and the
-    // variance of that (theirs through the covariance, the row's own σ).
-    let implied = |k: usize, row: &ShiftRow| {
-        let others = || row.terms.iter().filter(|&&(i, _)| i != k);
-        let value = row.b - others().map(|&(i, a)| a * guess[i]).sum::<f64>();
-        let spread: f64 = others()
-            .flat_map(|&(i, ai)| others().map(move |&(j, aj)| ai * aj * covariance[i][j]))
-            .sum();
-        (value, spread.max(0.0) + 1.0 / row.weight)
+    let rows: Vec<ShiftRow> = hinges
+        .iter()
+        .flat_map(|(k, child, _)| with_markers(*k, child))
+        .collect();
+    let Some(solution) = FirstSolve::of(&rows, count) else {
+        return shifts;
     };
+    let guess = &solution.guess;
+    let covariance = &solution.covariance;
+    let implied = |k: usize, row: &ShiftRow| solution.implied(k, row);
     let mut rows = Vec::new();
     for (k, child, parent) in &hinges {
         let k = *k;
@@ -665,6 +891,7 @@ mod tests {
             b: value,
             weight: 1.0,
             lever,
+            across: DVec3::new(lever, 0.0, 0.0),
         };
         (row, value, 1.0)
     }
@@ -696,5 +923,65 @@ mod tests {
         assert!(settled(0.0, variance, &three) > 45.0);
         // Nothing to judge: nothing changes.
         assert!(parent_row_floors(0.0, variance, &[]).is_empty());
+    }
+
+    #[test]
+    fn log_gaussian_is_the_normal_density() {
+        let one = log_gaussian(&[1.0], vec![vec![4.0]]);
+        let expected = -0.5 * 0.25 - 0.5 * (std::f64::consts::TAU * 4.0).ln();
+        assert!((one - expected).abs() < 1e-12, "{one} vs {expected}");
+        // Correlated pair: ρ = 0.5, unit variances, at (1, 1): quadratic form 4/3.
+        let two = log_gaussian(&[1.0, 1.0], vec![vec![1.0, 0.5], vec![0.5, 1.0]]);
+        let expected = -0.5 * 4.0 / 3.0 - std::f64::consts::TAU.ln() - 0.5 * 0.75f64.ln();
+        assert!((two - expected).abs() < 1e-12, "{two} vs {expected}");
+        assert_eq!(
+            log_gaussian(&[0.0, 0.0], vec![vec![1.0, 2.0], vec![2.0, 1.0]]),
+            f64::NEG_INFINITY
+        );
+    }
+
+    fn item(value: f64, variance: f64, across: [f64; 3]) -> SideItem {
+        SideItem {
+            value,
+            variance,
+            across: DVec3::from_array(across),
+        }
+    }
+
+    #[test]
+    fn a_square_parent_side_takes_the_child_role_only_when_nearly_certain() {
+        let axis = DVec3::Y;
+        // A random tree rooted beyond the hinge: the parent side is the subject's child,
+        // its far joint and its markers (around the bone to it) level with each other; the
+        // child side (the subject's parent) has only its markers, 265 mm along the axis.
+        let parent = [
+            item(0.0, 1.0, [0.0, 0.0, 91.0]),
+            item(4.0, 400.0, [5.0, 0.0, 45.0]),
+        ];
+        let child = [item(265.0, 300.0, [150.0, 0.0, 0.0])];
+        assert!(parent_side_is_square(&child, axis, &parent, axis));
+        // A shank under an oblique ankle axis (a synthetic human's with 2–3 markers per
+        // segment, as the solve saw it): the knee and the shank's markers 90 and 63 mm along
+        // the axis, the foot's markers at −63 mm. A tilt explains the shank nearly as well
+        // as squareness does (posterior 0.64 for turning), so the foot stays the child.
+        let axis = DVec3::new(0.2663, 0.9631, -0.0387);
+        let shank = [
+            item(89.74, 708.62, [-59.08, 33.56, 428.80]),
+            item(62.94, 730.62, [-30.47, 13.57, 128.04]),
+        ];
+        let foot = [item(-62.94, 730.62, [116.05, -32.07, 0.37])];
+        assert!(!parent_side_is_square(&foot, axis, &shank, axis));
+        // Both sides square and agreeing (a knee): nothing to turn.
+        let thigh = [
+            item(1.0, 1.0, [0.0, 0.0, 440.0]),
+            item(-3.0, 300.0, [0.0, 0.0, 200.0]),
+        ];
+        let shin = [
+            item(0.5, 1.0, [0.0, 0.0, -430.0]),
+            item(2.0, 300.0, [0.0, 0.0, -210.0]),
+        ];
+        assert!(!parent_side_is_square(&shin, axis, &thigh, axis));
+        // A lone parent-side item cannot confirm its side.
+        assert!(!parent_side_is_square(&child, axis, &parent[..1], axis));
     }
 }
