@@ -752,13 +752,10 @@ pub fn place_hinges_across_bones(fits: &mut PairFits, edges: &[(usize, usize, us
         rows.extend(marker_row(k, evidence));
         rows
     };
-    // First solve: the child sides' evidence (the tree's convention). Then each hinge
-    // whose parent side crosses the axis squarely and whose child side does not (a tree
-    // rooted elsewhere than the subject) takes its sides the other way round, and the
-    // first solve is made again with them.
-    // Which side of each hinge crosses its axis squarely, judged with every hinge where
-    // its child side's markers and point joints alone put it: a row coupling two hinges
-    // must not vouch for itself through the other hinge's guess.
+    // Each hinge whose parent side crosses the axis squarely and whose child side does
+    // not (a tree rooted elsewhere than the subject) takes its sides the other way round.
+    // Judged with every hinge where its child side's markers and point joints alone put
+    // it: a row coupling two hinges must not vouch for itself through the other's guess.
     let mut hinges = hinges;
     {
         let points: Vec<ShiftRow> = hinges
@@ -791,6 +788,7 @@ pub fn place_hinges_across_bones(fits: &mut PairFits, edges: &[(usize, usize, us
             }
         }
     }
+    // First solve: the child sides' evidence.
     let rows: Vec<ShiftRow> = hinges
         .iter()
         .flat_map(|(k, child, _)| with_markers(*k, child))
