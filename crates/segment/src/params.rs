@@ -155,7 +155,7 @@ impl Default for Params {
             joint_split_z: 4.5,
             joint_centre_fraction: 1.0,
             eject_ratio: 8.0,
-            joint_merge_z: 3.0,
+            joint_merge_z: 4.5,
             pair_hold: 3.0,
             repair_swaps: true,
         }
@@ -280,7 +280,7 @@ pub const PARAM_DOCS: &[(&str, &str)] = &[
     ),
     (
         "joint_merge_z",
-        "after the joint test, two clusters of ≥ 3 markers with some marker pair within 2 × the tolerance of ρ merge when the joint test's rotation score of the pair is below this and the second's centroid stays within 2 × the part σ bound in the first's frame: they move as one rigid body (a rigid body's best cut scores about 2, true joints 4 and up; joint_table, seeds 3001-3004 hard: 2 of 280 true joints and 2 of 75 true segments' best cuts score on the wrong side of 3); most rigid pair first, repeatedly; 0 = off; default 3.0",
+        "after the joint test, two clusters of ≥ 3 markers with some marker pair within 2 × the tolerance of ρ merge when the joint test's rotation score of the pair is below this and the second's centroid stays within 2 × the part σ bound in the first's frame: they move as one rigid body (a rigid body's best cut scores about 2, true joints 4 and up). The default is joint_split_z's: a pair the joint test would not cut apart is one body; at 3.0 a pair scoring between the two stayed split (snowman-hard-s8104: a root split in two by skin, z 4.29). cargo xtask eval --compare segment.joint_merge_z=3,4.5: hard trees on seeds 8101-8124 90 -> 92/144, 8201-8230 130 -> 131/180, 4001-4006/6001-6006/7001/9001/1001/5001 71 -> 71/96 (and with --markers 2:3 unchanged); messy 8101-8112 40 -> 41/72, skin mean 2.30 -> 2.22 %; noise, gaps, swap, clean and every real capture's segmentation unchanged; most rigid pair first, repeatedly; 0 = off; default 4.5",
     ),
     (
         "pair_hold",
