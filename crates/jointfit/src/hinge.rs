@@ -614,8 +614,8 @@ struct MarkerEvidence {
 ///   must not take it over. How likely "square" is a priori comes from the capture: the
 ///   mean over its hinges of [`square_sides`]' probability that both sides are square
 ///   (seed 8101's clean trials: human 0.75, hexapod 0.84, quadruped 0.87, robot arm 0.91,
-///   snowman 0.93, random tree 0.23). A parent-side joint on the axis itself (a sibling on the same tip) is
-///   taken as it is: it is the centre.
+///   snowman 0.93, random tree 0.23). A parent-side joint on the axis itself (a sibling
+///   on the same tip) is taken as it is: it is the centre.
 ///
 /// Unlike [`place_hinge_centres`], nothing pulls from the parent side unchecked. The
 /// tree's direction says which side is the child, but a tree rooted elsewhere than the
@@ -1014,13 +1014,13 @@ mod tests {
         // segment, as the solve saw it): the knee and the shank's markers 90 and 63 mm along
         // the axis, the foot's markers at −63 mm. A tilt explains the shank nearly as well
         // as squareness does (posterior 0.64 for turning), so the foot stays the child.
-        let axis = DVec3::new(0.2663, 0.9631, -0.0387);
+        let ankle = DVec3::new(0.2663, 0.9631, -0.0387);
         let shank = [
             item(89.74, 708.62, [-59.08, 33.56, 428.80]),
             item(62.94, 730.62, [-30.47, 13.57, 128.04]),
         ];
         let foot = [item(-62.94, 730.62, [116.05, -32.07, 0.37])];
-        assert!(!parent_side_is_square(&foot, axis, &shank, axis));
+        assert!(!parent_side_is_square(&foot, ankle, &shank, ankle));
         // Both sides square and agreeing (a knee): nothing to turn.
         let thigh = [
             item(1.0, 1.0, [0.0, 0.0, 440.0]),
