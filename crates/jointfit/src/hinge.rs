@@ -344,7 +344,7 @@ const PARENT_BELIEF_ROUNDS: usize = 2;
 /// one 2–3-marker trial); at 0.95 a random tree's backwards hinge at 0.93 stays backwards.
 const TURN_CONFIDENCE: f64 = 0.9;
 
-/// Prior probabilities of what crosses a hinge's axis squarely ([`parent_side_is_square`]):
+/// Prior probabilities of what crosses a hinge's axis squarely ([`square_sides`]):
 /// the tree's child side only, both sides (a knee: femur and shank), the parent side only
 /// (the tree rooted elsewhere than the subject). They sum to 1.
 const SQUARE_PRIOR: [f64; 3] = [0.45, 0.45, 0.1];
@@ -409,8 +409,15 @@ struct SideItem {
 }
 
 /// Whether a hinge's parent side, and not its child side, is the one crossing the axis
-/// squarely: the tree was rooted beyond the hinge, and the parent side is the subject's
-/// child.
+/// squarely (the tree was rooted beyond the hinge, and the parent side is the subject's
+/// child), from [`square_sides`]' `posterior` and the parent side's item count: a lone
+/// item cannot confirm its side, so only a parent side with two or more can win.
+fn parent_side_is_square(posterior: [f64; 3], parent_items: usize) -> bool {
+    parent_items >= 2 && posterior[2] >= TURN_CONFIDENCE
+}
+
+/// Posterior probabilities that [the child side only, both sides, the parent side only]
+/// cross the axis squarely; the prior when either side has nothing to say.
 ///
 /// A side's items (joints, the markers' centroid) lie in one plane through the centre:
 /// across the axis when the side is square to it (`value = s`), tilted when it is not
@@ -420,23 +427,8 @@ struct SideItem {
 /// linear-Gaussian evidence with s free: the child side square and the parent tilted,
 /// both square, the parent square and the child tilted. Two items of one side that fit a
 /// tilt are no sign of a square side (a shank under an oblique ankle axis: the knee and
-/// the shank's markers both off by the tilt); a lone item cannot confirm its side, so
-/// only a parent side with two or more can win. `child_axis` and `parent_axis` are the
+/// the shank's markers both off by the tilt). `child_axis` and `parent_axis` are the
 /// axis in each side's frame.
-fn parent_side_is_square(
-    child: &[SideItem],
-    child_axis: DVec3,
-    parent: &[SideItem],
-    parent_axis: DVec3,
-) -> bool {
-    parent.len() >= 2
-        && !child.is_empty()
-        && square_sides(child, child_axis, parent, parent_axis)[2] >= TURN_CONFIDENCE
-}
-
-/// Posterior probabilities that [the child side only, both sides, the parent side only]
-/// cross the axis squarely, as [`parent_side_is_square`] weighs them; the prior when
-/// either side has nothing to say.
 fn square_sides(
     child: &[SideItem],
     child_axis: DVec3,
@@ -505,12 +497,12 @@ fn square_sides(
     odds.map(|o| o / total)
 }
 
-/// Tilt prior of [`parent_side_is_square`]: equally likely σ of each of a side's two slopes
+/// Tilt prior of [`square_sides`]: equally likely σ of each of a side's two slopes
 /// (axis mm per mm across), a scale mixture with a heavy tail like the cotangent of a
 /// direction uniform on the sphere (|cot| < 1 half the time, > 6 one time in seventy).
 const TILT_SCALES: [f64; 4] = [0.3, 1.0, 3.0, 10.0];
 
-/// Prior σ (mm) of the centre's shift in [`parent_side_is_square`], broad enough to be flat
+/// Prior σ (mm) of the centre's shift in [`square_sides`], broad enough to be flat
 /// over any bone; the same for every explanation, so it cancels.
 const SHIFT_PRIOR_MM: f64 = 1.0e4;
 
@@ -804,11 +796,11 @@ pub fn place_hinges_across_bones(fits: &mut PairFits, edges: &[(usize, usize, us
                     .collect()
             };
             let (child_items, parent_items) = (items(child), items(parent));
+            let posterior = square_sides(&child_items, child.axis, &parent_items, parent.axis);
             if !child_items.is_empty() && !parent_items.is_empty() {
-                both_square
-                    .push(square_sides(&child_items, child.axis, &parent_items, parent.axis)[1]);
+                both_square.push(posterior[1]);
             }
-            if parent_side_is_square(&child_items, child.axis, &parent_items, parent.axis) {
+            if parent_side_is_square(posterior, parent_items.len()) {
                 std::mem::swap(child, parent);
             }
         }
@@ -998,6 +990,19 @@ mod tests {
         }
     }
 
+    /// [`parent_side_is_square`] on two sides' items.
+    fn turns(
+        child: &[SideItem],
+        child_axis: DVec3,
+        parent: &[SideItem],
+        parent_axis: DVec3,
+    ) -> bool {
+        parent_side_is_square(
+            square_sides(child, child_axis, parent, parent_axis),
+            parent.len(),
+        )
+    }
+
     #[test]
     fn a_square_parent_side_takes_the_child_role_only_when_very_likely() {
         let axis = DVec3::Y;
@@ -1009,7 +1014,7 @@ mod tests {
             item(4.0, 400.0, [5.0, 0.0, 45.0]),
         ];
         let child = [item(265.0, 300.0, [150.0, 0.0, 0.0])];
-        assert!(parent_side_is_square(&child, axis, &parent, axis));
+        assert!(turns(&child, axis, &parent, axis));
         // A shank under an oblique ankle axis (a synthetic human's with 2–3 markers per
         // segment, as the solve saw it): the knee and the shank's markers 90 and 63 mm along
         // the axis, the foot's markers at −63 mm. A tilt explains the shank nearly as well
@@ -1020,7 +1025,7 @@ mod tests {
             item(62.94, 730.62, [-30.47, 13.57, 128.04]),
         ];
         let foot = [item(-62.94, 730.62, [116.05, -32.07, 0.37])];
-        assert!(!parent_side_is_square(&foot, ankle, &shank, ankle));
+        assert!(!turns(&foot, ankle, &shank, ankle));
         // Both sides square and agreeing (a knee): nothing to turn.
         let thigh = [
             item(1.0, 1.0, [0.0, 0.0, 440.0]),
@@ -1030,9 +1035,9 @@ mod tests {
             item(0.5, 1.0, [0.0, 0.0, -430.0]),
             item(2.0, 300.0, [0.0, 0.0, -210.0]),
         ];
-        assert!(!parent_side_is_square(&shin, axis, &thigh, axis));
+        assert!(!turns(&shin, axis, &thigh, axis));
         // A lone parent-side item cannot confirm its side.
-        assert!(!parent_side_is_square(&child, axis, &parent[..1], axis));
+        assert!(!turns(&child, axis, &parent[..1], axis));
         // The three explanations' probabilities: both sides square for the knee, not for
         // the backwards hinge.
         let knee = square_sides(&shin, axis, &thigh, axis);
