@@ -138,3 +138,161 @@ fn a_failed_run_shows_what_the_reader_warned() {
     xtask_ok(&kept);
     assert!(out.join("skeleton.json").exists());
 }
+
+/// A body part named by a capture's labels: (name, marker labels).
+type BodyPart<'a> = (&'a str, &'a [&'a str]);
+
+/// Segment id of every marker label in skeleton.json (`None`: in no segment).
+fn segment_by_label(
+    skeleton: &serde_json::Value,
+) -> std::collections::BTreeMap<String, Option<u64>> {
+    skeleton["markers"]
+        .as_array()
+        .expect("markers")
+        .iter()
+        .map(|m| {
+            let label = m["label"].as_str().expect("label").to_owned();
+            (label, m["segment"].as_u64())
+        })
+        .collect()
+}
+
+/// Checks a segmentation against body parts named by the capture's labels: every group of
+/// `whole` lies in one segment, and no segment holds markers of two groups of `whole` and
+/// `apart` together (`apart`: parts whose split between segments the labels do not decide,
+/// like an elbow marker between upper arm and forearm). Returns the failures.
+fn body_parts_mismatch(
+    skeleton: &serde_json::Value,
+    whole: &[BodyPart],
+    apart: &[BodyPart],
+) -> Vec<String> {
+    let segment = segment_by_label(skeleton);
+    let mut failures = Vec::new();
+    for (part, labels) in whole {
+        let ids: std::collections::BTreeSet<Option<u64>> = labels
+            .iter()
+            .map(|l| segment.get(*l).copied().flatten())
+            .collect();
+        if ids.len() != 1 || ids.contains(&None) {
+            failures.push(format!("{part} is not one segment: {labels:?} in {ids:?}"));
+        }
+    }
+    let mut owner: std::collections::BTreeMap<u64, &str> = std::collections::BTreeMap::new();
+    for (part, labels) in whole.iter().chain(apart) {
+        for label in *labels {
+            let Some(id) = segment.get(*label).copied().flatten() else {
+                continue;
+            };
+            match owner.insert(id, part) {
+                Some(other) if other != *part => {
+                    failures.push(format!("segment {id} holds markers of {other} and {part}"));
+                }
+                _ => {}
+            }
+        }
+    }
+    failures
+}
+
+/// The OpenSim gait example's 41 markers and a Qualisys walk's 25 are named by body part:
+/// the segments must be those parts (legs, pelvis, trunk, head whole; arms never mixed with
+/// each other or the trunk), found with no label read.
+#[test]
+fn real_walks_segment_into_their_named_body_parts() {
+    let Some(data) = mocap_io::testdata::shared_data_dir("real_walks_body_parts") else {
+        return;
+    };
+    let tmp = Scratch::new("body-parts");
+    let opensim: (&str, Vec<BodyPart>, Vec<BodyPart>) = (
+        "trc/opensim/subject01_walk1.trc",
+        vec![
+            ("pelvis", &["R.ASIS", "L.ASIS", "V.Sacral"]),
+            (
+                "right thigh",
+                &["R.Thigh.Upper", "R.Thigh.Front", "R.Thigh.Rear"],
+            ),
+            (
+                "left thigh",
+                &["L.Thigh.Upper", "L.Thigh.Front", "L.Thigh.Rear"],
+            ),
+            (
+                "right shank",
+                &["R.Shank.Upper", "R.Shank.Front", "R.Shank.Rear"],
+            ),
+            (
+                "left shank",
+                &["L.Shank.Upper", "L.Shank.Front", "L.Shank.Rear"],
+            ),
+            (
+                "right foot",
+                &[
+                    "R.Heel",
+                    "R.Midfoot.Sup",
+                    "R.Midfoot.Lat",
+                    "R.Toe.Tip",
+                    "R.Toe.Lat",
+                    "R.Toe.Med",
+                ],
+            ),
+            (
+                "left foot",
+                &[
+                    "L.Heel",
+                    "L.Midfoot.Sup",
+                    "L.Midfoot.Lat",
+                    "L.Toe.Tip",
+                    "L.Toe.Lat",
+                    "L.Toe.Med",
+                ],
+            ),
+            ("trunk", &["Sternum", "R.Acromium", "L.Acromium"]),
+            ("head", &["R.Temple", "L.Temple", "Top.Head"]),
+        ],
+        vec![
+            (
+                "right arm",
+                &["R.Bicep", "R.Elbow", "R.Wrist.Med", "R.Wrist.Lat"],
+            ),
+            (
+                "left arm",
+                &["L.Bicep", "L.Elbow", "L.Wrist.Med", "L.Wrist.Lat"],
+            ),
+        ],
+    );
+    let qualisys: (&str, Vec<BodyPart>, Vec<BodyPart>) = (
+        "c3d/c3d.org/sample26/Walking_Hybrid_1_1.c3d",
+        vec![
+            ("pelvis", &["R_ASIS", "L_ASIS", "SACRUM"]),
+            (
+                "right thigh",
+                &["R_THIGH_1", "R_THIGH_2", "R_THIGH_3", "R_THIGH_4"],
+            ),
+            (
+                "left thigh",
+                &["L_THIGH_1", "L_THIGH_2", "L_THIGH_3", "L_THIGH_4"],
+            ),
+            (
+                "right shank",
+                &["R_SHANK_1", "R_SHANK_2", "R_SHANK_3", "R_SHANK_4"],
+            ),
+            (
+                "left shank",
+                &["L_SHANK_1", "L_SHANK_2", "L_SHANK_3", "L_SHANK_4"],
+            ),
+            ("right foot", &["R_HEEL", "R_MT_1", "R_MT_5"]),
+            ("left foot", &["L_HEEL", "L_MT_1", "L_MT_5"]),
+        ],
+        Vec::new(),
+    );
+    let mut failures = Vec::new();
+    for (i, (file, whole, apart)) in [opensim, qualisys].into_iter().enumerate() {
+        let out = tmp.run_to(&data.join(file), &format!("out{i}"));
+        let skeleton = read_json(&out.join("skeleton.json"));
+        failures.extend(
+            body_parts_mismatch(&skeleton, &whole, &apart)
+                .into_iter()
+                .map(|f| format!("{file}: {f}")),
+        );
+    }
+    assert!(failures.is_empty(), "{}", failures.join("\n"));
+}
