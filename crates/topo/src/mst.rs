@@ -32,6 +32,9 @@ pub fn run(seg: &Segmentation, fits: &PairFits, params: &Params) -> Result<Topol
     }
     let marker_count: Vec<usize> = seg.segments.iter().map(|s| s.markers.len()).collect();
     let mut notes = Vec::new();
+    if n == 1 {
+        notes.push(one_body_note(seg));
+    }
 
     // Candidate edges: (rank, cost, a, b, pair index); rank 0 = rigid pair taken first.
     let mut edges: Vec<(u8, f64, usize, usize, usize)> = Vec::with_capacity(fits.pairs.len());
@@ -192,6 +195,30 @@ pub fn run(seg: &Segmentation, fits: &PairFits, params: &Params) -> Result<Topol
         detached_segments,
         notes,
     })
+}
+
+/// Why a capture gave one segment and no joint: every marker kept its distance to every
+/// other (a static trial, or a rigid object), in the segmentation's own numbers.
+fn one_body_note(seg: &Segmentation) -> String {
+    let steadiest = seg
+        .markers
+        .iter()
+        .filter(|m| m.segment.is_some())
+        .map(|m| m.rigidity_residual_mm)
+        .filter(|r| r.is_finite())
+        .fold(f64::NAN, f64::max);
+    let residual = if steadiest.is_finite() {
+        format!("largest marker rigidity residual {steadiest:.2} mm, ")
+    } else {
+        String::new()
+    };
+    format!(
+        "one segment, no joint: all {} assigned markers move as one rigid body ({residual}\
+         rigidity tolerance {:.2} mm); a static trial or a rigid object has no joint to find: \
+         capture the joints moving",
+        seg.segments[0].markers.len(),
+        seg.tolerance_mm
+    )
 }
 
 /// Reorders runs of near-equal costs by the pair's relative rotation, smallest first.
@@ -467,6 +494,42 @@ mod tests {
             );
             assert_eq!(j.cost, p.cost);
         }
+    }
+
+    #[test]
+    fn one_segment_is_a_tree_of_its_own_and_says_why() {
+        let mut seg = segmentation(&[4]);
+        seg.markers = [0.12, 0.31, f64::NAN, 0.2]
+            .into_iter()
+            .map(|r| segment::MarkerDiagnostics {
+                segment: Some(0),
+                visible_frames: 100,
+                rigidity_residual_mm: r,
+                slides: false,
+            })
+            .collect();
+        let t = run(&seg, &fits(1, tree_costs(&[])), &Params::default()).unwrap();
+        assert!(t.joints.is_empty());
+        assert_eq!(t.root_segment, 0);
+        let [note] = &t.notes[..] else {
+            panic!("{:?}", t.notes)
+        };
+        assert!(
+            note.contains("all 4 assigned markers move as one rigid body"),
+            "{note}"
+        );
+        assert!(
+            note.contains("largest marker rigidity residual 0.31 mm"),
+            "{note}"
+        );
+        // Two segments: no such note.
+        let t = run(
+            &segmentation(&[3, 3]),
+            &fits(2, tree_costs(&[(0, 1)])),
+            &Params::default(),
+        )
+        .unwrap();
+        assert!(t.notes.is_empty(), "{:?}", t.notes);
     }
 
     #[test]
