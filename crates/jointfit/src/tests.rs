@@ -558,6 +558,42 @@ fn hinge_centres_placed_across_the_child_bone() {
     }
 }
 
+/// A leaf hinge (about y) whose markers crowd one side of the bone's plane: three 35–40
+/// mm to one side along the axis, one 40 mm to the other. Their mean along the axis is 18
+/// mm off the plane; the midpoint of their extremes is on it, and so is the centre.
+#[test]
+fn a_leaf_hinge_sits_midway_between_its_outermost_markers() {
+    let mut rng = TestRng(36);
+    let mut bodies = chain(&mut rng, &[Articulation::Hinge(DVec3::Y, 50.0)], 4);
+    // Both bones run along −z from the hinge; the parent's markers sit evenly on both
+    // sides of its plane, so only the leaf's lopsided ones could pull the centre.
+    for (k, m) in bodies[0].markers.iter_mut().enumerate() {
+        let side = if k % 2 == 0 { 1.0 } else { -1.0 };
+        *m = DVec3::new(
+            30.0 * side,
+            40.0 * if k < 2 { 1.0 } else { -1.0 },
+            -600.0 + 60.0 * k as f64,
+        );
+    }
+    for (k, (m, y)) in bodies[1]
+        .markers
+        .iter_mut()
+        .zip([40.0, -35.0, -40.0, -38.0])
+        .enumerate()
+    {
+        let side = if k % 2 == 0 { 1.0 } else { -1.0 };
+        *m = DVec3::new(35.0 * side, y, -80.0 * (k + 1) as f64);
+    }
+    let trial = generate(&mut rng, &bodies, 300, 0.0, |_, _, _| false);
+    let mut fits = run_on_segments(&trial.traj, &trial.segments, &Params::default()).unwrap();
+    let edges = tree_edges(&fits, &[(0, 1)]);
+    crate::place_hinges_across_bones(&mut fits, &edges);
+    let fit = pair(&fits, 0, 1);
+    assert_eq!(fit.kind, JointKind::Hinge);
+    let err = mean_error(fit, &trial.joints[1]);
+    assert!(err < 3.0, "{err} mm from the joint ({})", fit.evidence);
+}
+
 /// Chain 0–1–2 whose middle segment shows only 2 of its 4 markers in frames 100..220:
 /// those frames are filled through the 0–1 joint, so they carry that joint by
 /// construction. The 1–2 fit must learn from the other frames only (its centre, kind and
