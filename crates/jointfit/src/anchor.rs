@@ -14,11 +14,12 @@
 //! raise the radial residual, `c` is put on the axis nearest the midpoint of N's origin and
 //! S's markers (any point on a true axis is fixed in both segments, so the resulting pose
 //! does not depend on where). The cost is the RMS of the radial residual (mm); pairs with
-//! too few samples, too little angular excursion about `c` (no identifiable joint) or too
-//! large a residual are not candidates. For a ball joint (`Params::anchor_line_prior`) a
-//! two-marker S's line adds a first-order cue for the centre's coordinate along the limb.
-//! Greedily, the cheapest (S, N) over all unposed S and posed N is taken, S becomes posed,
-//! and the search repeats until no candidate is left.
+//! too few samples, too little angular excursion about `c` for their residual (no
+//! identifiable joint) or too large a residual are not candidates. For a ball joint
+//! (`Params::anchor_line_prior`) a two-marker S's line adds a first-order cue for the
+//! centre's coordinate along the limb. Greedily, the cheapest (S, N) over all unposed S
+//! and posed N is taken, S becomes posed, and the search repeats until no candidate is
+//! left.
 //!
 //! S's pose at a frame: with ≥ 2 markers, Horn's method on S's visible markers plus the
 //! centre as N carries it, against a reference shape {markers, centre} in S's local frame
@@ -296,7 +297,8 @@ fn fit_candidates(
 }
 
 /// Common centre of `markers` (S's) in the frame of a neighbour with poses `track`;
-/// `None` unless the markers turn at least `min_excursion_deg` RMS about it.
+/// `None` unless the markers turn at least `min_excursion_deg` RMS about it, or less but
+/// with a residual that pins the centre within `Params::anchor_exact_centre_mm`.
 pub(crate) fn centre_fit(
     traj: &Trajectories,
     markers: &[usize],
@@ -474,9 +476,13 @@ pub(crate) fn centre_fit(
         _ => base,
     };
     let (_, radii) = radial(&clouds, &used, centre);
+    // A short turn identifies the centre as well as the residual allows: the distances
+    // let it stray about residual / excursion (radians) across the markers' paths.
+    let exact = params.anchor_exact_centre_mm > 0.0
+        && rms_mm / excursion_deg.to_radians() <= params.anchor_exact_centre_mm;
     let ok = rms_mm.is_finite()
         && rms_mm <= params.anchor_max_rms_mm
-        && excursion_deg >= min_excursion_deg;
+        && (excursion_deg >= min_excursion_deg || exact);
     ok.then_some(CentreFit {
         centre,
         rms_mm,

@@ -391,6 +391,46 @@ fn two_marker_hinge_is_anchored_on_its_axis() {
     assert!(off < 1.5, "centre {off} mm off the axis");
 }
 
+/// A noise-free 2-marker segment on a hinge that turns less than
+/// `anchor_min_excursion_deg`: its markers keep their distances to the axis exactly, which
+/// pins the centre (`anchor_exact_centre_mm`), so it is anchored there rather than left
+/// for a worse neighbour or none.
+#[test]
+fn a_short_exact_turn_still_anchors() {
+    let mut rng = TestRng(33);
+    let axis = DVec3::new(0.2, 1.0, 0.0).normalize();
+    let mut bodies = chain(&mut rng, &[Articulation::Hinge(axis, 12.0)], 4);
+    bodies[1].markers.truncate(2);
+    let trial = generate(&mut rng, &bodies, 300, 0.0, |_, _, _| false);
+    let fits = run_on_segments(&trial.traj, &trial.segments, &Params::default()).unwrap();
+    let fit = pair(&fits, 0, 1);
+    let excursion: f64 = fit
+        .evidence
+        .split("excursion ")
+        .nth(1)
+        .and_then(|t| t.split('°').next())
+        .and_then(|x| x.parse().ok())
+        .expect("anchored through this joint");
+    assert!(
+        excursion < Params::default().anchor_min_excursion_deg,
+        "{}",
+        fit.evidence
+    );
+    let mut off = 0.0;
+    for f in 0..300 {
+        let d = DVec3::from_array(fit.positions[f]) - trial.joints[1][f];
+        off += (d - d.dot(trial.axes[1][f]) * trial.axes[1][f]).length() / 300.0;
+    }
+    assert!(off < 0.5, "centre {off} mm off the axis");
+    // Without the exception the short turn is no anchor, and the segment has no pose.
+    let strict = Params {
+        anchor_exact_centre_mm: 0.0,
+        ..Params::default()
+    };
+    let fits = run_on_segments(&trial.traj, &trial.segments, &strict).unwrap();
+    assert!(fits.poses[1].rotations.iter().all(|q| q[0].is_nan()));
+}
+
 /// Noise-free subjects with 2–3 markers per segment: every segment is posed (its own
 /// markers or anchored) in every frame. On a hinge the distances are flat along the axis
 /// to rounding, and the sphere fit settles anywhere on it; far along it, the direction
