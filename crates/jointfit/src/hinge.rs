@@ -569,7 +569,7 @@ struct MarkerEvidence {
     /// by at most the limb's radius, and the midpoint of the extremes finds that plane
     /// better than their mean does.
     mid: f64,
-    /// Sum of their squared deviations from that mean (mm²).
+    /// Sum of their squared deviations from their mean along the axis (mm²).
     squares: f64,
     /// How many.
     count: usize,

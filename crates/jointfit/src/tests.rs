@@ -3,7 +3,7 @@
 use glam::{DQuat, DVec3};
 
 use crate::horn::tests::TestRng;
-use crate::testkit::{Articulation, chain, generate};
+use crate::testkit::{Articulation, Trial, chain, generate};
 use crate::{JointKind, Method, PairFit, Params, run_on_segments};
 
 fn params(method: Method) -> Params {
@@ -375,20 +375,33 @@ fn two_and_one_marker_segments_are_anchored() {
 /// A 2-marker segment on a hinge: the centre comes out on the true axis.
 #[test]
 fn two_marker_hinge_is_anchored_on_its_axis() {
-    let mut rng = TestRng(32);
-    let axis = DVec3::new(0.2, 1.0, 0.0).normalize();
-    let mut bodies = chain(&mut rng, &[Articulation::Hinge(axis, 60.0)], 4);
-    bodies[1].markers.truncate(2);
-    let trial = generate(&mut rng, &bodies, 300, 0.3, |_, _, _| false);
+    let trial = two_marker_hinge(32, 60.0, 0.3);
     let fits = run_on_segments(&trial.traj, &trial.segments, &Params::default()).unwrap();
     let fit = pair(&fits, 0, 1);
     assert_eq!(fit.kind, JointKind::Hinge, "{}", fit.evidence);
-    let mut off = 0.0;
-    for f in 0..300 {
-        let d = DVec3::from_array(fit.positions[f]) - trial.joints[1][f];
-        off += (d - d.dot(trial.axes[1][f]) * trial.axes[1][f]).length() / 300.0;
-    }
+    let off = mean_distance_from_axis(fit, &trial, 1);
     assert!(off < 1.5, "centre {off} mm off the axis");
+}
+
+/// A 4-marker body and a 2-marker body hinged to it (turning ±`degrees`), 300 frames.
+fn two_marker_hinge(seed: u64, degrees: f64, noise_mm: f64) -> Trial {
+    let mut rng = TestRng(seed);
+    let axis = DVec3::new(0.2, 1.0, 0.0).normalize();
+    let mut bodies = chain(&mut rng, &[Articulation::Hinge(axis, degrees)], 4);
+    bodies[1].markers.truncate(2);
+    generate(&mut rng, &bodies, 300, noise_mm, |_, _, _| false)
+}
+
+/// Mean over frames of the distance (mm) of `fit`'s centre from body `b`'s true hinge axis.
+fn mean_distance_from_axis(fit: &PairFit, trial: &Trial, b: usize) -> f64 {
+    let frames = fit.positions.len();
+    (0..frames)
+        .map(|f| {
+            let d = DVec3::from_array(fit.positions[f]) - trial.joints[b][f];
+            (d - d.dot(trial.axes[b][f]) * trial.axes[b][f]).length()
+        })
+        .sum::<f64>()
+        / frames as f64
 }
 
 /// A noise-free 2-marker segment on a hinge that turns less than
@@ -397,11 +410,7 @@ fn two_marker_hinge_is_anchored_on_its_axis() {
 /// for a worse neighbour or none.
 #[test]
 fn a_short_exact_turn_still_anchors() {
-    let mut rng = TestRng(33);
-    let axis = DVec3::new(0.2, 1.0, 0.0).normalize();
-    let mut bodies = chain(&mut rng, &[Articulation::Hinge(axis, 12.0)], 4);
-    bodies[1].markers.truncate(2);
-    let trial = generate(&mut rng, &bodies, 300, 0.0, |_, _, _| false);
+    let trial = two_marker_hinge(33, 12.0, 0.0);
     let fits = run_on_segments(&trial.traj, &trial.segments, &Params::default()).unwrap();
     let fit = pair(&fits, 0, 1);
     let excursion: f64 = fit
@@ -416,11 +425,7 @@ fn a_short_exact_turn_still_anchors() {
         "{}",
         fit.evidence
     );
-    let mut off = 0.0;
-    for f in 0..300 {
-        let d = DVec3::from_array(fit.positions[f]) - trial.joints[1][f];
-        off += (d - d.dot(trial.axes[1][f]) * trial.axes[1][f]).length() / 300.0;
-    }
+    let off = mean_distance_from_axis(fit, &trial, 1);
     assert!(off < 0.5, "centre {off} mm off the axis");
     // Without the exception the short turn is no anchor, and the segment has no pose.
     let strict = Params {

@@ -200,15 +200,15 @@ pub fn run(seg: &Segmentation, fits: &PairFits, params: &Params) -> Result<Topol
 /// Why a capture gave one segment and no joint: every marker kept its distance to every
 /// other (a static trial, or a rigid object), in the segmentation's own numbers.
 fn one_body_note(seg: &Segmentation) -> String {
-    let steadiest = seg
+    let largest = seg
         .markers
         .iter()
         .filter(|m| m.segment.is_some())
         .map(|m| m.rigidity_residual_mm)
         .filter(|r| r.is_finite())
         .fold(f64::NAN, f64::max);
-    let residual = if steadiest.is_finite() {
-        format!("largest marker rigidity residual {steadiest:.2} mm, ")
+    let residual = if largest.is_finite() {
+        format!("largest marker rigidity residual {largest:.2} mm, ")
     } else {
         String::new()
     };
