@@ -296,3 +296,21 @@ fn real_walks_segment_into_their_named_body_parts() {
     }
     assert!(failures.is_empty(), "{}", failures.join("\n"));
 }
+
+/// c3d.org sample 33 is a static trial: 139 markers that keep their distances within a
+/// fraction of a millimetre. One rigid body, no joint, and the output says why rather than
+/// inventing joints from rounding.
+#[test]
+fn a_static_trial_is_one_body_and_says_so() {
+    let Some(data) = mocap_io::testdata::shared_data_dir("static_trial_one_body") else {
+        return;
+    };
+    let tmp = Scratch::new("static");
+    let out = tmp.run(&data.join("c3d/c3d.org/sample33/bigparlove.c3d"));
+    let skeleton = read_json(&out.join("skeleton.json"));
+    assert_eq!(skeleton["segments"].as_array().map(Vec::len), Some(1));
+    assert_eq!(skeleton["joints"].as_array().map(Vec::len), Some(0));
+    let notes = skeleton["notes"].to_string();
+    assert!(notes.contains("move as one rigid body"), "{notes}");
+    assert!(notes.contains("static trial"), "{notes}");
+}
