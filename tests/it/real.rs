@@ -26,6 +26,16 @@ fn asf_lengths(path: &Path) -> std::collections::BTreeMap<String, f64> {
     out
 }
 
+/// The shared data folder and the skeleton.json the pipeline makes of `file` (relative to
+/// it); `None`, having said SKIPPED for `what`, without the folder.
+fn real_skeleton(what: &str, file: &str) -> Option<(std::path::PathBuf, serde_json::Value)> {
+    let data = mocap_io::testdata::shared_data_dir(what)?;
+    let tmp = Scratch::new(what);
+    let out = tmp.run(&data.join(file));
+    let skeleton = read_json(&out.join("skeleton.json"));
+    Some((data, skeleton))
+}
+
 /// The id of the segment holding a marker whose label ends with `:<suffix>`.
 fn segment_of(skeleton: &serde_json::Value, suffix: &str) -> Option<u64> {
     skeleton["segments"].as_array()?.iter().find_map(|s| {
@@ -59,12 +69,10 @@ fn bone(skeleton: &serde_json::Value, m1: &str, m2: &str, m3: &str) -> Option<f6
 
 #[test]
 fn cmu_02_01_limb_lengths_match_the_vicon_skeleton() {
-    let Some(data) = mocap_io::testdata::shared_data_dir("cmu_02_01_limb_lengths") else {
+    let Some((data, skeleton)) = real_skeleton("cmu_02_01_limb_lengths", "c3d/cmu/02_01.c3d")
+    else {
         return;
     };
-    let tmp = Scratch::new("cmu-02-01");
-    let out = tmp.run(&data.join("c3d/cmu/02_01.c3d"));
-    let skeleton = read_json(&out.join("skeleton.json"));
     let reference = asf_lengths(&data.join("skeletons/cmu/02.asf"));
     // (ASF bone, proximal segment marker, the bone's own marker, distal segment marker).
     let limbs = [
@@ -302,12 +310,12 @@ fn real_walks_segment_into_their_named_body_parts() {
 /// inventing joints from rounding.
 #[test]
 fn a_static_trial_is_one_body_and_says_so() {
-    let Some(data) = mocap_io::testdata::shared_data_dir("static_trial_one_body") else {
+    let Some((_, skeleton)) = real_skeleton(
+        "static_trial_one_body",
+        "c3d/c3d.org/sample33/bigparlove.c3d",
+    ) else {
         return;
     };
-    let tmp = Scratch::new("static");
-    let out = tmp.run(&data.join("c3d/c3d.org/sample33/bigparlove.c3d"));
-    let skeleton = read_json(&out.join("skeleton.json"));
     assert_eq!(skeleton["segments"].as_array().map(Vec::len), Some(1));
     assert_eq!(skeleton["joints"].as_array().map(Vec::len), Some(0));
     let notes = skeleton["notes"].to_string();
