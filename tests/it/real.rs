@@ -207,10 +207,6 @@ fn body_parts_mismatch(
 /// each other or the trunk), found with no label read.
 #[test]
 fn real_walks_segment_into_their_named_body_parts() {
-    let Some(data) = mocap_io::testdata::shared_data_dir("real_walks_body_parts") else {
-        return;
-    };
-    let tmp = Scratch::new("body-parts");
     let opensim: (&str, Vec<BodyPart>, Vec<BodyPart>) = (
         "trc/opensim/subject01_walk1.trc",
         vec![
@@ -293,9 +289,10 @@ fn real_walks_segment_into_their_named_body_parts() {
         Vec::new(),
     );
     let mut failures = Vec::new();
-    for (i, (file, whole, apart)) in [opensim, qualisys].into_iter().enumerate() {
-        let out = tmp.run_to(&data.join(file), &format!("out{i}"));
-        let skeleton = read_json(&out.join("skeleton.json"));
+    for (file, whole, apart) in [opensim, qualisys] {
+        let Some((_, skeleton)) = real_skeleton("real_walks_body_parts", file) else {
+            return;
+        };
         failures.extend(
             body_parts_mismatch(&skeleton, &whole, &apart)
                 .into_iter()

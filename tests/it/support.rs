@@ -19,17 +19,12 @@ impl Scratch {
 
     /// `run INPUT --out <scratch>/out --cache <scratch>/cache`: the pipeline into this folder.
     pub fn run_args(&self, input: &Path) -> Vec<String> {
-        self.run_args_to(input, "out")
-    }
-
-    /// `run INPUT --out <scratch>/<out> --cache <scratch>/cache`.
-    fn run_args_to(&self, input: &Path, out: &str) -> Vec<String> {
         let path = |p: PathBuf| p.to_str().expect("UTF-8 path").to_string();
         vec![
             "run".into(),
             path(input.to_path_buf()),
             "--out".into(),
-            path(self.path(out)),
+            path(self.path("out")),
             "--cache".into(),
             path(self.path("cache")),
         ]
@@ -37,14 +32,9 @@ impl Scratch {
 
     /// Runs the pipeline on `input` into this folder, asserting success; the output folder.
     pub fn run(&self, input: &Path) -> PathBuf {
-        self.run_to(input, "out")
-    }
-
-    /// Runs the pipeline on `input` into `<scratch>/<out>`, asserting success; that folder.
-    pub fn run_to(&self, input: &Path, out: &str) -> PathBuf {
-        let args = self.run_args_to(input, out);
+        let args = self.run_args(input);
         xtask_ok(&args.iter().map(String::as_str).collect::<Vec<_>>());
-        self.path(out)
+        self.path("out")
     }
 }
 
