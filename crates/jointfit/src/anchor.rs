@@ -44,7 +44,7 @@ use rayon::prelude::*;
 
 use crate::pairfits::SegmentPoses;
 use crate::params::Params;
-use crate::poses::{FitRules, Pose, fit_pairs, fit_shape, pose_track};
+use crate::poses::{FitRules, Pose, Spread, fit_pairs, fit_shape, pose_track};
 use crate::small::sym_eigen;
 
 /// How a segment was tied to a neighbour.
@@ -899,7 +899,12 @@ fn anchored_poses(
                 Some(&m) => traj.get(f, m).map(DVec3::from_array),
                 None => n_track[f].as_ref().map(|p| p.apply(c)),
             },
-            FitRules::of(params),
+            FitRules {
+                // The centre is no marker: its scatter is the neighbour's pose error, so
+                // the markers' scatter says nothing about the spin this shape leaves.
+                max_spin_deg: 0.0,
+                ..FitRules::of(params)
+            },
         );
         return shape.into_poses(id, markers.len());
     }
@@ -980,11 +985,11 @@ fn fill_gaps(
                 buf.push((*r, DVec3::from_array(p)));
             }
         }
-        if buf.len() != 2 {
+        if buf.len() < 2 {
             continue;
         }
         buf.push((centre_in_s, nb.apply(fit.centre)));
-        if let Some(rf) = fit_pairs(&buf, params.min_spread_mm) {
+        if let Some(rf) = fit_pairs(&buf, Spread::fixed(params.min_spread_mm)) {
             poses.rotations[f] = rf.rotation.to_array();
             poses.translations[f] = rf.translation.to_array();
             poses.rms_mm[f] = rf.rms_mm;

@@ -15,7 +15,9 @@
 //! a posed neighbour (greedy anchoring, `Params::anchor`, see `anchor.rs`): 2 markers plus
 //! the joint centre the neighbour carries; a 1-marker segment gets a swing-only pose (its
 //! twist about the centre→marker line is unobservable and set to the neighbour's). Frames
-//! where only 2 markers of a larger segment are visible are filled the same way. At least
+//! where only 2 markers of a larger segment are visible are filled the same way, and so
+//! are frames whose visible markers nearly line up when the whole set does not (their spin
+//! beyond `Params::max_spin_deg`: a marker hidden from a well-spread set). At least
 //! one segment must have ≥ 3 non-collinear markers to start from. A segment posed through
 //! a joint has a twist about its marker line that is derived, not seen, so its joints are
 //! centred by its markers' distances (`Params::anchor_centres_by_distance`) wherever those

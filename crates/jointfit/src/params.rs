@@ -49,6 +49,11 @@ pub struct Params {
     /// Minimum RMS extent (mm) of the visible markers across their second principal
     /// direction for a pose to be fitted (nearly collinear markers fix no spin).
     pub min_spread_mm: f64,
+    /// Largest standard error (degrees) of a pose's spin that a frame's fit may have,
+    /// predicted from the segment's fit scatter and the visible markers' lever, where that
+    /// lever is under half the whole segment's (nearly collinear markers left visible); a
+    /// frame beyond it has no pose of its own; 0 = off.
+    pub max_spin_deg: f64,
     /// A marker farther than this × the segment's median per-frame fit RMS from its fitted
     /// place leaves that frame's pose fit (and the reference shape), while ≥ 3 others stay
     /// (with 3 left and one still beyond, the frame has no pose); 0 = off.
@@ -97,6 +102,7 @@ impl Default for Params {
             rigid_deg: 2.0,
             hinge_ratio: 0.3,
             min_spread_mm: 2.0,
+            max_spin_deg: 10.0,
             pose_outlier_factor: 4.0,
             pose_outlier_floor_mm: 20.0,
             max_iters: 200,
@@ -158,6 +164,17 @@ pub const PARAM_DOCS: &[(&str, &str)] = &[
         "min_spread_mm",
         "a pose needs visible markers spread at least this RMS distance across their second \
          principal direction (collinear markers fix no spin); mm; default 2.0",
+    ),
+    (
+        "max_spin_deg",
+        "a frame's pose needs its spin known to this standard error: the segment's fit \
+         scatter over the visible markers' lever (√ of the least eigenvalue of their inertia \
+         tensor), checked only where that lever is under half the whole segment's (a marker \
+         hidden from a well-spread set); three markers nearly on a line under skin turn tens \
+         of degrees about it; the frame is left to the anchor's centre (with the visible \
+         markers) or to gap filling (cargo xtask eval --presets hard: seeds 8201-8230 2.09 → \
+         2.06 % of height, trees unchanged; snowman-hard-s6001's neck 174 → 33 mm); degrees; \
+         0 = off; default 10",
     ),
     (
         "pose_outlier_factor",
@@ -278,6 +295,7 @@ impl Params {
             ));
         }
         for (name, value) in [
+            ("max_spin_deg", self.max_spin_deg),
             ("pose_outlier_factor", self.pose_outlier_factor),
             ("pose_outlier_floor_mm", self.pose_outlier_floor_mm),
         ] {
