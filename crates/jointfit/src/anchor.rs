@@ -104,12 +104,14 @@ impl CentreFit {
 }
 
 /// Anchors every segment it can; replaces the poses of segments without their own and
-/// fills 2-marker frames of the others. Returns the anchor of every segment.
+/// fills 2-marker frames of the others. With `tree` (symmetric adjacency), a segment is
+/// anchored to a tree neighbour while any qualifies. Returns the anchor of every segment.
 pub(crate) fn anchor_segments(
     traj: &Trajectories,
     segments: &[Vec<usize>],
     poses: &mut [SegmentPoses],
     params: &Params,
+    tree: Option<&[Vec<bool>]>,
 ) -> Vec<Option<Anchor>> {
     let n = segments.len();
     let mut anchors: Vec<Option<Anchor>> = vec![None; n];
@@ -126,11 +128,15 @@ pub(crate) fn anchor_segments(
     // Fits are computed once per (S, N): N's poses never change after it is posed.
     let mut memo: Vec<Vec<Option<Option<CentreFit>>>> = vec![vec![None; n]; n];
     let mut failed = vec![vec![false; n]; n];
+    // Off-tree neighbours are tried only once no tree neighbour is left to try.
+    let on_tree = |s: usize, nb: usize| tree.is_none_or(|t| t[s][nb]);
+    let mut tree_only = tree.is_some();
     loop {
+        let open = |s: usize, nb: usize| !failed[s][nb] && (!tree_only || on_tree(s, nb));
         let wanted: Vec<(usize, usize)> = (0..n)
             .filter(|&s| !posed[s] && !segments[s].is_empty())
             .flat_map(|s| (0..n).map(move |nb| (s, nb)))
-            .filter(|&(s, nb)| nb != s && posed[nb] && !failed[s][nb])
+            .filter(|&(s, nb)| nb != s && posed[nb] && open(s, nb))
             .collect();
         fit_candidates(traj, segments, &tracks, params, &mut memo, &wanted);
         let mut best: Option<(f64, usize, usize)> = None;
@@ -139,7 +145,7 @@ pub(crate) fn anchor_segments(
                 continue;
             }
             for nb in 0..n {
-                if nb == s || !posed[nb] || failed[s][nb] {
+                if nb == s || !posed[nb] || !open(s, nb) {
                     continue;
                 }
                 if let Some(Some(fit)) = &memo[s][nb]
@@ -149,7 +155,13 @@ pub(crate) fn anchor_segments(
                 }
             }
         }
-        let Some((_, s, nb)) = best else { break };
+        let Some((_, s, nb)) = best else {
+            if tree_only {
+                tree_only = false;
+                continue;
+            }
+            break;
+        };
         let Some(Some(fit)) = memo[s][nb].clone() else {
             break;
         };

@@ -23,6 +23,13 @@
 //! centred by its markers' distances (`Params::anchor_centres_by_distance`) wherever those
 //! fix the centre.
 //!
+//! Greedy anchoring does not know the tree, and a segment whose own markers nearly line
+//! up even when all are seen is posed with a spin error that throws its joints' images
+//! far. So a second pass (`Params::tree_poses`) runs along the minimum spanning tree of the
+//! first pass's costs: such segments are posed through a tree neighbour's joint, and
+//! anchors are sought among tree neighbours first. Its pairs keep the first pass's costs,
+//! so the tree topo chooses is the one the first pass's poses support.
+//!
 //! It does not choose which pairs are joints (topo does, from the costs); hinge centres
 //! are placed on their axes from the tree by [`place_hinges_across_bones`] (or the older
 //! [`place_hinge_centres`]), which the caller (bonefit) runs once the tree is known.
@@ -89,8 +96,91 @@ pub fn run_on_segments(
             });
         }
     }
+    let own = fit_all(traj, segments, params, None);
+    if !params.tree_poses || !own.needs_tree {
+        return Ok(own.fits);
+    }
+    // Second pass along the tree the costs make: poses through the joints the topology
+    // will most likely keep, costs (hence the tree) from the first pass.
+    let tree = cheapest_tree(segments.len(), &own.fits);
+    let mut along = fit_all(traj, segments, params, Some(&tree)).fits;
+    for (fit, first) in along.pairs.iter_mut().zip(&own.fits.pairs) {
+        if fit.cost.to_bits() != first.cost.to_bits() {
+            fit.cost = first.cost;
+            fit.evidence.push_str(
+                "; cost from the first pass (segment poses before posing along the tree)",
+            );
+        }
+    }
+    Ok(along)
+}
+
+/// Pair fits and whether a second pass along the tree would change any pose.
+struct FitPass {
+    fits: PairFits,
+    /// Some segment was posed through a neighbour, or its own poses turn too freely
+    /// (`Params::max_spin_deg`) for its joints.
+    needs_tree: bool,
+}
+
+/// The minimum spanning tree of the pair costs (Kruskal; finite costs only, ties in pair
+/// order, rigid pairs first as topo's defaults take them), as a symmetric adjacency matrix.
+fn cheapest_tree(n: usize, fits: &PairFits) -> Vec<Vec<bool>> {
+    let mut order: Vec<&PairFit> = fits.pairs.iter().filter(|p| p.cost.is_finite()).collect();
+    order.sort_by(|x, y| {
+        let rigid = |p: &PairFit| u8::from(p.kind != JointKind::Rigid);
+        rigid(x).cmp(&rigid(y)).then(x.cost.total_cmp(&y.cost))
+    });
+    let mut root: Vec<usize> = (0..n).collect();
+    fn find(root: &mut [usize], mut x: usize) -> usize {
+        while root[x] != x {
+            root[x] = root[root[x]];
+            x = root[x];
+        }
+        x
+    }
+    let mut tree = vec![vec![false; n]; n];
+    for p in order {
+        let (ra, rb) = (find(&mut root, p.a), find(&mut root, p.b));
+        if ra != rb {
+            root[ra] = rb;
+            tree[p.a][p.b] = true;
+            tree[p.b][p.a] = true;
+        }
+    }
+    tree
+}
+
+/// Poses, anchors and every pair's fit. With `tree` (a second pass), segments whose own
+/// poses turn too freely are posed through a neighbour instead (their own poses kept
+/// where none qualifies), and anchors are sought among tree neighbours first.
+fn fit_all(
+    traj: &Trajectories,
+    segments: &[Vec<usize>],
+    params: &Params,
+    tree: Option<&[Vec<bool>]>,
+) -> FitPass {
     let mut poses = poses::all_segment_poses(traj, segments, poses::FitRules::of(params));
-    let anchors = anchor::anchor_segments(traj, segments, &mut poses, params);
+    let loose: Vec<bool> = poses
+        .iter()
+        .map(|p| poses::spin_error_deg(p) > params.max_spin_deg)
+        .collect();
+    let own = if tree.is_some() {
+        let own = poses.clone();
+        for (p, _) in poses.iter_mut().zip(&loose).filter(|(_, l)| **l) {
+            p.forget();
+        }
+        own
+    } else {
+        Vec::new()
+    };
+    let anchors = anchor::anchor_segments(traj, segments, &mut poses, params, tree);
+    for (s, own) in own.into_iter().enumerate() {
+        if loose[s] && anchors[s].as_ref().is_none_or(|a| !a.posed_by_anchor) {
+            poses[s] = own;
+        }
+    }
+    let needs_tree = anchors.iter().any(Option::is_some) || loose.iter().any(|&l| l);
     let tracks: Vec<Vec<Option<poses::Pose>>> = poses.par_iter().map(poses::pose_track).collect();
     let views: Vec<fit::SegmentView<'_>> = segments
         .iter()
@@ -153,11 +243,14 @@ pub fn run_on_segments(
             }
         }
     }
-    Ok(PairFits {
-        frames: traj.frames(),
-        poses,
-        pairs: fits,
-    })
+    FitPass {
+        fits: PairFits {
+            frames: traj.frames(),
+            poses,
+            pairs: fits,
+        },
+        needs_tree,
+    }
 }
 
 /// A centre no farther than this (mm, mean nearest-marker distance) beyond the pose fit's

@@ -439,6 +439,46 @@ fn principal_variances(points: impl Iterator<Item = DVec3> + Clone) -> [f64; 3] 
     vals.map(|v| v.max(0.0))
 }
 
+impl SegmentPoses {
+    /// Drops every frame's pose (the reference shape stays).
+    pub(crate) fn forget(&mut self) {
+        self.rotations.fill([f64::NAN; 4]);
+        self.translations.fill([f64::NAN; 3]);
+        self.rms_mm.fill(f64::NAN);
+    }
+}
+
+/// A segment's predicted spin error (degrees) with all its markers seen: its per-frame
+/// fit scatter over its reference shape's lever; 0 for fewer than 3 reference points or
+/// no fit.
+pub(crate) fn spin_error_deg(poses: &SegmentPoses) -> f64 {
+    let reference: Vec<DVec3> = poses
+        .reference
+        .iter()
+        .map(|r| DVec3::from_array(*r))
+        .filter(|r| r.is_finite())
+        .collect();
+    let n = reference.len() as f64;
+    let mut rms: Vec<f64> = poses
+        .rms_mm
+        .iter()
+        .copied()
+        .filter(|r| r.is_finite())
+        .collect();
+    if n < 3.0 || rms.is_empty() {
+        return 0.0;
+    }
+    rms.sort_by(f64::total_cmp);
+    // The median frame sees all markers in a segment without many gaps.
+    let sigma = rms[rms.len() / 2] * (n / (3.0 * n - 6.0)).sqrt();
+    let lever = lever_mm(reference.iter().copied());
+    if lever > 0.0 {
+        (sigma / lever).atan().to_degrees()
+    } else {
+        90.0
+    }
+}
+
 /// The stored poses as the pair fits use them; `None` where the pose is unknown.
 pub(crate) fn pose_track(poses: &SegmentPoses) -> Vec<Option<Pose>> {
     poses

@@ -951,3 +951,44 @@ fn nearest_marker_distance_skips_unknown_frames() {
     let none = crate::nearest_marker_mm(&traj, [0usize, 1].into_iter(), |_| None);
     assert!(none.is_infinite());
 }
+
+/// A middle segment whose three markers lie within 3 mm of a line 250 mm from both its
+/// joints: under 2 mm scatter its own poses turn ~25° about that line, which throws both
+/// joints' images tens of mm. Posed again along the tree (through a neighbour's joint),
+/// its joints come out far closer; the costs, hence the tree, are the first pass's.
+#[test]
+fn a_loosely_spread_segment_is_posed_through_its_tree_joint() {
+    let mut rng = TestRng(41);
+    let mut bodies = chain(
+        &mut rng,
+        &[Articulation::Ball(50.0), Articulation::Ball(50.0)],
+        5,
+    );
+    bodies[1].markers = vec![
+        DVec3::new(-60.0, 0.0, -250.0),
+        DVec3::new(0.0, 3.0, -250.0),
+        DVec3::new(60.0, -3.0, -250.0),
+    ];
+    let trial = generate(&mut rng, &bodies, 600, 2.0, |_, _, _| false);
+    let run = |tree_poses: bool| {
+        let params = Params {
+            tree_poses,
+            ..Params::default()
+        };
+        run_on_segments(&trial.traj, &trial.segments, &params).unwrap()
+    };
+    let (along, own) = (run(true), run(false));
+    for (x, y) in along.pairs.iter().zip(&own.pairs) {
+        assert_eq!(x.cost.to_bits(), y.cost.to_bits(), "pair {}-{}", x.a, x.b);
+    }
+    for (a, b) in [(0, 1), (1, 2)] {
+        let (e_along, e_own) = (
+            mean_error(pair(&along, a, b), &trial.joints[b]),
+            mean_error(pair(&own, a, b), &trial.joints[b]),
+        );
+        assert!(
+            e_along < 15.0 && e_own > 3.0 * e_along,
+            "joint {a}-{b}: {e_along:.1} mm along the tree, {e_own:.1} mm on own poses"
+        );
+    }
+}
