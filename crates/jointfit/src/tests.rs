@@ -955,7 +955,8 @@ fn nearest_marker_distance_skips_unknown_frames() {
 /// A middle segment whose three markers lie within 3 mm of a line 250 mm from both its
 /// joints: under 2 mm scatter its own poses turn ~25° about that line, which throws both
 /// joints' images tens of mm. Posed again along the tree (through a neighbour's joint),
-/// its joints come out far closer; the costs, hence the tree, are the first pass's.
+/// its joints come out far closer; the costs and relative rotations topo reads are the
+/// first pass's.
 #[test]
 fn a_loosely_spread_segment_is_posed_through_its_tree_joint() {
     let mut rng = TestRng(41);
@@ -978,8 +979,11 @@ fn a_loosely_spread_segment_is_posed_through_its_tree_joint() {
         run_on_segments(&trial.traj, &trial.segments, &params).unwrap()
     };
     let (along, own) = (run(true), run(false));
+    // What topo builds the tree from is the first pass's.
     for (x, y) in along.pairs.iter().zip(&own.pairs) {
         assert_eq!(x.cost.to_bits(), y.cost.to_bits(), "pair {}-{}", x.a, x.b);
+        let rotation = |p: &PairFit| p.rotation_rms_deg.to_bits();
+        assert_eq!(rotation(x), rotation(y), "pair {}-{}", x.a, x.b);
     }
     for (a, b) in [(0, 1), (1, 2)] {
         let (e_along, e_own) = (
