@@ -97,7 +97,7 @@ pub fn run_on_segments(
         }
     }
     let own = fit_all(traj, segments, params, None);
-    if !params.tree_poses || !own.needs_tree {
+    if !params.tree_poses {
         return Ok(own.fits);
     }
     // Second pass along the tree the costs make: poses through the joints the topology
@@ -107,6 +107,11 @@ pub fn run_on_segments(
     // centres: the first pass's kinds on these fits measured worse (cargo xtask eval
     // --presets hard: 8101-8124 1.95 → 1.98 %, --markers 2:3 3.08 → 3.15 %).
     let tree = cheapest_tree(segments.len(), &own.fits);
+    let off_tree = |(s, nb): (usize, &Option<usize>)| nb.is_some_and(|nb| !tree[s][nb]);
+    if !own.loose && !own.anchored_to.iter().enumerate().any(off_tree) {
+        // Every anchor is a tree neighbour already: a second pass would repeat the first.
+        return Ok(own.fits);
+    }
     let mut along = fit_all(traj, segments, params, Some(&tree)).fits;
     for (fit, first) in along.pairs.iter_mut().zip(&own.fits.pairs) {
         let same = |x: f64, y: f64| x.to_bits() == y.to_bits();
@@ -123,12 +128,13 @@ pub fn run_on_segments(
     Ok(along)
 }
 
-/// Pair fits and whether a second pass along the tree would change any pose.
+/// Pair fits, and what decides whether a second pass along the tree changes any pose.
 struct FitPass {
     fits: PairFits,
-    /// Some segment was posed through a neighbour, or its own poses turn too freely
-    /// (`Params::max_spin_deg`) for its joints.
-    needs_tree: bool,
+    /// Per segment, the neighbour it is posed through (anchored segments only).
+    anchored_to: Vec<Option<usize>>,
+    /// Some segment's own poses turn too freely for its joints (`Params::max_spin_deg`).
+    loose: bool,
 }
 
 /// The minimum spanning tree of the pair costs (Kruskal; finite costs only, ties in pair
@@ -188,7 +194,14 @@ fn fit_all(
             poses[s] = own;
         }
     }
-    let needs_tree = anchors.iter().any(Option::is_some) || loose.iter().any(|&l| l);
+    let anchored_to = anchors
+        .iter()
+        .map(|a| {
+            a.as_ref()
+                .filter(|a| a.posed_by_anchor)
+                .map(|a| a.neighbour)
+        })
+        .collect();
     let tracks: Vec<Vec<Option<poses::Pose>>> = poses.par_iter().map(poses::pose_track).collect();
     let views: Vec<fit::SegmentView<'_>> = segments
         .iter()
@@ -257,7 +270,8 @@ fn fit_all(
             poses,
             pairs: fits,
         },
-        needs_tree,
+        anchored_to,
+        loose: loose.iter().any(|&l| l),
     }
 }
 
