@@ -113,6 +113,23 @@ pub fn run_on_segments(
         return Ok(own.fits);
     }
     let mut along = fit_all(traj, segments, params, Some(&tree)).fits;
+    // A segment posed through a joint is posed only where its neighbour is: a pair the
+    // first pass could fit may have too few frames left. Topo would take its first-pass
+    // cost and bonefit find no centre, so the second pass is all or nothing.
+    let fitted = |p: &PairFit| {
+        p.centre_in_a
+            .iter()
+            .chain(&p.centre_in_b)
+            .all(|x| x.is_finite())
+    };
+    if along
+        .pairs
+        .iter()
+        .zip(&own.fits.pairs)
+        .any(|(x, first)| fitted(first) && !fitted(x))
+    {
+        return Ok(own.fits);
+    }
     for (fit, first) in along.pairs.iter_mut().zip(&own.fits.pairs) {
         let same = |x: f64, y: f64| x.to_bits() == y.to_bits();
         if !same(fit.cost, first.cost) || !same(fit.rotation_rms_deg, first.rotation_rms_deg) {
