@@ -25,9 +25,10 @@ pub struct Args {
     /// Frames per trial.
     #[arg(long, default_value_t = 480)]
     pub frames: usize,
-    /// Generator seeds, comma-separated (never the fixtures' seeds).
-    #[arg(long, value_delimiter = ',', default_values_t = [1001u64, 1002])]
-    pub seeds: Vec<u64>,
+    /// Generator seeds, comma-separated, each a seed or an inclusive range FIRST..LAST
+    /// (never the fixtures' seeds).
+    #[arg(long, value_delimiter = ',', default_values_t = ["1001".to_string(), "1002".to_string()])]
+    pub seeds: Vec<String>,
     /// Subjects, comma-separated [default: all].
     #[arg(long, value_delimiter = ',')]
     pub subjects: Vec<String>,
@@ -145,10 +146,11 @@ pub fn suite(args: &Args) -> Result<Vec<TrialSpec>> {
         Some(text) => crate::synth_cmd::parse_range(text)
             .with_context(|| format!("--markers {text}: expected MIN:MAX or N"))?,
     };
+    let seeds = seed_list(&args.seeds)?;
     let mut specs = Vec::new();
     for subject in &subjects {
         for preset in &presets {
-            for seed in &args.seeds {
+            for seed in &seeds {
                 let config = SynthConfig {
                     subject: *subject,
                     preset: *preset,
@@ -625,9 +627,50 @@ fn truncate(s: &str, n: usize) -> String {
     s.chars().take(n).collect()
 }
 
+/// The seeds `--seeds` names: each item a seed or an inclusive range `FIRST..LAST`.
+fn seed_list(items: &[String]) -> Result<Vec<u64>> {
+    let mut seeds = Vec::new();
+    for item in items {
+        let number = |text: &str| {
+            text.trim()
+                .parse::<u64>()
+                .with_context(|| format!("--seeds {item}: {text:?} is not a seed (a whole number)"))
+        };
+        match item.split_once("..") {
+            Some((first, last)) => {
+                let (first, last) = (number(first)?, number(last)?);
+                if first > last {
+                    bail!("--seeds {item}: the range runs backwards ({first} > {last})");
+                }
+                seeds.extend(first..=last);
+            }
+            None => seeds.push(number(item)?),
+        }
+    }
+    Ok(seeds)
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn seeds_take_ranges_and_say_what_is_wrong() {
+        let list =
+            |items: &[&str]| seed_list(&items.iter().map(|s| s.to_string()).collect::<Vec<_>>());
+        assert_eq!(
+            list(&["7", "8101..8103", "9"]).unwrap(),
+            vec![7, 8101, 8102, 8103, 9]
+        );
+        assert_eq!(list(&["5..5"]).unwrap(), vec![5]);
+        let err = format!("{:#}", list(&["8103..8101"]).unwrap_err());
+        assert!(err.contains("runs backwards"), "{err}");
+        let err = format!("{:#}", list(&["81x"]).unwrap_err());
+        assert!(
+            err.contains("--seeds 81x") && err.contains("not a seed"),
+            "{err}"
+        );
+    }
 
     fn result(subject: &str, preset: &str, exact: bool, mean_pct: f64) -> TrialResult {
         TrialResult {
