@@ -211,17 +211,28 @@ pub(crate) fn anchor_segments(
                 nb != s && Some(nb) != skip && posed[nb] && !loops_back
             })
             .collect();
-        let wanted: Vec<(usize, usize)> = candidates.iter().map(|&nb| (s, nb)).collect();
-        fit_candidates(traj, segments, tracks, params, memo, &wanted);
-        let mut best: Option<(f64, usize, CentreFit)> = None;
-        for nb in candidates {
-            if let Some(fit) = memo[s][nb].take().flatten()
-                && best.as_ref().is_none_or(|(c, _, _)| fit.rms_mm < *c)
-            {
-                best = Some((fit.rms_mm, nb, fit));
+        // Along a tree (second pass), through a tree neighbour's joint while one fits:
+        // the joint the gap frames will be read through, and a few fits instead of one
+        // per posed segment.
+        let mut best = None;
+        for tree_round in [true, false] {
+            let round: Vec<usize> = candidates
+                .iter()
+                .copied()
+                .filter(|&nb| !tree_round || on_tree(s, nb))
+                .collect();
+            let wanted: Vec<(usize, usize)> = round.iter().map(|&nb| (s, nb)).collect();
+            fit_candidates(traj, segments, tracks, params, memo, &wanted);
+            best = round
+                .into_iter()
+                .filter_map(|nb| memo[s][nb].as_ref()?.as_ref().map(|f| (f.rms_mm, nb)))
+                .min_by(|x, y| x.0.total_cmp(&y.0));
+            if best.is_some() {
+                break;
             }
         }
-        let (_, nb, fit) = best?;
+        let (_, nb) = best?;
+        let fit = memo[s][nb].take().flatten()?;
         let filled = fill_gaps(
             traj,
             &segments[s],
