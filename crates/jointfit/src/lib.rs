@@ -27,8 +27,10 @@
 //! up even when all are seen is posed with a spin error that throws its joints' images
 //! far. So a second pass (`Params::tree_poses`) runs along the minimum spanning tree of the
 //! first pass's costs: such segments are posed through a tree neighbour's joint, and
-//! anchors are sought among tree neighbours first. Its pairs keep the first pass's costs,
-//! so the tree topo chooses is the one the first pass's poses support.
+//! anchors are sought among tree neighbours first. Its pairs keep the first pass's costs
+//! and relative rotations, so the tree topo chooses is the one the first pass's poses
+//! support. Where it would leave a pair the first pass fitted without a centre, the first
+//! pass's fits stand.
 //!
 //! It does not choose which pairs are joints (topo does, from the costs); hinge centres
 //! are placed on their axes from the tree by [`place_hinges_across_bones`] (or the older
@@ -194,7 +196,7 @@ fn fit_all(
     let mut poses = poses::all_segment_poses(traj, segments, poses::FitRules::of(params));
     let loose: Vec<bool> = poses
         .iter()
-        .map(|p| poses::spin_error_deg(p) > params.max_spin_deg)
+        .map(|p| params.max_spin_deg > 0.0 && poses::spin_error_deg(p) > params.max_spin_deg)
         .collect();
     let own = if tree.is_some() {
         let own = poses.clone();

@@ -391,8 +391,8 @@ fn lever_mm(points: impl Iterator<Item = DVec3> + Clone) -> f64 {
 }
 
 /// The points' scatter about their fitted places, mm per coordinate: the median over
-/// frames of each fit's RMS, corrected for the 6 degrees of freedom the fit takes out
-/// (E[RMS²] = σ²(3n − 6)/n for n points); `None` when no frame has a fit.
+/// frames of each fit's RMS, corrected for the degrees of freedom the fit takes out
+/// ([`scatter_from_rms`]); `None` when no frame has a fit.
 fn scatter_mm(
     fits: &[Option<RigidFit>],
     point: &impl Fn(usize, usize) -> Option<DVec3>,
@@ -408,7 +408,7 @@ fn scatter_mm(
                 .enumerate()
                 .filter(|(k, r)| r.is_finite() && point(f, *k).is_some())
                 .count() as f64;
-            Some(fit.rms_mm * (n / (3.0 * n - 6.0)).sqrt())
+            Some(scatter_from_rms(fit.rms_mm, n))
         })
         .collect();
     if sigma.is_empty() {
@@ -448,9 +448,9 @@ impl SegmentPoses {
     }
 }
 
-/// A segment's predicted spin error (degrees) with all its markers seen: its per-frame
-/// fit scatter over its reference shape's lever; 0 for fewer than 3 reference points or
-/// no fit.
+/// A segment's predicted spin error (degrees, the linearised standard error) with all its
+/// markers seen: its median per-frame fit scatter over its reference shape's lever; 0 for
+/// fewer than 3 reference points or no fit, +∞ for collinear ones.
 pub(crate) fn spin_error_deg(poses: &SegmentPoses) -> f64 {
     let reference: Vec<DVec3> = poses
         .reference
@@ -470,13 +470,19 @@ pub(crate) fn spin_error_deg(poses: &SegmentPoses) -> f64 {
     }
     rms.sort_by(f64::total_cmp);
     // The median frame sees all markers in a segment without many gaps.
-    let sigma = rms[rms.len() / 2] * (n / (3.0 * n - 6.0)).sqrt();
+    let sigma = scatter_from_rms(rms[rms.len() / 2], n);
     let lever = lever_mm(reference.iter().copied());
     if lever > 0.0 {
-        (sigma / lever).atan().to_degrees()
+        (sigma / lever).to_degrees()
     } else {
-        90.0
+        f64::INFINITY
     }
+}
+
+/// Per-coordinate scatter (mm) from a rigid fit's RMS over `points` points: the fit takes
+/// 6 degrees of freedom out of 3n, so E[RMS²] = σ²(3n − 6)/n.
+fn scatter_from_rms(rms_mm: f64, points: f64) -> f64 {
+    rms_mm * (points / (3.0 * points - 6.0)).sqrt()
 }
 
 /// The stored poses as the pair fits use them; `None` where the pose is unknown.

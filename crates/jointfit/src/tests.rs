@@ -52,6 +52,19 @@ fn centre_errors(fits: &crate::PairFits, fit: &PairFit, truth: &[DVec3]) -> (f64
     (err(fit.a, fit.centre_in_a), err(fit.b, fit.centre_in_b))
 }
 
+/// A 480-frame synthetic trial with 2–3 markers per segment.
+fn sparse_trial(subject: synth::Subject, preset: synth::Preset, seed: u64) -> synth::Trial {
+    synth::generate(&synth::SynthConfig {
+        subject,
+        preset,
+        frames: 480,
+        seed,
+        markers_per_segment: (2, 3),
+        ..synth::SynthConfig::default()
+    })
+    .unwrap()
+}
+
 /// Mean distance (mm) between estimated and true joint positions over frames with both.
 fn mean_error(fit: &PairFit, truth: &[DVec3]) -> f64 {
     let errs: Vec<f64> = fit
@@ -448,15 +461,7 @@ fn noise_free_sparse_subjects_have_every_segment_posed() {
     let mut unposed = Vec::new();
     for subject in [synth::Subject::Human, synth::Subject::Quadruped] {
         for seed in [3001, 3002, 3003] {
-            let trial = synth::generate(&synth::SynthConfig {
-                subject,
-                preset: synth::Preset::Clean,
-                frames: 480,
-                seed,
-                markers_per_segment: (2, 3),
-                ..synth::SynthConfig::default()
-            })
-            .unwrap();
+            let trial = sparse_trial(subject, synth::Preset::Clean, seed);
             let segments = trial.true_segment_markers();
             let fits = run_on_segments(&trial.trajectories, &segments, &Params::default()).unwrap();
             for poses in &fits.poses {
@@ -1014,15 +1019,7 @@ fn the_second_pass_never_loses_a_pair_the_first_could_fit() {
         (synth::Subject::Human, 9001),
         (synth::Subject::Snowman, 7001),
     ] {
-        let trial = synth::generate(&synth::SynthConfig {
-            subject,
-            preset: synth::Preset::Hard,
-            frames: 480,
-            seed,
-            markers_per_segment: (2, 3),
-            ..synth::SynthConfig::default()
-        })
-        .unwrap();
+        let trial = sparse_trial(subject, synth::Preset::Hard, seed);
         let segments = trial.true_segment_markers();
         let run = |tree_poses: bool| {
             let params = Params {
