@@ -47,7 +47,8 @@ pub(crate) struct FitRules {
     /// Least outlier bound, mm.
     pub outlier_floor_mm: f64,
     /// Largest spin uncertainty a pose may have (degrees), the spin's standard error
-    /// predicted from the segment's own fit scatter; 0 = no limit.
+    /// predicted from the segment's own fit scatter, where the visible points' lever is
+    /// under half the whole set's; 0 = no limit.
     pub max_spin_deg: f64,
 }
 
