@@ -56,7 +56,8 @@ pub struct Params {
     pub max_spin_deg: f64,
     /// Pose again along the tree the costs make: segments whose own poses turn too freely
     /// (beyond `max_spin_deg` with all markers seen) through a tree neighbour's joint, and
-    /// anchors sought among tree neighbours first; costs stay the first pass's.
+    /// anchors and gap fills through tree neighbours first; costs and relative rotations
+    /// stay the first pass's.
     pub tree_poses: bool,
     /// A marker farther than this × the segment's median per-frame fit RMS from its fitted
     /// place leaves that frame's pose fit (and the reference shape), while ≥ 3 others stay
@@ -183,14 +184,16 @@ pub const PARAM_DOCS: &[(&str, &str)] = &[
     ),
     (
         "tree_poses",
-        "a second pass along the minimum spanning tree of the first pass's costs: a segment \
-         whose own poses turn beyond max_spin_deg even with all its markers seen is posed \
-         through a tree neighbour's joint (its own poses kept where none qualifies), and \
-         2-marker segments are anchored to tree neighbours first; the pairs keep the first \
-         pass's costs, so the tree does not change (cargo xtask eval --presets hard, \
-         before → after: seeds 8101-8124 2.06 → 1.95 % of height, 8201-8230 2.06 → 2.03 %, \
-         16 seeds 1.88 → 1.86 %, trees unchanged; --markers 2:3 3.21 → 3.08 %; skin / messy \
-         2.17 → 2.12 / 2.19 → 2.13 %; clean identical); default true",
+        "a second pass along the minimum spanning tree of the first pass's costs, where some \
+         segment is loose or anchored off that tree: a segment whose own poses turn beyond \
+         max_spin_deg even with all its markers seen is posed through a tree neighbour's \
+         joint (its own poses kept where none qualifies), and anchors and gap fills go \
+         through tree neighbours first; the pairs keep the first pass's costs and relative \
+         rotations, so the tree does not change, and if a pair the first pass fitted would \
+         lose its centre the first pass stands (cargo xtask eval --presets hard, before → \
+         after: seeds 8101..8124 2.06 → 1.95 % of height, 8201..8230 2.06 → 2.03 %, 16 seeds \
+         1.88 → 1.86 %, trees unchanged; --markers 2:3 3.21 → 3.08 %; skin / messy 2.17 → \
+         2.11 / 2.19 → 2.13 %; clean identical); default true",
     ),
     (
         "pose_outlier_factor",
