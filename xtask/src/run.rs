@@ -144,7 +144,7 @@ pub fn execute(args: &Args, progress: &Progress) -> Result<Report> {
             .map_or(0, |s| s.segments.len()),
         joints: products.topology.as_ref().map_or(0, |t| t.joints.len()),
         files,
-        findings: findings(&document),
+        findings: findings(&document, params.jointfit.max_spin_deg),
         warnings: products
             .capture
             .as_ref()
@@ -162,8 +162,10 @@ pub fn execute(args: &Args, progress: &Progress) -> Result<Report> {
 /// Most markers named in one finding line; the rest are counted.
 const NAMED_MARKERS: usize = 6;
 
-/// What a user should look at in `document`, one line each (empty when all is well).
-pub fn findings(document: &export::SkeletonJson) -> Vec<String> {
+/// What a user should look at in `document`, one line each (empty when all is well);
+/// segments whose spin is known less well than `spin_limit_deg` (jointfit's
+/// `max_spin_deg`; 0 = not listed) are among it.
+pub fn findings(document: &export::SkeletonJson, spin_limit_deg: f64) -> Vec<String> {
     let mut out = Vec::new();
     for j in &document.joints {
         for w in &j.warnings {
@@ -236,6 +238,24 @@ pub fn findings(document: &export::SkeletonJson) -> Vec<String> {
         out.push(listed(
             "label swaps found and undone (trajectories exchanged; frames as in the capture)",
             swaps,
+        ));
+    }
+    let loose: Vec<String> = document
+        .segments
+        .iter()
+        .filter_map(|s| {
+            let spin = s
+                .spin_deg
+                .filter(|&d| spin_limit_deg > 0.0 && d > spin_limit_deg)?;
+            Some(format!("{} (±{spin:.0}°: {})", s.id, s.markers.join(", ")))
+        })
+        .collect();
+    if !loose.is_empty() {
+        out.push(format!(
+            "segments whose markers nearly line up, so their turn about that line is poorly \
+             known (posed through a joint where one fits; a marker off the line would fix \
+             it): {}",
+            loose.join("; ")
         ));
     }
     if !document.detached_segments.is_empty() {
@@ -388,7 +408,7 @@ mod tests {
         let report = execute(&args(&input, dir.path(), &[]), &Progress::hidden()).unwrap();
         let bytes = std::fs::read(dir.path().join("out/skeleton.json")).unwrap();
         let mut doc: export::SkeletonJson = serde_json::from_slice(&bytes).unwrap();
-        let clean = findings(&doc);
+        let clean = findings(&doc, 10.0);
         assert_eq!(report.findings, clean);
         assert!(
             clean.iter().all(|f| f.starts_with("joint ")),
@@ -402,11 +422,27 @@ mod tests {
         doc.markers[9].slides = true;
         doc.detached_segments = vec![2];
         doc.notes = vec!["a rigid pair".into()];
+        doc.segments[1].spin_deg = Some(14.2);
+        doc.segments[2].spin_deg = Some(9.9);
         doc.label_swaps = vec![export::LabelSwapJson {
             markers: ["M001".into(), "M007".into()],
             frames: vec![[10, 19], [40, 41]],
         }];
-        let found = findings(&doc);
+        let found = findings(&doc, 10.0);
+        let nearly_in_line = found
+            .iter()
+            .find(|f| f.starts_with("segments whose markers nearly line up"))
+            .unwrap_or_else(|| panic!("{found:?}"));
+        let one = &doc.segments[1];
+        assert!(
+            nearly_in_line.ends_with(&format!("{} (±14°: {})", one.id, one.markers.join(", "))),
+            "{nearly_in_line}"
+        );
+        assert!(
+            findings(&doc, 0.0)
+                .iter()
+                .all(|f| !f.starts_with("segments whose"))
+        );
         // Frames as the capture numbers them (first_frame on).
         let at = |i: i64| doc.first_frame + i;
         assert!(found.contains(&format!(

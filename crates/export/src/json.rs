@@ -74,6 +74,11 @@ pub struct SegmentJson {
     pub marker_count: usize,
     /// Frames in which its rigid pose was measured.
     pub frames_with_pose: usize,
+    /// How well its markers fix its rotation: the standard error (degrees) of its turn
+    /// about its markers' line with all of them seen; large where they nearly line up.
+    /// Absent for fewer than 3 markers.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub spin_deg: Option<f64>,
 }
 
 /// One joint.
@@ -202,11 +207,17 @@ pub(crate) fn document(input: &Inputs<'_>) -> Result<SkeletonJson, Error> {
                 .filter(|q| q.iter().all(|c| c.is_finite()))
                 .count()
         });
+        let spin_deg = fits
+            .poses
+            .get(s.id)
+            .and_then(jointfit::segment_spin_deg)
+            .map(|d| (d * 100.0).round() / 100.0);
         segments.push(SegmentJson {
             id: s.id,
             marker_count: markers.len(),
             markers,
             frames_with_pose,
+            spin_deg,
         });
     }
     let unassigned_markers = seg

@@ -327,6 +327,9 @@ fn json_contract_fields_and_types() {
         serde_json::json!(["M003", "M004", "M005"])
     );
     assert_eq!(segments[0]["frames_with_pose"].as_u64(), Some(100));
+    // Three well-spread markers fix the spin: a finite, small standard error.
+    let spin = segments[1]["spin_deg"].as_f64();
+    assert!(spin.is_some_and(|d| (0.0..1.0).contains(&d)), "{spin:?}");
     assert!(
         doc["unassigned_markers"]
             .as_array()

@@ -81,6 +81,14 @@ pub fn run(
     run_on_segments(&seg.untangle(traj), &segments, params)
 }
 
+/// A segment's rotation uncertainty about its markers' line with all its markers seen
+/// (degrees, the linearised standard error: its median fit scatter over the lever of its
+/// reference shape); `None` for fewer than 3 markers, no fitted frame or markers on a
+/// line.
+pub fn segment_spin_deg(poses: &SegmentPoses) -> Option<f64> {
+    poses::spin_error_deg(poses).filter(|d| d.is_finite())
+}
+
 /// [`run`] on bare marker lists: `segments[id]` = marker indices of segment `id` (for
 /// evaluations that start from a known segmentation rather than the segment stage's).
 pub fn run_on_segments(
@@ -196,7 +204,10 @@ fn fit_all(
     let mut poses = poses::all_segment_poses(traj, segments, poses::FitRules::of(params));
     let loose: Vec<bool> = poses
         .iter()
-        .map(|p| params.max_spin_deg > 0.0 && poses::spin_error_deg(p) > params.max_spin_deg)
+        .map(|p| {
+            params.max_spin_deg > 0.0
+                && poses::spin_error_deg(p).is_some_and(|d| d > params.max_spin_deg)
+        })
         .collect();
     let own = if tree.is_some() {
         let own = poses.clone();

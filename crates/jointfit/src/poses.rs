@@ -450,9 +450,9 @@ impl SegmentPoses {
 }
 
 /// A segment's predicted spin error (degrees, the linearised standard error) with all its
-/// markers seen: its median per-frame fit scatter over its reference shape's lever; 0 for
-/// fewer than 3 reference points or no fit, +∞ for collinear ones.
-pub(crate) fn spin_error_deg(poses: &SegmentPoses) -> f64 {
+/// markers seen: its median per-frame fit scatter over its reference shape's lever; `None`
+/// for fewer than 3 reference points or no fit, +∞ for collinear ones.
+pub(crate) fn spin_error_deg(poses: &SegmentPoses) -> Option<f64> {
     let reference: Vec<DVec3> = poses
         .reference
         .iter()
@@ -467,17 +467,17 @@ pub(crate) fn spin_error_deg(poses: &SegmentPoses) -> f64 {
         .filter(|r| r.is_finite())
         .collect();
     if n < 3.0 || rms.is_empty() {
-        return 0.0;
+        return None;
     }
     rms.sort_by(f64::total_cmp);
     // The median frame sees all markers in a segment without many gaps.
     let sigma = scatter_from_rms(rms[rms.len() / 2], n);
     let lever = lever_mm(reference.iter().copied());
-    if lever > 0.0 {
+    Some(if lever > 0.0 {
         (sigma / lever).to_degrees()
     } else {
         f64::INFINITY
-    }
+    })
 }
 
 /// Per-coordinate scatter (mm) from a rigid fit's RMS over `points` points: the fit takes
