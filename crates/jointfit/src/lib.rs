@@ -106,10 +106,20 @@ pub fn run_on_segments(
             });
         }
     }
-    let own = fit_all(traj, segments, params, None);
+    // Every segment's poses from its own markers: both passes start from them.
+    let own_poses = poses::all_segment_poses(traj, segments, poses::FitRules::of(params));
+    let own = fit_all(traj, segments, params, own_poses.clone(), None);
     if !params.tree_poses {
         return Ok(own.fits);
     }
+    // Segments whose own markers fix their spin too loosely even when all are seen.
+    let loose: Vec<bool> = own_poses
+        .iter()
+        .map(|p| {
+            params.max_spin_deg > 0.0
+                && poses::spin_error_deg(p).is_some_and(|d| d > params.max_spin_deg)
+        })
+        .collect();
     // Second pass along the tree the costs make: poses through the joints the topology
     // will most likely keep. The costs and relative rotations topo builds the tree from
     // stay the first pass's, so it is the tree the segments' own poses support (only a
@@ -118,11 +128,11 @@ pub fn run_on_segments(
     // --presets hard: 8101-8124 1.95 → 1.98 %, --markers 2:3 3.08 → 3.15 %).
     let tree = cheapest_tree(segments.len(), &own.fits);
     let off_tree = |(s, nb): (usize, &Option<usize>)| nb.is_some_and(|nb| !tree[s][nb]);
-    if !own.loose && !own.anchored_to.iter().enumerate().any(off_tree) {
+    if !loose.contains(&true) && !own.anchored_to.iter().enumerate().any(off_tree) {
         // Every anchor is a tree neighbour already: a second pass would repeat the first.
         return Ok(own.fits);
     }
-    let mut along = fit_all(traj, segments, params, Some(&tree)).fits;
+    let mut along = fit_all(traj, segments, params, own_poses, Some((&tree, &loose))).fits;
     // A segment posed through a joint is posed only where its neighbour is: a pair the
     // first pass could fit may have too few frames left. Topo would take its first-pass
     // cost and bonefit find no centre, so the second pass is all or nothing.
@@ -155,13 +165,12 @@ pub fn run_on_segments(
     Ok(along)
 }
 
-/// Pair fits, and what decides whether a second pass along the tree changes any pose.
+/// Pair fits, and the anchors that decide whether a second pass along the tree changes
+/// any pose.
 struct FitPass {
     fits: PairFits,
     /// Per segment, the neighbour it is posed through (anchored segments only).
     anchored_to: Vec<Option<usize>>,
-    /// Some segment's own poses turn too freely for its joints (`Params::max_spin_deg`).
-    loose: bool,
 }
 
 /// The minimum spanning tree of the pair costs (Kruskal; finite costs only, ties in pair
@@ -192,35 +201,33 @@ fn cheapest_tree(n: usize, fits: &PairFits) -> Vec<Vec<bool>> {
     tree
 }
 
-/// Poses, anchors and every pair's fit. With `tree` (a second pass), segments whose own
-/// poses turn too freely are posed through a neighbour instead (their own poses kept
-/// where none qualifies), and anchors are sought among tree neighbours first.
+/// Anchors and every pair's fit, from the segments' `own` poses. With `along` (a second
+/// pass: the tree and which segments are loose), loose segments are posed through a
+/// neighbour instead (their own poses kept where none qualifies), and anchors are sought
+/// among tree neighbours first.
 fn fit_all(
     traj: &Trajectories,
     segments: &[Vec<usize>],
     params: &Params,
-    tree: Option<&[Vec<bool>]>,
+    own: Vec<SegmentPoses>,
+    along: Option<(&[Vec<bool>], &[bool])>,
 ) -> FitPass {
-    let mut poses = poses::all_segment_poses(traj, segments, poses::FitRules::of(params));
-    let loose: Vec<bool> = poses
-        .iter()
-        .map(|p| {
-            params.max_spin_deg > 0.0
-                && poses::spin_error_deg(p).is_some_and(|d| d > params.max_spin_deg)
-        })
-        .collect();
-    let own = if tree.is_some() {
-        let own = poses.clone();
-        for (p, _) in poses.iter_mut().zip(&loose).filter(|(_, l)| **l) {
+    let mut poses = own;
+    let tree = along.map(|(tree, _)| tree);
+    let loose = along.map(|(_, loose)| loose);
+    // A loose segment's own poses, kept aside in case no neighbour can pose it.
+    let mut set_aside: Vec<Option<SegmentPoses>> = vec![None; poses.len()];
+    for (s, p) in poses.iter_mut().enumerate() {
+        if loose.is_some_and(|l| l[s]) {
+            set_aside[s] = Some(p.clone());
             p.forget();
         }
-        own
-    } else {
-        Vec::new()
-    };
+    }
     let anchors = anchor::anchor_segments(traj, segments, &mut poses, params, tree);
-    for (s, own) in own.into_iter().enumerate() {
-        if loose[s] && anchors[s].as_ref().is_none_or(|a| !a.posed_by_anchor) {
+    for (s, own) in set_aside.into_iter().enumerate() {
+        if let Some(own) = own
+            && anchors[s].as_ref().is_none_or(|a| !a.posed_by_anchor)
+        {
             poses[s] = own;
         }
     }
@@ -301,7 +308,6 @@ fn fit_all(
             pairs: fits,
         },
         anchored_to,
-        loose: loose.iter().any(|&l| l),
     }
 }
 
