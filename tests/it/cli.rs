@@ -63,6 +63,17 @@ fn default_run_writes_the_contract_and_caches_every_stage() {
     }
     let csv = std::fs::read_to_string(tmp.path("out/joints.csv")).unwrap();
     assert!(csv.starts_with("frame,joint,x,y,z"));
+    // The joint centres as markers: the root, then every joint, as many frames.
+    let trc = mocap_io::read_capture(
+        &tmp.path("out/joints.trc"),
+        &mocap_io::ReadOptions::default(),
+    )
+    .unwrap();
+    let names: Vec<&str> = std::iter::once("root")
+        .chain(joints.iter().map(|j| j["name"].as_str().unwrap()))
+        .collect();
+    assert_eq!(trc.trajectories.labels(), names.as_slice());
+    assert_eq!(trc.trajectories.frames(), frames);
 
     // Nothing changed: nothing recomputed, and the outputs are byte-identical.
     let json_bytes = std::fs::read(tmp.path("out/skeleton.json")).unwrap();
@@ -94,7 +105,8 @@ fn recomputing_without_the_cache_gives_byte_identical_files() {
             "--cache",
             cache.to_str().unwrap(),
         ]);
-        ["skeleton.json", "skeleton.bvh", "joints.csv"].map(|f| std::fs::read(out.join(f)).unwrap())
+        ["skeleton.json", "skeleton.bvh", "joints.csv", "joints.trc"]
+            .map(|f| std::fs::read(out.join(f)).unwrap())
     };
     assert!(run("a") == run("b"), "two fresh runs differ");
 }

@@ -15,6 +15,9 @@
 //!   last known root position is held (the JSON has null there).
 //! - `joints.csv`: `frame,joint,x,y,z`, one row per joint per frame where known; `frame`
 //!   is the 0-based frame index (the capture's own number is `first_frame + frame`), mm.
+//! - `joints.trc`: the root point and every joint centre as virtual markers named as in
+//!   the BVH, at the capture's rate and first frame, empty where unknown; opens in OpenSim
+//!   and other marker tools like a capture. Y-up with `export.y_up`.
 //!
 //! It does not fit anything; every number comes from the inputs.
 mod bvh;
@@ -23,6 +26,7 @@ mod error;
 mod json;
 #[cfg(test)]
 mod tests;
+mod trc;
 
 pub use error::Error;
 pub use json::{JointJson, LabelSwapJson, MarkerJson, RootJson, SegmentJson, SkeletonJson};
@@ -35,7 +39,7 @@ use serde::{Deserialize, Serialize};
 pub const STAGE: &str = "export";
 
 /// Schema version of [`Outputs`] and of skeleton.json's layout; bump when either changes.
-pub const SCHEMA_VERSION: u32 = 3;
+pub const SCHEMA_VERSION: u32 = 4;
 
 /// Everything the files are made from.
 #[derive(Clone, Copy, Debug)]
@@ -55,7 +59,7 @@ pub struct Inputs<'a> {
 /// The files, by name; the runner writes them.
 #[derive(Clone, Debug, Default, PartialEq, Eq, Serialize, Deserialize)]
 pub struct Outputs {
-    /// File name → file bytes (skeleton.json, skeleton.bvh, joints.csv).
+    /// File name → file bytes (skeleton.json, skeleton.bvh, joints.csv, joints.trc).
     #[serde(with = "byte_files")]
     pub files: BTreeMap<String, Vec<u8>>,
 }
@@ -64,25 +68,28 @@ pub struct Outputs {
 #[derive(Clone, Debug, Default, PartialEq, Serialize, Deserialize)]
 #[serde(default, deny_unknown_fields)]
 pub struct Params {
-    /// Rotate the BVH from Z-up to Y-up (x, y, z) → (x, z, −y) for Y-up consumers; the
-    /// JSON and CSV stay in the capture's frame. Default false.
+    /// Rotate the BVH and joints.trc from Z-up to Y-up (x, y, z) → (x, z, −y) for Y-up
+    /// consumers (Blender's BVH import, OpenSim); the JSON and CSV stay in the capture's
+    /// frame. Default false.
     pub y_up: bool,
 }
 
 /// Every parameter: (field name, "meaning, units, default").
 pub const PARAM_DOCS: &[(&str, &str)] = &[(
     "y_up",
-    "rotate the BVH from the capture's Z-up to Y-up ((x, y, z) -> (x, z, -y)) for Y-up \
-     consumers; skeleton.json and joints.csv stay in the capture's frame; default false",
+    "rotate the BVH and joints.trc from the capture's Z-up to Y-up ((x, y, z) -> (x, z, -y)) \
+     for Y-up consumers (OpenSim's ground is Y-up); skeleton.json and joints.csv stay in the \
+     capture's frame; default false",
 )];
 
-/// Makes skeleton.json, skeleton.bvh and joints.csv.
+/// Makes skeleton.json, skeleton.bvh, joints.csv and joints.trc.
 pub fn run(input: &Inputs<'_>, params: &Params) -> Result<Outputs, Error> {
     let document = json::document(input)?;
     let mut files = BTreeMap::new();
     files.insert("skeleton.json".to_owned(), json::to_bytes(&document)?);
     files.insert("skeleton.bvh".to_owned(), bvh::write(input, params)?);
     files.insert("joints.csv".to_owned(), csv::write(input.skeleton));
+    files.insert("joints.trc".to_owned(), trc::write(input, params)?);
     Ok(Outputs { files })
 }
 

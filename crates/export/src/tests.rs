@@ -1,4 +1,4 @@
-//! Tests of the three files against a hand-made body with exact poses.
+//! Tests of the output files against a hand-made body with exact poses.
 
 use std::f64::consts::FRAC_PI_2;
 
@@ -426,6 +426,91 @@ fn csv_rows_only_where_known() {
     assert!(!rows.iter().any(|r| r[0] == "40"));
 }
 
+/// joints.trc read back by mocap-io's TRC reader, with the JSON's positions (root first,
+/// then the joints) mapped by `axes`: same labels, rate, first frame and every sample, and
+/// missing exactly where the JSON has null. Returns the samples compared.
+fn check_trc(out: &crate::Outputs, axes: impl Fn([f64; 3]) -> [f64; 3]) -> usize {
+    let doc = json(out);
+    let bytes = out.files.get("joints.trc").cloned().unwrap_or_default();
+    let capture = mocap_io::trc::parse(&bytes, &mocap_io::ReadOptions::default())
+        .unwrap_or_else(|e| panic!("joints.trc does not parse back: {e}"));
+    let t = &capture.trajectories;
+    let joints = doc["joints"].as_array().cloned().unwrap_or_default();
+    let mut tracks = vec![(
+        doc["root"]["name"].clone(),
+        doc["root"]["positions"].clone(),
+    )];
+    tracks.extend(
+        joints
+            .iter()
+            .map(|j| (j["name"].clone(), j["positions"].clone())),
+    );
+    let labels: Vec<&str> = tracks
+        .iter()
+        .map(|(n, _)| n.as_str().unwrap_or(""))
+        .collect();
+    assert_eq!(t.labels(), labels.as_slice());
+    assert_eq!(Some(t.frame_rate()), doc["frame_rate"].as_f64());
+    assert_eq!(Some(t.first_frame()), doc["first_frame"].as_i64());
+    assert_eq!(Some(t.frames() as u64), doc["frame_count"].as_u64());
+    let mut compared = 0;
+    for (m, (name, positions)) in tracks.iter().enumerate() {
+        for f in 0..t.frames() {
+            let p = &positions[f];
+            let got = t.get(f, m);
+            if p.is_null() {
+                assert_eq!(
+                    got, None,
+                    "{name} frame {f}: unknown in the JSON, present in the TRC"
+                );
+                continue;
+            }
+            let want = axes([0, 1, 2].map(|i| p[i].as_f64().unwrap_or(f64::NAN)));
+            assert_eq!(got, Some(want), "{name} frame {f}");
+            compared += 1;
+        }
+    }
+    compared
+}
+
+#[test]
+fn trc_has_the_json_positions_and_gaps() {
+    let s = gappy_scene();
+    let out = files(&s, &Params::default());
+    let compared = check_trc(&out, |p| p);
+    let doc = json(&out);
+    let known = |v: &Value| {
+        v.as_array()
+            .map_or(0, |p| p.iter().filter(|x| !x.is_null()).count())
+    };
+    let root = known(&doc["root"]["positions"]);
+    let joints: usize = doc["joints"]
+        .as_array()
+        .map_or(0, |js| js.iter().map(|j| known(&j["positions"])).sum());
+    assert_eq!(compared, root + joints);
+    // The scene's gaps reach the file: fewer samples than frames × tracks.
+    let tracks = 1 + doc["joints"].as_array().map_or(0, Vec::len);
+    let frames = doc["frame_count"].as_u64().unwrap_or(0) as usize;
+    assert!(compared < tracks * frames && compared > tracks * frames / 2);
+    // Y-up is the same motion turned as the BVH is: (x, y, z) -> (x, z, -y).
+    let turned = files(&s, &Params { y_up: true });
+    let neg = |c: f64| if c == 0.0 { 0.0 } else { -c };
+    assert_eq!(
+        check_trc_against(&turned, &out, |[x, y, z]| [x, z, neg(y)]),
+        compared
+    );
+}
+
+/// [`check_trc`] of `turned`'s TRC against `plain`'s JSON (the JSON is never turned).
+fn check_trc_against(
+    turned: &crate::Outputs,
+    plain: &crate::Outputs,
+    axes: impl Fn([f64; 3]) -> [f64; 3],
+) -> usize {
+    assert_eq!(json(turned), json(plain));
+    check_trc(turned, axes)
+}
+
 #[test]
 fn outputs_are_deterministic_and_round_trip_through_serde() {
     let s = gappy_scene();
@@ -434,7 +519,7 @@ fn outputs_are_deterministic_and_round_trip_through_serde() {
     assert_eq!(a, b);
     assert_eq!(
         a.files.keys().map(String::as_str).collect::<Vec<_>>(),
-        ["joints.csv", "skeleton.bvh", "skeleton.json"]
+        ["joints.csv", "joints.trc", "skeleton.bvh", "skeleton.json"]
     );
     let json_bytes = serde_json::to_vec(&a).unwrap_or_default();
     let back: crate::Outputs = serde_json::from_slice(&json_bytes).unwrap_or_default();

@@ -1,0 +1,58 @@
+//! joints.trc: the root point and every joint centre as virtual markers, so OpenSim (and
+//! any marker tool: Mokka, Vicon Nexus, Motive, a C3D/TRC reader in Python) opens the
+//! skeleton's motion as it opens a capture: to view it beside the markers, or to drive a
+//! model's inverse kinematics from joint centres.
+
+use crate::{Error, Inputs, Params};
+
+/// The root point first (named as the BVH ROOT), then the joints in skeleton order, one
+/// trajectory each; frame rate and first frame of the capture; mm, rounded to 0.001 like
+/// skeleton.json; empty fields where a position is unknown (null in the JSON). With
+/// `y_up`, (x, y, z) → (x, z, −y) as for the BVH: OpenSim's ground is Y-up.
+pub(crate) fn write(input: &Inputs<'_>, params: &Params) -> Result<Vec<u8>, Error> {
+    let skel = input.skeleton;
+    if !(skel.frame_rate.is_finite() && skel.frame_rate > 0.0) {
+        return Err(Error::BadFrameRate {
+            rate: skel.frame_rate,
+        });
+    }
+    let frames = skel.frame_count;
+    let tracks: Vec<&[[f64; 3]]> = std::iter::once(skel.root_positions.as_slice())
+        .chain(skel.joints.iter().map(|j| j.positions.as_slice()))
+        .collect();
+    if let Some(short) = tracks.iter().find(|t| t.len() != frames) {
+        return Err(Error::Mismatch(format!(
+            "a skeleton track has {} positions for {frames} frames",
+            short.len()
+        )));
+    }
+    let labels: Vec<String> = std::iter::once(skel.root_name.clone())
+        .chain(skel.joints.iter().map(|j| j.name.clone()))
+        .collect();
+    let mut positions = Vec::with_capacity(frames * tracks.len());
+    for f in 0..frames {
+        for track in &tracks {
+            positions.push(sample(track[f], params.y_up));
+        }
+    }
+    let trajectories = mocap_io::Trajectories::new(
+        labels,
+        skel.frame_rate,
+        input.trajectories.first_frame(),
+        frames,
+        positions,
+    )
+    .map_err(|e| Error::Mismatch(format!("joint trajectories: {e}")))?;
+    Ok(mocap_io::trc::write(&trajectories).into_bytes())
+}
+
+/// One position as written: rounded like skeleton.json, rotated for `y_up`, missing
+/// where any coordinate is unknown.
+fn sample(p: [f64; 3], y_up: bool) -> [f64; 3] {
+    let r = |c: f64| crate::json::round(c, 3);
+    match (r(p[0]), r(p[1]), r(p[2])) {
+        (Some(x), Some(y), Some(z)) if y_up => [x, z, if y == 0.0 { 0.0 } else { -y }],
+        (Some(x), Some(y), Some(z)) => [x, y, z],
+        _ => mocap_io::MISSING,
+    }
+}
