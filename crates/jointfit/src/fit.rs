@@ -6,10 +6,10 @@ use mocap_io::Trajectories;
 
 use crate::aguiar::{self, Cloud, EqTwo};
 use crate::local::{LocalSettings, fit_local};
-use crate::motion::relative_motion;
+use crate::motion::{RelativeMotion, relative_motion};
 use crate::pairfits::{JointKind, PairFit, SegmentPoses};
 use crate::params::{Method, Params};
-use crate::poses::Pose;
+use crate::poses::{self, Pose};
 use crate::score;
 
 /// What a pair fit reads about one segment.
@@ -42,6 +42,35 @@ impl SegmentView<'_> {
                 .collect(),
         )
     }
+}
+
+/// Why a pair the wobble ratio calls a ball joint is a hinge after all, if it is: its
+/// ratio is under `hinge_noise_ratio` and its least-moving direction wobbles no more than
+/// `hinge_noise_factor` times what pose noise alone tilts that axis by in the two segments
+/// (a true hinge's axis wobbles only by the poses' errors, which skin on compact markers
+/// makes comparable to a ball joint's small swing about its least-used direction).
+fn noisy_hinge(
+    motion: &RelativeMotion,
+    pa: &SegmentPoses,
+    pb: &SegmentPoses,
+    params: &Params,
+) -> Option<String> {
+    if params.hinge_noise_factor <= 0.0 {
+        return None;
+    }
+    let [w0, w1, _] = motion.wobble_deg;
+    let ratio = if w1 > 0.0 { w0 / w1 } else { 1.0 };
+    let noise = (poses::tilt_variance(pa, motion.axis_in_a)?
+        + poses::tilt_variance(pb, motion.axis_in_b)?)
+    .sqrt()
+    .to_degrees();
+    (ratio < params.hinge_noise_ratio && w0 <= params.hinge_noise_factor * noise).then(|| {
+        format!(
+            "; hinge after all: ratio < hinge_noise_ratio {} and least wobble {w0:.2}° within \
+             hinge_noise_factor {} × the {noise:.2}° the segments' pose noise gives",
+            params.hinge_noise_ratio, params.hinge_noise_factor
+        )
+    })
 }
 
 /// Fits the joint between segments `a < b`.
@@ -111,7 +140,13 @@ pub(crate) fn fit_pair(
         };
     }
     let motion = relative_motion(pa, pb, &co);
-    let (kind, mut evidence) = motion.classify(params, co.len());
+    let (mut kind, mut evidence) = motion.classify(params, co.len());
+    if kind == JointKind::Ball
+        && let Some(note) = noisy_hinge(&motion, sa.poses, sb.poses, params)
+    {
+        kind = JointKind::Hinge;
+        evidence.push_str(&note);
+    }
 
     // Where the data leave the centre undetermined (a hinge's axis, a rigid pair), put it
     // nearest the midpoint of the two segments' origins (their reference centroids), seen

@@ -11,6 +11,12 @@
 //! `local` (per-marker density-weighted sphere/circle fits by Levenberg–Marquardt in the
 //! other segment's frame, averaged with weight attachment / radius; see `local.rs`).
 //!
+//! The kind comes from how the relative rotation's directions wobble: a hinge's axis
+//! barely moves (`Params::hinge_ratio` against the next direction), or moves no more than
+//! the two segments' pose noise tilts it (`Params::hinge_noise_factor`, from each fit's
+//! scatter and its markers' inertia: skin on a compact marker set wobbles a hinge's axis as
+//! much as a ball joint's least-used direction).
+//!
 //! Segments carried by 1 or 2 markers (or collinear ones) are posed through the joint with
 //! a posed neighbour (greedy anchoring, `Params::anchor`, see `anchor.rs`): 2 markers plus
 //! the joint centre the neighbour carries; a 1-marker segment gets a swing-only pose (its

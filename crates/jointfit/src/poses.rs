@@ -453,6 +453,19 @@ impl SegmentPoses {
 /// markers seen: its median per-frame fit scatter over its reference shape's lever; `None`
 /// for fewer than 3 reference points or no fit, +∞ for collinear ones.
 pub(crate) fn spin_error_deg(poses: &SegmentPoses) -> Option<f64> {
+    let (sigma, reference) = fit_scatter(poses)?;
+    let lever = lever_mm(reference.iter().copied());
+    Some(if lever > 0.0 {
+        (sigma / lever).to_degrees()
+    } else {
+        f64::INFINITY
+    })
+}
+
+/// A segment's per-coordinate fit scatter (mm: its median frame's RMS, all markers seen
+/// in a segment without many gaps) and its reference points; `None` for fewer than 3
+/// points or no fit.
+fn fit_scatter(poses: &SegmentPoses) -> Option<(f64, Vec<DVec3>)> {
     let reference: Vec<DVec3> = poses
         .reference
         .iter()
@@ -470,14 +483,31 @@ pub(crate) fn spin_error_deg(poses: &SegmentPoses) -> Option<f64> {
         return None;
     }
     rms.sort_by(f64::total_cmp);
-    // The median frame sees all markers in a segment without many gaps.
-    let sigma = scatter_from_rms(rms[rms.len() / 2], n);
-    let lever = lever_mm(reference.iter().copied());
-    Some(if lever > 0.0 {
-        (sigma / lever).to_degrees()
-    } else {
-        f64::INFINITY
-    })
+    Some((scatter_from_rms(rms[rms.len() / 2], n), reference))
+}
+
+/// Variance (rad²) of a segment's pose turn about the two directions across `axis` (unit,
+/// segment-local) that its fit scatter σ gives: σ² (tr J⁻¹ − axisᵀ J⁻¹ axis), J the
+/// inertia tensor of its reference points about their centroid (linearised least
+/// squares). It is how far fit noise alone tilts a line fixed in the segment. `None`
+/// without a fit or for collinear points (no bound on their spin).
+pub(crate) fn tilt_variance(poses: &SegmentPoses, axis: DVec3) -> Option<f64> {
+    let (sigma, reference) = fit_scatter(poses)?;
+    let centroid = reference.iter().copied().sum::<DVec3>() / reference.len() as f64;
+    let inertia = reference.iter().fold(DMat3::ZERO, |j, &r| {
+        let d = r - centroid;
+        j + DMat3::from_diagonal(DVec3::splat(d.length_squared()))
+            - DMat3::from_cols(d * d.x, d * d.y, d * d.z)
+    });
+    // Collinear points: the least principal moment vanishes against the largest.
+    let scale = inertia.x_axis.x + inertia.y_axis.y + inertia.z_axis.z;
+    let determinant = inertia.determinant();
+    if determinant.is_nan() || determinant <= 1e-9 * scale.powi(3) {
+        return None;
+    }
+    let inverse = inertia.inverse();
+    let trace = inverse.x_axis.x + inverse.y_axis.y + inverse.z_axis.z;
+    Some(sigma * sigma * (trace - axis.dot(inverse * axis)).max(0.0))
 }
 
 /// Per-coordinate scatter (mm) from a rigid fit's RMS over `points` points: the fit takes
