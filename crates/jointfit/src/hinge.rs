@@ -329,6 +329,10 @@ const MARKER_SPREAD_FLOOR_MM: f64 = 10.0;
 /// and still count ([`place_hinges_across_bones`]).
 const PARENT_JOINT_TEST_SIGMAS: f64 = 3.0;
 
+/// Two hinge axes closer to parallel than this sine (~11.5°) have no well-defined meeting
+/// point ([`place_hinges_across_bones`]).
+const MEETING_MIN_SINE: f64 = 0.2;
+
 /// Bound on the capture's share of hinges whose parent side is square
 /// ([`place_hinges_across_bones`]), and one minus it the floor: a few hinges do not make
 /// any row certain or hopeless.
@@ -612,7 +616,11 @@ struct MarkerEvidence {
 ///   mean over its hinges of [`square_sides`]' probability that both sides are square
 ///   (seed 8101's clean trials: human 0.75, hexapod 0.84, quadruped 0.87, robot arm 0.91,
 ///   snowman 0.93, random tree 0.23). A parent-side joint on the axis itself (a sibling
-///   on the same tip) is taken as it is: it is the centre.
+///   on the same tip) is taken as it is: it is the centre;
+/// - two free hinges of one segment whose axes meet there, within what their fits leave
+///   and where both hinges' child sides allow: both centres at the meeting point
+///   ([`meeting_rows`]; hinges hung on one tip, where markers alone place each only to the
+///   limb's radius).
 ///
 /// Unlike [`place_hinge_centres`], nothing pulls from the parent side unchecked. The
 /// tree's direction says which side is the child, but a tree rooted elsewhere than the
@@ -867,6 +875,10 @@ pub fn place_hinges_across_bones(fits: &mut PairFits, edges: &[(usize, usize, us
             rows.push(row);
         }
     }
+    // Hinges of one segment whose axes meet there share that point (two hinges on one
+    // tip), which pins both far better than their markers.
+    let axes = free_axes(edges, &unknown, &seen_from, segments);
+    rows.extend(meeting_rows(&axes, &residual, &tilt, &solution));
     let Some(s) = solve_rows(&rows, count) else {
         return shifts;
     };
@@ -887,6 +899,109 @@ pub fn place_hinges_across_bones(fits: &mut PairFits, edges: &[(usize, usize, us
         }
     }
     shifts
+}
+
+/// A free hinge: its edge, its unknown's index, and its centre and unit axis as each of
+/// its two segments sees them.
+struct FreeAxis {
+    edge: usize,
+    unknown: usize,
+    views: Vec<(usize, DVec3, DVec3)>,
+}
+
+/// The free hinges of `edges` (those with an unknown shift) as [`FreeAxis`].
+fn free_axes(
+    edges: &[(usize, usize, usize)],
+    unknown: &[Option<usize>],
+    seen_from: &dyn Fn(usize, usize) -> Option<(DVec3, Option<DVec3>)>,
+    segments: usize,
+) -> Vec<FreeAxis> {
+    edges
+        .iter()
+        .enumerate()
+        .filter_map(|(e, &(_, parent, child))| {
+            let views = [parent, child]
+                .into_iter()
+                .filter(|&x| x < segments)
+                .filter_map(|x| {
+                    let (c, u) = seen_from(e, x)?;
+                    Some((x, c, u?))
+                })
+                .collect();
+            Some(FreeAxis {
+                edge: e,
+                unknown: unknown[e]?,
+                views,
+            })
+        })
+        .collect()
+}
+
+/// Rows putting two free hinges of one segment at the point where their axes meet, seen
+/// from that segment, when they meet: closer than [`PARENT_JOINT_TEST_SIGMAS`] standard
+/// deviations of what the fits leave (the residuals, and the axes' tilt times the distance
+/// to the meeting point), and at shifts the child sides' own evidence (`first`) allows
+/// within the same bound. Two hinges hung on one tip (a random tree's branches, a robot's
+/// stacked axes) meet there; their markers alone place each only to the limb's radius.
+/// Axes within ~11.5° of parallel are left alone: where they meet is ill-defined. The two
+/// rows are the closest-point conditions `u_e·d = 0`, `u_g·d = 0` for
+/// `d = c_e + s_e u_e − c_g − s_g u_g`.
+fn meeting_rows(
+    axes: &[FreeAxis],
+    residual: &dyn Fn(usize) -> f64,
+    tilt: &dyn Fn(usize) -> f64,
+    first: &FirstSolve,
+) -> Vec<ShiftRow> {
+    let mut rows = Vec::new();
+    for (i, e) in axes.iter().enumerate() {
+        for g in &axes[i + 1..] {
+            for &(x, ce, ue) in &e.views {
+                let Some(&(_, cg, ug)) = g.views.iter().find(|v| v.0 == x) else {
+                    continue;
+                };
+                let normal = ue.cross(ug);
+                if normal.length() < MEETING_MIN_SINE {
+                    continue;
+                }
+                let d = ce - cg;
+                let gap = d.dot(normal).abs() / normal.length();
+                // The closest points: s along ue from ce, t along ug from cg.
+                let c = ue.dot(ug);
+                let det = c * c - 1.0;
+                let s = (d.dot(ue) - c * d.dot(ug)) / det;
+                let t = (c * d.dot(ue) - d.dot(ug)) / det;
+                let lever = s.abs().max(t.abs());
+                let variance = BONE_SIGMA_FLOOR_MM.powi(2)
+                    + residual(e.edge).powi(2)
+                    + residual(g.edge).powi(2)
+                    + ((tilt(e.edge) + tilt(g.edge)) * lever).powi(2);
+                let bound = PARENT_JOINT_TEST_SIGMAS * PARENT_JOINT_TEST_SIGMAS;
+                let (ke, kg) = (e.unknown, g.unknown);
+                let allowed = |k: usize, shift: f64| {
+                    (shift - first.guess[k]).powi(2) <= bound * (first.covariance[k][k] + variance)
+                };
+                if !(gap * gap <= bound * variance && allowed(ke, s) && allowed(kg, t)) {
+                    continue;
+                }
+                let weight = 1.0 / variance;
+                rows.push(ShiftRow {
+                    terms: vec![(ke, 1.0), (kg, -c)],
+                    b: -d.dot(ue),
+                    weight,
+                    lever,
+                    across: DVec3::ZERO,
+                });
+                rows.push(ShiftRow {
+                    terms: vec![(ke, c), (kg, -1.0)],
+                    b: -d.dot(ug),
+                    weight,
+                    lever,
+                    across: DVec3::ZERO,
+                });
+            }
+        }
+    }
+    rows
 }
 
 /// The weighted least-squares shifts of `count` unknowns from `rows`; an unknown no row

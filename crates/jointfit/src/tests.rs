@@ -1084,3 +1084,54 @@ fn a_hinge_wobbling_by_pose_noise_alone_is_a_hinge() {
         }
     }
 }
+
+/// Two hinges hung on one tip of a parent whose bone meets neither axis squarely, each
+/// child carried by three markers that straddle its bone unevenly along the axis (their
+/// midrange 20 mm off it): the axes meet at the tip, and both centres go there.
+#[test]
+fn two_hinges_whose_axes_meet_share_the_meeting_point() {
+    let mut rng = TestRng(43);
+    let mut bodies = chain(&mut rng, &[Articulation::Ball(50.0)], 4);
+    // The parent's own joint off to the side: its bone runs at a slant to both axes.
+    bodies[1].joint_in_self = DVec3::new(200.0, 150.0, 0.0);
+    let tip = DVec3::new(0.0, 0.0, -500.0);
+    for (axis, markers) in [
+        (
+            DVec3::X,
+            [
+                [-5.0, 40.0, -200.0],
+                [45.0, -40.0, -250.0],
+                [20.0, 30.0, -320.0],
+            ],
+        ),
+        (
+            DVec3::Y,
+            [
+                [40.0, 5.0, -180.0],
+                [-40.0, -45.0, -260.0],
+                [0.0, -20.0, -330.0],
+            ],
+        ),
+    ] {
+        bodies.push(crate::testkit::Body {
+            parent: Some(1),
+            joint_in_parent: tip,
+            joint_in_self: DVec3::ZERO,
+            articulation: Articulation::Hinge(axis, 40.0),
+            markers: markers.map(DVec3::from_array).to_vec(),
+        });
+    }
+    let trial = generate(&mut rng, &bodies, 300, 0.1, |_, _, _| false);
+    let mut fits = run_on_segments(&trial.traj, &trial.segments, &Params::default()).unwrap();
+    let edges = tree_edges(&fits, &[(0, 1), (1, 2), (1, 3)]);
+    assert_eq!(pair(&fits, 1, 2).kind, JointKind::Hinge);
+    assert_eq!(pair(&fits, 1, 3).kind, JointKind::Hinge);
+    crate::place_hinges_across_bones(&mut fits, &edges);
+    for child in [2, 3] {
+        let err = mean_error(pair(&fits, 1, child), &trial.joints[child]);
+        assert!(
+            err < 2.0,
+            "hinge to {child}: centre {err:.1} mm from the tip"
+        );
+    }
+}
