@@ -440,6 +440,10 @@ struct Aggregate {
     mean_error_pct: f64,
     worst_error_pct: f64,
     mean_known_fraction: f64,
+    /// Matched joints (re-hung coincident ones aside) whose kind is right, hinge or not.
+    kinds_right: usize,
+    /// Matched joints whose kind was scored.
+    kinds_scored: usize,
     seconds: f64,
 }
 
@@ -453,6 +457,8 @@ fn aggregate<'a>(results: impl Iterator<Item = &'a TrialResult>) -> Aggregate {
         // NaN until a trial is scored: f64::max ignores NaN.
         worst_error_pct: f64::NAN,
         mean_known_fraction: 0.0,
+        kinds_right: 0,
+        kinds_scored: 0,
         seconds: 0.0,
     };
     let mut scored = 0usize;
@@ -466,6 +472,13 @@ fn aggregate<'a>(results: impl Iterator<Item = &'a TrialResult>) -> Aggregate {
         a.topology_exact += usize::from(r.topology_exact);
         a.topology_equivalent += usize::from(r.topology_exact && r.equivalent_joints > 0);
         a.mean_known_fraction += r.known_fraction;
+        // The trial's accuracy is over its matched joints but the re-hung coincident ones.
+        let matched = r.joints.iter().filter(|j| j.estimate.is_some()).count();
+        let judged = matched.saturating_sub(r.equivalent_joints);
+        if judged > 0 && r.kind_accuracy.is_finite() {
+            a.kinds_scored += judged;
+            a.kinds_right += (r.kind_accuracy * judged as f64).round() as usize;
+        }
         if r.mean_error_pct.is_finite() {
             a.mean_error_pct += r.mean_error_pct;
             scored += 1;
@@ -557,7 +570,8 @@ fn summary_line(label: &str, results: &[TrialResult], wall: f64) -> String {
     for p in presets_of(results) {
         let a = aggregate(results.iter().filter(|r| r.preset == p));
         parts.push(format!(
-            "{p}: topology {}/{}{}, mean {}% (worst {}%) of height, known {}%{}",
+            "{p}: topology {}/{}{}, mean {}% (worst {}%) of height, known {}%, hinge or not \
+             right {}/{}{}",
             a.topology_exact,
             a.trials,
             if a.topology_equivalent > 0 {
@@ -568,6 +582,8 @@ fn summary_line(label: &str, results: &[TrialResult], wall: f64) -> String {
             fmt_f(a.mean_error_pct, 2),
             fmt_f(a.worst_error_pct, 2),
             fmt_f(a.mean_known_fraction * 100.0, 1),
+            a.kinds_right,
+            a.kinds_scored,
             if a.failed > 0 {
                 format!(", {} FAILED", a.failed)
             } else {
@@ -718,5 +734,39 @@ mod tests {
         assert_eq!(json["by_subject"]["clean"]["human"]["trials"], 2);
         // One subject: the summary line says it all.
         assert!(subject_lines(&results[..2]).is_empty());
+    }
+
+    /// Hinge-or-not is counted over joints, each trial's accuracy weighted by its matched
+    /// joints less the re-hung coincident ones.
+    #[test]
+    fn kinds_are_counted_over_joints() {
+        let joint = |estimate: Option<&str>| JointResult {
+            truth: "j".into(),
+            kind: "hinge".into(),
+            estimate: estimate.map(String::from),
+            estimated_kind: estimate.map(|_| "hinge".into()),
+            mean_mm: None,
+            worst_mm: None,
+            known_fraction: 1.0,
+        };
+        let mut a = result("human", "hard", true, 1.0);
+        // 4 matched joints (one not found), one re-hung: 3 judged, 2 of them right.
+        a.joints = vec![
+            joint(Some("a")),
+            joint(Some("b")),
+            joint(Some("c")),
+            joint(Some("d")),
+            joint(None),
+        ];
+        a.equivalent_joints = 1;
+        a.kind_accuracy = 2.0 / 3.0;
+        let mut b = result("snowman", "hard", true, 1.0);
+        b.joints = vec![joint(Some("e")), joint(Some("f"))];
+        let all = aggregate([a, b].iter());
+        assert_eq!((all.kinds_right, all.kinds_scored), (4, 5));
+        assert!(
+            summary_line("x", &[result("human", "clean", true, 0.1)], 0.0)
+                .contains("hinge or not right 0/0")
+        );
     }
 }
