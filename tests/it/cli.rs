@@ -74,6 +74,8 @@ fn default_run_writes_the_contract_and_caches_every_stage() {
         .collect();
     assert_eq!(trc.trajectories.labels(), names.as_slice());
     assert_eq!(trc.trajectories.frames(), frames);
+    let report = std::fs::read_to_string(tmp.path("out/report.html")).unwrap();
+    assert!(report.starts_with("<!doctype html>") && report.contains("<h2>Joints</h2>"));
 
     // Nothing changed: nothing recomputed, and the outputs are byte-identical.
     let json_bytes = std::fs::read(tmp.path("out/skeleton.json")).unwrap();
@@ -105,8 +107,14 @@ fn recomputing_without_the_cache_gives_byte_identical_files() {
             "--cache",
             cache.to_str().unwrap(),
         ]);
-        ["skeleton.json", "skeleton.bvh", "joints.csv", "joints.trc"]
-            .map(|f| std::fs::read(out.join(f)).unwrap())
+        [
+            "skeleton.json",
+            "skeleton.bvh",
+            "joints.csv",
+            "joints.trc",
+            "report.html",
+        ]
+        .map(|f| std::fs::read(out.join(f)).unwrap())
     };
     assert!(run("a") == run("b"), "two fresh runs differ");
 }

@@ -18,12 +18,17 @@
 //! - `joints.trc`: the root point and every joint centre as virtual markers named as in
 //!   the BVH, at the capture's rate and first frame, empty where unknown; opens in OpenSim
 //!   and other marker tools like a capture. Y-up with `export.y_up`.
+//! - `report.html`: the same document for a person, one self-contained page (no script):
+//!   a summary, the skeleton drawn at its best-known frame in three projections, tables
+//!   of joints (kind with its evidence, residuals, range of motion, warnings), segments
+//!   and markers, label swaps and notes.
 //!
 //! It does not fit anything; every number comes from the inputs.
 mod bvh;
 mod csv;
 mod error;
 mod json;
+mod report;
 #[cfg(test)]
 mod tests;
 mod trc;
@@ -39,7 +44,7 @@ use serde::{Deserialize, Serialize};
 pub const STAGE: &str = "export";
 
 /// Schema version of [`Outputs`] and of skeleton.json's layout; bump when either changes.
-pub const SCHEMA_VERSION: u32 = 4;
+pub const SCHEMA_VERSION: u32 = 5;
 
 /// Everything the files are made from.
 #[derive(Clone, Copy, Debug)]
@@ -59,7 +64,7 @@ pub struct Inputs<'a> {
 /// The files, by name; the runner writes them.
 #[derive(Clone, Debug, Default, PartialEq, Eq, Serialize, Deserialize)]
 pub struct Outputs {
-    /// File name → file bytes (skeleton.json, skeleton.bvh, joints.csv, joints.trc).
+    /// File name → file bytes (skeleton.json, skeleton.bvh, joints.csv, joints.trc, report.html).
     #[serde(with = "byte_files")]
     pub files: BTreeMap<String, Vec<u8>>,
 }
@@ -82,7 +87,7 @@ pub const PARAM_DOCS: &[(&str, &str)] = &[(
      capture's frame; default false",
 )];
 
-/// Makes skeleton.json, skeleton.bvh, joints.csv and joints.trc.
+/// Makes skeleton.json, skeleton.bvh, joints.csv, joints.trc and report.html.
 pub fn run(input: &Inputs<'_>, params: &Params) -> Result<Outputs, Error> {
     let document = json::document(input)?;
     let mut files = BTreeMap::new();
@@ -90,6 +95,7 @@ pub fn run(input: &Inputs<'_>, params: &Params) -> Result<Outputs, Error> {
     files.insert("skeleton.bvh".to_owned(), bvh::write(input, params)?);
     files.insert("joints.csv".to_owned(), csv::write(input.skeleton));
     files.insert("joints.trc".to_owned(), trc::write(input, params)?);
+    files.insert("report.html".to_owned(), report::write(&document));
     Ok(Outputs { files })
 }
 

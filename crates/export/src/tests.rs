@@ -511,6 +511,44 @@ fn check_trc_against(
     check_trc(turned, axes)
 }
 
+/// The report names every joint, segment marker and kind, draws three projections with a
+/// line per joint that has a position to hang from, and escapes what came from the capture.
+#[test]
+fn report_tabulates_the_document_and_escapes_labels() {
+    let s = gappy_scene();
+    let out = files(&s, &Params::default());
+    let html = text(&out, "report.html");
+    assert!(html.starts_with("<!doctype html>"));
+    assert!(html.trim_end().ends_with("</html>"));
+    assert_eq!(html.matches("<svg ").count(), 3);
+    let doc = json(&out);
+    let joints = doc["joints"].as_array().cloned().unwrap_or_default();
+    // One line per joint in each view: every joint hangs from a joint or the root.
+    assert_eq!(html.matches("<line ").count(), 3 * joints.len());
+    for j in &joints {
+        let name = j["name"].as_str().unwrap_or_default();
+        assert!(
+            html.contains(&format!("<tr><td>{name}</td>")),
+            "no row for {name}"
+        );
+    }
+    for s in doc["segments"].as_array().cloned().unwrap_or_default() {
+        for m in s["markers"].as_array().cloned().unwrap_or_default() {
+            assert!(html.contains(m.as_str().unwrap_or("?")));
+        }
+    }
+    // A label from a file is text, never markup.
+    let mut document: crate::SkeletonJson =
+        serde_json::from_value(doc).unwrap_or_else(|e| panic!("{e}"));
+    document.markers[0].label = "<b>\"L&R\"</b>".into();
+    document.markers[0].segment = None;
+    document.markers[0].unassigned_reason = Some("moves <alone>".into());
+    let html = String::from_utf8(crate::report::write(&document)).unwrap_or_default();
+    assert!(html.contains("&lt;b&gt;&quot;L&amp;R&quot;&lt;/b&gt;"));
+    assert!(html.contains("moves &lt;alone&gt;"));
+    assert!(!html.contains("<b>"));
+}
+
 #[test]
 fn outputs_are_deterministic_and_round_trip_through_serde() {
     let s = gappy_scene();
@@ -519,7 +557,13 @@ fn outputs_are_deterministic_and_round_trip_through_serde() {
     assert_eq!(a, b);
     assert_eq!(
         a.files.keys().map(String::as_str).collect::<Vec<_>>(),
-        ["joints.csv", "joints.trc", "skeleton.bvh", "skeleton.json"]
+        [
+            "joints.csv",
+            "joints.trc",
+            "report.html",
+            "skeleton.bvh",
+            "skeleton.json"
+        ]
     );
     let json_bytes = serde_json::to_vec(&a).unwrap_or_default();
     let back: crate::Outputs = serde_json::from_slice(&json_bytes).unwrap_or_default();
