@@ -154,6 +154,13 @@ fn text(out: &crate::Outputs, name: &str) -> String {
     String::from_utf8(out.files.get(name).cloned().unwrap_or_default()).unwrap_or_default()
 }
 
+/// How many of a JSON position array's entries are known (not null).
+fn known(positions: &Value) -> usize {
+    positions
+        .as_array()
+        .map_or(0, |p| p.iter().filter(|x| !x.is_null()).count())
+}
+
 fn json(out: &crate::Outputs) -> Value {
     serde_json::from_str(&text(out, "skeleton.json")).unwrap_or(Value::Null)
 }
@@ -405,19 +412,10 @@ fn csv_rows_only_where_known() {
     assert_eq!(lines.next(), Some("frame,joint,x,y,z"));
     let rows: Vec<Vec<&str>> = lines.map(|l| l.split(',').collect()).collect();
     let doc = json(&out);
-    let known: usize = doc["joints"]
+    let positions: usize = doc["joints"]
         .as_array()
-        .map(|js| {
-            js.iter()
-                .map(|j| {
-                    j["positions"]
-                        .as_array()
-                        .map_or(0, |p| p.iter().filter(|x| !x.is_null()).count())
-                })
-                .sum()
-        })
-        .unwrap_or(0);
-    assert_eq!(rows.len(), known);
+        .map_or(0, |js| js.iter().map(|j| known(&j["positions"])).sum());
+    assert_eq!(rows.len(), positions);
     assert!(rows.iter().all(|r| r.len() == 5));
     assert_eq!(rows[0][0], "0");
     assert_eq!(rows[0][1], "j1");
@@ -479,10 +477,6 @@ fn trc_has_the_json_positions_and_gaps() {
     let out = files(&s, &Params::default());
     let compared = check_trc(&out, |p| p);
     let doc = json(&out);
-    let known = |v: &Value| {
-        v.as_array()
-            .map_or(0, |p| p.iter().filter(|x| !x.is_null()).count())
-    };
     let root = known(&doc["root"]["positions"]);
     let joints: usize = doc["joints"]
         .as_array()
@@ -493,22 +487,11 @@ fn trc_has_the_json_positions_and_gaps() {
     let frames = doc["frame_count"].as_u64().unwrap_or(0) as usize;
     assert!(compared < tracks * frames && compared > tracks * frames / 2);
     // Y-up is the same motion turned as the BVH is: (x, y, z) -> (x, z, -y).
+    // The JSON is never turned, so the turned TRC is checked against the same positions.
     let turned = files(&s, &Params { y_up: true });
+    assert_eq!(json(&turned), doc);
     let neg = |c: f64| if c == 0.0 { 0.0 } else { -c };
-    assert_eq!(
-        check_trc_against(&turned, &out, |[x, y, z]| [x, z, neg(y)]),
-        compared
-    );
-}
-
-/// [`check_trc`] of `turned`'s TRC against `plain`'s JSON (the JSON is never turned).
-fn check_trc_against(
-    turned: &crate::Outputs,
-    plain: &crate::Outputs,
-    axes: impl Fn([f64; 3]) -> [f64; 3],
-) -> usize {
-    assert_eq!(json(turned), json(plain));
-    check_trc(turned, axes)
+    assert_eq!(check_trc(&turned, |[x, y, z]| [x, z, neg(y)]), compared);
 }
 
 /// The report names every joint, segment marker and kind, draws three projections with a

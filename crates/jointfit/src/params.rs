@@ -317,18 +317,33 @@ impl Params {
             value: value.to_string(),
             reason,
         };
-        if !(self.alpha.is_finite() && self.alpha >= 0.0) {
-            return Err(bad("alpha", self.alpha, "must be a finite number ≥ 0"));
+        for (name, value) in [
+            ("alpha", self.alpha),
+            ("rigid_deg", self.rigid_deg),
+            ("hinge_noise_factor", self.hinge_noise_factor),
+            ("min_spread_mm", self.min_spread_mm),
+            ("max_spin_deg", self.max_spin_deg),
+            ("pose_outlier_factor", self.pose_outlier_factor),
+            ("pose_outlier_floor_mm", self.pose_outlier_floor_mm),
+            ("anchor_min_excursion_deg", self.anchor_min_excursion_deg),
+            (
+                "anchor_refit_min_excursion_deg",
+                self.anchor_refit_min_excursion_deg,
+            ),
+            ("anchor_exact_centre_mm", self.anchor_exact_centre_mm),
+            ("hinge_slide_max_rise", self.hinge_slide_max_rise),
+        ] {
+            if !(value.is_finite() && value >= 0.0) {
+                return Err(bad(name, value, "must be a finite number ≥ 0"));
+            }
         }
-        if !(self.rigid_deg.is_finite() && self.rigid_deg >= 0.0) {
-            return Err(bad(
-                "rigid_deg",
-                self.rigid_deg,
-                "must be a finite number ≥ 0",
-            ));
-        }
-        if !(self.hinge_ratio.is_finite() && (0.0..1.0).contains(&self.hinge_ratio)) {
-            return Err(bad("hinge_ratio", self.hinge_ratio, "must be in [0, 1)"));
+        for (name, value, range) in [
+            ("hinge_ratio", self.hinge_ratio, 0.0..1.0),
+            ("local_planar_ratio", self.local_planar_ratio, 0.0..1.0),
+        ] {
+            if !(value.is_finite() && range.contains(&value)) {
+                return Err(bad(name, value, "must be in [0, 1)"));
+            }
         }
         if !(self.hinge_noise_ratio.is_finite() && (0.0..=1.0).contains(&self.hinge_noise_ratio)) {
             return Err(bad(
@@ -337,71 +352,11 @@ impl Params {
                 "must be in [0, 1]",
             ));
         }
-        if !(self.hinge_noise_factor.is_finite() && self.hinge_noise_factor >= 0.0) {
-            return Err(bad(
-                "hinge_noise_factor",
-                self.hinge_noise_factor,
-                "must be a finite number ≥ 0",
-            ));
-        }
-        if !(self.min_spread_mm.is_finite() && self.min_spread_mm >= 0.0) {
-            return Err(bad(
-                "min_spread_mm",
-                self.min_spread_mm,
-                "must be a finite number ≥ 0",
-            ));
-        }
-        for (name, value) in [
-            ("max_spin_deg", self.max_spin_deg),
-            ("pose_outlier_factor", self.pose_outlier_factor),
-            ("pose_outlier_floor_mm", self.pose_outlier_floor_mm),
-        ] {
-            if !(value.is_finite() && value >= 0.0) {
-                return Err(bad(name, value, "must be a finite number ≥ 0"));
-            }
-        }
-        if !(self.anchor_min_excursion_deg.is_finite() && self.anchor_min_excursion_deg >= 0.0) {
-            return Err(bad(
-                "anchor_min_excursion_deg",
-                self.anchor_min_excursion_deg,
-                "must be a finite number ≥ 0",
-            ));
-        }
-        if !(self.anchor_refit_min_excursion_deg.is_finite()
-            && self.anchor_refit_min_excursion_deg >= 0.0)
-        {
-            return Err(bad(
-                "anchor_refit_min_excursion_deg",
-                self.anchor_refit_min_excursion_deg,
-                "must be a finite number ≥ 0",
-            ));
-        }
-        if !(self.anchor_exact_centre_mm.is_finite() && self.anchor_exact_centre_mm >= 0.0) {
-            return Err(bad(
-                "anchor_exact_centre_mm",
-                self.anchor_exact_centre_mm,
-                "must be a finite number ≥ 0",
-            ));
-        }
         if !(self.anchor_max_rms_mm.is_finite() && self.anchor_max_rms_mm > 0.0) {
             return Err(bad(
                 "anchor_max_rms_mm",
                 self.anchor_max_rms_mm,
                 "must be a finite number > 0",
-            ));
-        }
-        if !(self.hinge_slide_max_rise.is_finite() && self.hinge_slide_max_rise >= 0.0) {
-            return Err(bad(
-                "hinge_slide_max_rise",
-                self.hinge_slide_max_rise,
-                "must be a finite number ≥ 0",
-            ));
-        }
-        if !(self.local_planar_ratio.is_finite() && (0.0..1.0).contains(&self.local_planar_ratio)) {
-            return Err(bad(
-                "local_planar_ratio",
-                self.local_planar_ratio,
-                "must be in [0, 1)",
             ));
         }
         if !(1..=64).contains(&self.local_voxels) {
