@@ -74,6 +74,20 @@ fn default_run_writes_the_contract_and_caches_every_stage() {
         .collect();
     assert_eq!(trc.trajectories.labels(), names.as_slice());
     assert_eq!(trc.trajectories.frames(), frames);
+    // The glTF: a binary glTF 2.0 container whose nodes include every joint.
+    let glb = std::fs::read(tmp.path("out/skeleton.glb")).unwrap();
+    assert_eq!(&glb[..4], b"glTF");
+    assert_eq!(
+        u32::from_le_bytes([glb[8], glb[9], glb[10], glb[11]]) as usize,
+        glb.len()
+    );
+    for name in &names {
+        assert!(
+            glb.windows(name.len() + 2)
+                .any(|w| w == format!("\"{name}\"").as_bytes()),
+            "glTF lacks node {name}"
+        );
+    }
     let report = std::fs::read_to_string(tmp.path("out/report.html")).unwrap();
     assert!(report.starts_with("<!doctype html>") && report.contains("<h2>Joints</h2>"));
 
@@ -110,6 +124,7 @@ fn recomputing_without_the_cache_gives_byte_identical_files() {
         [
             "skeleton.json",
             "skeleton.bvh",
+            "skeleton.glb",
             "joints.csv",
             "joints.trc",
             "report.html",

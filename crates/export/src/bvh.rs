@@ -14,57 +14,12 @@ const EULER: EulerRot = EulerRot::ZXY;
 /// Writes the BVH (see the crate docs).
 pub(crate) fn write(input: &Inputs<'_>, params: &Params) -> Result<Vec<u8>, Error> {
     let skel = input.skeleton;
-    if !(skel.frame_rate.is_finite() && skel.frame_rate > 0.0) {
-        return Err(Error::BadFrameRate {
-            rate: skel.frame_rate,
-        });
-    }
+    let children = children(skel)?;
     let n = skel.joints.len();
     let frames = skel.frame_count;
-    // Children lists: index n stands for the root.
-    let mut children: Vec<Vec<usize>> = vec![Vec::new(); n + 1];
-    for (j, joint) in skel.joints.iter().enumerate() {
-        let parent = match joint.parent {
-            Some(p) if p < j => p,
-            None => n,
-            Some(p) => {
-                return Err(Error::Mismatch(format!(
-                    "joint {} has parent index {p}, not an earlier joint",
-                    joint.name
-                )));
-            }
-        };
-        children[parent].push(j);
-        if joint.local_rotations.len() != frames || joint.positions.len() != frames {
-            return Err(Error::Mismatch(format!(
-                "joint {} has {} rotations for {frames} frames",
-                joint.name,
-                joint.local_rotations.len()
-            )));
-        }
-    }
-    if skel.root_positions.len() != frames || skel.root_rotations.len() != frames {
-        return Err(Error::Mismatch(format!(
-            "the root has {} positions and {} rotations for {frames} frames",
-            skel.root_positions.len(),
-            skel.root_rotations.len()
-        )));
-    }
-
-    // The axis change: identity, or Z-up → Y-up, a rotation of −90° about X.
-    let axes = if params.y_up {
-        DQuat::from_rotation_x(-FRAC_PI_2)
-    } else {
-        DQuat::IDENTITY
-    };
-    let vector = |v: DVec3| if params.y_up { axes * v } else { v };
-    let rotation = |q: DQuat| {
-        if params.y_up {
-            axes * q * axes.inverse()
-        } else {
-            q
-        }
-    };
+    let axes = Axes::new(params);
+    let vector = |v: DVec3| axes.vector(v);
+    let rotation = |q: DQuat| axes.rotation(q);
 
     let mut out = String::new();
     out.push_str("HIERARCHY\n");
@@ -77,8 +32,7 @@ pub(crate) fn write(input: &Inputs<'_>, params: &Params) -> Result<Vec<u8>, Erro
     if children[n].is_empty() {
         // Strict readers want every branch to end in a joint or an End Site: a root
         // without joints ends at its own segment's marker centroid (the frame's origin).
-        let end = -DVec3::from_array(skel.root_point_in_segment);
-        let end = if end.is_finite() { end } else { DVec3::ZERO };
+        let end = root_end_site(skel);
         let _ = writeln!(
             out,
             "\tEnd Site\n\t{{\n\t\tOFFSET {}\n\t}}",
@@ -137,6 +91,69 @@ pub(crate) fn write(input: &Inputs<'_>, params: &Params) -> Result<Vec<u8>, Erro
     Ok(out.into_bytes())
 }
 
+/// Checks that the skeleton can be written (a frame rate, parents before children, one
+/// rotation and position per frame everywhere) and gives each joint's children; index
+/// `joints.len()` stands for the root.
+pub(crate) fn children(skel: &bonefit::Skeleton) -> Result<Vec<Vec<usize>>, Error> {
+    if !(skel.frame_rate.is_finite() && skel.frame_rate > 0.0) {
+        return Err(Error::BadFrameRate {
+            rate: skel.frame_rate,
+        });
+    }
+    let n = skel.joints.len();
+    let frames = skel.frame_count;
+    let mut children: Vec<Vec<usize>> = vec![Vec::new(); n + 1];
+    for (j, joint) in skel.joints.iter().enumerate() {
+        let parent = match joint.parent {
+            Some(p) if p < j => p,
+            None => n,
+            Some(p) => {
+                return Err(Error::Mismatch(format!(
+                    "joint {} has parent index {p}, not an earlier joint",
+                    joint.name
+                )));
+            }
+        };
+        children[parent].push(j);
+        if joint.local_rotations.len() != frames || joint.positions.len() != frames {
+            return Err(Error::Mismatch(format!(
+                "joint {} has {} rotations for {frames} frames",
+                joint.name,
+                joint.local_rotations.len()
+            )));
+        }
+    }
+    if skel.root_positions.len() != frames || skel.root_rotations.len() != frames {
+        return Err(Error::Mismatch(format!(
+            "the root has {} positions and {} rotations for {frames} frames",
+            skel.root_positions.len(),
+            skel.root_rotations.len()
+        )));
+    }
+    Ok(children)
+}
+
+/// The axis change of the animation files: none, or Z-up → Y-up with `export.y_up`
+/// (a rotation of −90° about X: (x, y, z) → (x, z, −y)).
+#[derive(Clone, Copy)]
+pub(crate) struct Axes(Option<DQuat>);
+
+impl Axes {
+    pub(crate) fn new(params: &Params) -> Self {
+        Self(params.y_up.then(|| DQuat::from_rotation_x(-FRAC_PI_2)))
+    }
+
+    /// A point or direction in the file's axes.
+    pub(crate) fn vector(self, v: DVec3) -> DVec3 {
+        self.0.map_or(v, |a| a * v)
+    }
+
+    /// A rotation in the file's axes (the same turn, seen in the new frame).
+    pub(crate) fn rotation(self, q: DQuat) -> DQuat {
+        self.0.map_or(q, |a| a * q * a.inverse())
+    }
+}
+
 fn tabs(depth: usize) -> String {
     "\t".repeat(depth)
 }
@@ -156,7 +173,7 @@ pub(crate) fn euler_degrees(q: DQuat) -> String {
 /// The leaf's End Site: from the joint toward the child segment's marker centroid (the
 /// origin of its local frame), in the child's rest frame; if that is under 1 mm, a
 /// quarter of the bone, continuing its direction.
-fn end_site(input: &Inputs<'_>, j: usize) -> DVec3 {
+pub(crate) fn end_site(input: &Inputs<'_>, j: usize) -> DVec3 {
     let joint = &input.skeleton.joints[j];
     let centre_in_child = input.fits.pairs.get(joint.pair).map(|p| {
         DVec3::from_array(if p.a == joint.child_segment {
@@ -174,9 +191,16 @@ fn end_site(input: &Inputs<'_>, j: usize) -> DVec3 {
     }
 }
 
+/// The End Site of a root without joints: its own segment's marker centroid (the
+/// origin of the root segment's frame), from the root point.
+pub(crate) fn root_end_site(skel: &bonefit::Skeleton) -> DVec3 {
+    let end = -DVec3::from_array(skel.root_point_in_segment);
+    if end.is_finite() { end } else { DVec3::ZERO }
+}
+
 /// Root positions with unknown frames holding the last known one (the first known one
 /// before it; the origin if never known).
-fn held_root_positions(positions: &[[f64; 3]]) -> Vec<DVec3> {
+pub(crate) fn held_root_positions(positions: &[[f64; 3]]) -> Vec<DVec3> {
     let known = |p: &[f64; 3]| p.iter().all(|c| c.is_finite());
     let mut last = positions
         .iter()

@@ -15,6 +15,17 @@ pub enum Error {
         /// The capture's frame rate (Hz).
         rate: f64,
     },
+    /// A file's format cannot hold this much (GLB lengths are 32-bit).
+    #[error(
+        "export: {file} would be {bytes} bytes, more than its format can hold (4 GiB); \
+         export a shorter stretch of the capture"
+    )]
+    TooLarge {
+        /// The file that cannot be written.
+        file: &'static str,
+        /// Its size (bytes).
+        bytes: usize,
+    },
     /// serde_json could not write skeleton.json.
     #[error("export: writing skeleton.json: {0}")]
     Json(#[from] serde_json::Error),

@@ -18,6 +18,10 @@
 //! - `joints.trc`: the root point and every joint centre as virtual markers named as in
 //!   the BVH, at the capture's rate and first frame, empty where unknown; opens in OpenSim
 //!   and other marker tools like a capture. Y-up with `export.y_up`.
+//! - `skeleton.glb`: the BVH's hierarchy and motion as binary glTF 2.0 (an armature
+//!   from a skin over the root, joint and End Site nodes, a mesh of one octahedral bone
+//!   per offset, one animation keyed per frame) in metres; Blender, three.js, Unity and
+//!   Godot import it. glTF is Y-up: a Z-up capture wants `export.y_up`.
 //! - `report.html`: the same document for a person, one self-contained page (no script):
 //!   a summary, the skeleton drawn at its best-known frame in three projections, tables
 //!   of joints (kind with its evidence, residuals, range of motion, warnings), segments
@@ -27,6 +31,7 @@
 mod bvh;
 mod csv;
 mod error;
+mod glb;
 mod json;
 mod report;
 #[cfg(test)]
@@ -44,7 +49,7 @@ use serde::{Deserialize, Serialize};
 pub const STAGE: &str = "export";
 
 /// Schema version of [`Outputs`] and of skeleton.json's layout; bump when either changes.
-pub const SCHEMA_VERSION: u32 = 5;
+pub const SCHEMA_VERSION: u32 = 6;
 
 /// Everything the files are made from.
 #[derive(Clone, Copy, Debug)]
@@ -64,7 +69,8 @@ pub struct Inputs<'a> {
 /// The files, by name; the runner writes them.
 #[derive(Clone, Debug, Default, PartialEq, Eq, Serialize, Deserialize)]
 pub struct Outputs {
-    /// File name → file bytes (skeleton.json, skeleton.bvh, joints.csv, joints.trc, report.html).
+    /// File name → file bytes (skeleton.json, skeleton.bvh, skeleton.glb, joints.csv,
+    /// joints.trc, report.html).
     #[serde(with = "byte_files")]
     pub files: BTreeMap<String, Vec<u8>>,
 }
@@ -73,26 +79,27 @@ pub struct Outputs {
 #[derive(Clone, Debug, Default, PartialEq, Serialize, Deserialize)]
 #[serde(default, deny_unknown_fields)]
 pub struct Params {
-    /// Rotate the BVH and joints.trc from Z-up to Y-up (x, y, z) → (x, z, −y) for Y-up
-    /// consumers (Blender's BVH import, OpenSim); the JSON and CSV stay in the capture's
-    /// frame. Default false.
+    /// Rotate the BVH, the glTF and joints.trc from Z-up to Y-up (x, y, z) → (x, z, −y)
+    /// for Y-up consumers (Blender's BVH import, glTF viewers, OpenSim); the JSON and CSV
+    /// stay in the capture's frame. Default false.
     pub y_up: bool,
 }
 
 /// Every parameter: (field name, "meaning, units, default").
 pub const PARAM_DOCS: &[(&str, &str)] = &[(
     "y_up",
-    "rotate the BVH and joints.trc from the capture's Z-up to Y-up ((x, y, z) -> (x, z, -y)) \
-     for Y-up consumers (OpenSim's ground is Y-up); skeleton.json and joints.csv stay in the \
-     capture's frame; default false",
+    "rotate the BVH, skeleton.glb and joints.trc from the capture's Z-up to Y-up \
+     ((x, y, z) -> (x, z, -y)) for Y-up consumers (glTF and OpenSim's ground are Y-up); \
+     skeleton.json and joints.csv stay in the capture's frame; default false",
 )];
 
-/// Makes skeleton.json, skeleton.bvh, joints.csv, joints.trc and report.html.
+/// Makes skeleton.json, skeleton.bvh, skeleton.glb, joints.csv, joints.trc and report.html.
 pub fn run(input: &Inputs<'_>, params: &Params) -> Result<Outputs, Error> {
     let document = json::document(input)?;
     let mut files = BTreeMap::new();
     files.insert("skeleton.json".to_owned(), json::to_bytes(&document)?);
     files.insert("skeleton.bvh".to_owned(), bvh::write(input, params)?);
+    files.insert("skeleton.glb".to_owned(), glb::write(input, params)?);
     files.insert("joints.csv".to_owned(), csv::write(input.skeleton));
     files.insert("joints.trc".to_owned(), trc::write(input, params)?);
     files.insert("report.html".to_owned(), report::write(&document));

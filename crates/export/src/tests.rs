@@ -545,6 +545,7 @@ fn outputs_are_deterministic_and_round_trip_through_serde() {
             "joints.trc",
             "report.html",
             "skeleton.bvh",
+            "skeleton.glb",
             "skeleton.json"
         ]
     );
@@ -649,8 +650,10 @@ fn end_to_end_synthetic_robot_arm_bvh_reproduces_json() {
     let out = run(&input, &Params::default()).unwrap_or_else(|e| panic!("{e}"));
     let checked = check_round_trip(&out, |p| p);
     assert_eq!(checked, skeleton.joints.len() * 180);
+    assert_eq!(check_glb(&out, |p| p), checked);
     let y_up = run(&input, &Params { y_up: true }).unwrap_or_else(|e| panic!("{e}"));
     check_round_trip(&y_up, |p| DVec3::new(p.x, p.z, -p.y));
+    check_glb(&y_up, |p| DVec3::new(p.x, p.z, -p.y));
     let estimate: synth::score::Estimate =
         serde_json::from_slice(out.files.get("skeleton.json").map_or(&[][..], |v| v))
             .unwrap_or_else(|e| panic!("{e}"));
@@ -682,4 +685,206 @@ fn single_segment_bvh_ends_the_root_in_an_end_site_and_parses_back() {
     let fk = bvh_fk(&bvh, 3);
     let want = DVec3::from_array(s.fits.poses[2].translations[3]);
     assert!((fk[0] - want).length() < 1e-5, "{} vs {want}", fk[0]);
+    // The glTF likewise: the root and its End Site, valid, animated.
+    let glb = gltf::Gltf::from_slice(out.files.get("skeleton.glb").map_or(&[][..], |v| v))
+        .unwrap_or_else(|e| panic!("{e}"));
+    let names: Vec<&str> = glb.nodes().map(|n| n.name().unwrap_or_default()).collect();
+    assert_eq!(&names[..2], ["root", "root end"]);
+    let (fk, _) = glb_fk(&glb, 3);
+    assert!(
+        (fk[0] * 1000.0 - want).length() < 1e-3,
+        "{} vs {want}",
+        fk[0]
+    );
+}
+
+/// Node transforms of a parsed skeleton.glb at one keyframe: global position (m) and
+/// rotation per node.
+fn glb_fk(doc: &gltf::Gltf, frame: usize) -> (Vec<DVec3>, Vec<DQuat>) {
+    let blob = doc.blob.as_deref().unwrap_or_default();
+    let nodes: Vec<gltf::Node> = doc.nodes().collect();
+    let mut translation: Vec<DVec3> = Vec::new();
+    let mut rotation: Vec<DQuat> = Vec::new();
+    for n in &nodes {
+        let (t, r, _) = n.transform().decomposed();
+        translation.push(DVec3::from_array(t.map(f64::from)));
+        rotation.push(DQuat::from_array(r.map(f64::from)));
+    }
+    for anim in doc.animations() {
+        for channel in anim.channels() {
+            let node = channel.target().node().index();
+            let reader = channel.reader(|_| Some(blob));
+            match reader.read_outputs() {
+                Some(gltf::animation::util::ReadOutputs::Translations(t)) => {
+                    let t: Vec<[f32; 3]> = t.collect();
+                    translation[node] = DVec3::from_array(t[frame].map(f64::from));
+                }
+                Some(gltf::animation::util::ReadOutputs::Rotations(r)) => {
+                    let r: Vec<[f32; 4]> = r.into_f32().collect();
+                    rotation[node] = DQuat::from_array(r[frame].map(f64::from)).normalize();
+                }
+                _ => panic!("unexpected channel on node {node}"),
+            }
+        }
+    }
+    let mut parent = vec![None; nodes.len()];
+    for n in &nodes {
+        for c in n.children() {
+            parent[c.index()] = Some(n.index());
+        }
+    }
+    // Parents come before children in our files; resolve in index order.
+    let mut position = vec![DVec3::ZERO; nodes.len()];
+    let mut global = vec![DQuat::IDENTITY; nodes.len()];
+    for i in 0..nodes.len() {
+        let (p, q) = parent[i].map_or((DVec3::ZERO, DQuat::IDENTITY), |p| {
+            assert!(p < i, "node {i}'s parent {p} comes after it");
+            (position[p], global[p])
+        });
+        position[i] = p + q * translation[i];
+        global[i] = q * rotation[i];
+    }
+    (position, global)
+}
+
+/// Checks skeleton.glb (parsed and validated by the `gltf` crate) against skeleton.json:
+/// names, nesting, per-frame forward kinematics (mm = 1000 × m, JSON points mapped by
+/// `axes`), and the skinned bone mesh following its nodes. Gives the positions compared.
+fn check_glb(out: &crate::Outputs, axes: impl Fn(DVec3) -> DVec3) -> usize {
+    let bytes = out.files.get("skeleton.glb").cloned().unwrap_or_default();
+    let glb = gltf::Gltf::from_slice(&bytes).unwrap_or_else(|e| panic!("invalid glTF: {e}"));
+    let doc = json(out);
+    let frames = doc["frame_count"].as_u64().unwrap_or(0) as usize;
+    let names: Vec<String> = glb
+        .nodes()
+        .map(|n| n.name().unwrap_or_default().to_owned())
+        .collect();
+    assert_eq!(names[0], "root");
+    let anim = glb
+        .animations()
+        .next()
+        .unwrap_or_else(|| panic!("no animation"));
+    let blob = glb.blob.as_deref().unwrap_or_default();
+    let times: Vec<f32> = anim
+        .channels()
+        .next()
+        .and_then(|c| c.reader(|_| Some(blob)).read_inputs())
+        .map(Iterator::collect)
+        .unwrap_or_default();
+    assert_eq!(times.len(), frames);
+    let rate = doc["frame_rate"].as_f64().unwrap_or(0.0);
+    assert!((f64::from(times[frames - 1]) - (frames - 1) as f64 / rate).abs() < 1e-5);
+
+    // The skinned bones: each vertex moves with its node (G · inverse bind · rest).
+    let skin = glb.skins().next().unwrap_or_else(|| panic!("no skin"));
+    let inverse_bind: Vec<[[f32; 4]; 4]> = skin
+        .reader(|_| Some(blob))
+        .read_inverse_bind_matrices()
+        .map(Iterator::collect)
+        .unwrap_or_default();
+    let mesh = glb.meshes().next().unwrap_or_else(|| panic!("no mesh"));
+    let primitive = mesh
+        .primitives()
+        .next()
+        .unwrap_or_else(|| panic!("no primitive"));
+    let reader = primitive.reader(|_| Some(blob));
+    let vertices: Vec<[f32; 3]> = reader
+        .read_positions()
+        .map(Iterator::collect)
+        .unwrap_or_default();
+    let bound: Vec<[u16; 4]> = reader
+        .read_joints(0)
+        .map(|j| j.into_u16().collect())
+        .unwrap_or_default();
+    assert_eq!(vertices.len(), bound.len());
+    assert!(!vertices.is_empty());
+
+    let joints = doc["joints"].as_array().cloned().unwrap_or_default();
+    let mut checked = 0;
+    for f in 0..frames {
+        let (fk, turn) = glb_fk(&glb, f);
+        // Every bone is six vertices: head, tail, waist; its tail is the next node.
+        for (v, b) in vertices.chunks_exact(6).zip(bound.chunks_exact(6)) {
+            let node = usize::from(b[0][0]);
+            let m = inverse_bind[node];
+            let rest = DVec3::from_array(v[1].map(f64::from));
+            let local = rest + DVec3::new(m[3][0].into(), m[3][1].into(), m[3][2].into());
+            let tail = fk[node] + turn[node] * local;
+            let nearest = fk
+                .iter()
+                .map(|p| (*p - tail).length())
+                .fold(f64::INFINITY, f64::min);
+            assert!(
+                nearest < 1e-5,
+                "frame {f}: a bone's tail is {nearest} m from any node"
+            );
+        }
+        for j in &joints {
+            let name = j["name"].as_str().unwrap_or_default();
+            let Some(node) = names.iter().position(|n| n == name) else {
+                panic!("joint {name} missing from the glTF")
+            };
+            let parent = glb
+                .nodes()
+                .find(|n| n.children().any(|c| c.index() == node))
+                .and_then(|n| n.name().map(str::to_owned));
+            assert_eq!(
+                parent.as_deref(),
+                Some(j["parent"].as_str().unwrap_or("root"))
+            );
+            let p = &j["positions"][f];
+            if p.is_null() {
+                continue;
+            }
+            let want = axes(DVec3::new(
+                p[0].as_f64().unwrap_or(f64::NAN),
+                p[1].as_f64().unwrap_or(f64::NAN),
+                p[2].as_f64().unwrap_or(f64::NAN),
+            ));
+            let error = (fk[node] * 1000.0 - want).length();
+            assert!(error < 0.01, "{name} frame {f}: glTF FK off by {error} mm");
+            checked += 1;
+        }
+    }
+    checked
+}
+
+#[test]
+fn glb_forward_kinematics_and_skinned_bones_reproduce_the_json() {
+    let s = gappy_scene();
+    let out = files(&s, &Params::default());
+    let checked = check_glb(&out, |p| p);
+    // As many as the BVH compares: every known joint position.
+    assert_eq!(checked, check_round_trip(&out, |p| p));
+    assert!(checked > 200, "only {checked} positions compared");
+    let y_up = files(&s, &Params { y_up: true });
+    assert_eq!(check_glb(&y_up, |p| DVec3::new(p.x, p.z, -p.y)), checked);
+    assert_ne!(
+        y_up.files.get("skeleton.glb"),
+        out.files.get("skeleton.glb")
+    );
+    let glb = gltf::Gltf::from_slice(out.files.get("skeleton.glb").map_or(&[][..], |v| v))
+        .unwrap_or_else(|e| panic!("{e}"));
+    let names: Vec<&str> = glb.nodes().map(|n| n.name().unwrap_or_default()).collect();
+    // The BVH's nodes, its End Sites named after their joints, then the skinned mesh.
+    assert_eq!(
+        names,
+        ["root", "j1", "j3", "j2", "j3 end", "j2 end", "bones"]
+    );
+    // Quaternions stay on one side from frame to frame (Blender interpolates components).
+    let blob = glb.blob.as_deref().unwrap_or_default();
+    for channel in glb
+        .animations()
+        .flat_map(|a| a.channels().collect::<Vec<_>>())
+    {
+        if let Some(gltf::animation::util::ReadOutputs::Rotations(r)) =
+            channel.reader(|_| Some(blob)).read_outputs()
+        {
+            let r: Vec<DQuat> = r
+                .into_f32()
+                .map(|q| DQuat::from_array(q.map(f64::from)))
+                .collect();
+            assert!(r.windows(2).all(|w| w[0].dot(w[1]) >= 0.0));
+        }
+    }
 }
