@@ -38,6 +38,13 @@ pub struct Args {
     /// Markers per segment as MIN:MAX (or one number) [default: the generator's, 3:6].
     #[arg(long, value_name = "MIN:MAX")]
     pub markers: Option<String>,
+    /// Gaussian noise σ per coordinate in mm, for the noise, hard and messy presets
+    /// [default: the generator's, 1].
+    #[arg(long, value_name = "MM")]
+    pub noise: Option<f64>,
+    /// Frame rate of the generated trials in Hz [default: the generator's, 120].
+    #[arg(long, value_name = "HZ")]
+    pub rate: Option<f64>,
     /// Set a stage parameter for every trial (STAGE.PARAM=VALUE). Repeatable.
     #[arg(long = "set", value_name = "STAGE.PARAM=VALUE")]
     pub set: Vec<String>,
@@ -147,6 +154,7 @@ pub fn suite(args: &Args) -> Result<Vec<TrialSpec>> {
             .with_context(|| format!("--markers {text}: expected MIN:MAX or N"))?,
     };
     let seeds = seed_list(&args.seeds)?;
+    let defaults = SynthConfig::default();
     let mut specs = Vec::new();
     for subject in &subjects {
         for preset in &presets {
@@ -157,9 +165,12 @@ pub fn suite(args: &Args) -> Result<Vec<TrialSpec>> {
                     frames: args.frames,
                     seed: *seed,
                     markers_per_segment,
-                    ..SynthConfig::default()
+                    noise_mm: args.noise.unwrap_or(defaults.noise_mm),
+                    rate: args.rate.unwrap_or(defaults.rate),
                 };
-                config.validate()?;
+                config.validate().context(
+                    "--frames, --markers, --noise or --rate: not a trial the generator makes",
+                )?;
                 specs.push(TrialSpec { config });
             }
         }
@@ -686,6 +697,44 @@ mod tests {
             err.contains("--seeds 81x") && err.contains("not a seed"),
             "{err}"
         );
+    }
+
+    /// `eval`'s arguments parsed as clap would from the command line.
+    fn parse(line: &[&str]) -> Args {
+        #[derive(clap::Parser)]
+        struct Cli {
+            #[command(flatten)]
+            args: Args,
+        }
+        let argv = std::iter::once("eval").chain(line.iter().copied());
+        <Cli as clap::Parser>::try_parse_from(argv)
+            .unwrap_or_else(|e| panic!("{e}"))
+            .args
+    }
+
+    #[test]
+    fn noise_and_rate_reach_the_generator_and_are_checked() {
+        let base = [
+            "--subjects",
+            "robotarm",
+            "--presets",
+            "hard",
+            "--seeds",
+            "7",
+        ];
+        let specs = suite(&parse(&base)).unwrap();
+        assert_eq!(specs.len(), 1);
+        assert_eq!(specs[0].config.noise_mm, SynthConfig::default().noise_mm);
+        assert_eq!(specs[0].config.rate, SynthConfig::default().rate);
+        let mut line = base.to_vec();
+        line.extend(["--noise", "2.5", "--rate", "60"]);
+        let specs = suite(&parse(&line)).unwrap();
+        assert_eq!(specs[0].config.noise_mm, 2.5);
+        assert_eq!(specs[0].config.rate, 60.0);
+        let mut line = base.to_vec();
+        line.extend(["--noise=-1"]);
+        let err = format!("{:#}", suite(&parse(&line)).unwrap_err());
+        assert!(err.contains("--noise") && err.contains("noise_mm"), "{err}");
     }
 
     fn result(subject: &str, preset: &str, exact: bool, mean_pct: f64) -> TrialResult {
