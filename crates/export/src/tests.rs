@@ -161,6 +161,11 @@ fn known(positions: &Value) -> usize {
         .map_or(0, |p| p.iter().filter(|x| !x.is_null()).count())
 }
 
+/// A JSON position `[x, y, z]` (NaN where a coordinate is missing).
+fn json_point(p: &Value) -> DVec3 {
+    DVec3::from_array([0, 1, 2].map(|i| p[i].as_f64().unwrap_or(f64::NAN)))
+}
+
 fn json(out: &crate::Outputs) -> Value {
     serde_json::from_str(&text(out, "skeleton.json")).unwrap_or(Value::Null)
 }
@@ -237,12 +242,7 @@ fn check_round_trip(out: &crate::Outputs, axes: impl Fn(DVec3) -> DVec3) -> usiz
             if p.is_null() {
                 continue;
             }
-            let want = axes(DVec3::new(
-                p[0].as_f64().unwrap_or(f64::NAN),
-                p[1].as_f64().unwrap_or(f64::NAN),
-                p[2].as_f64().unwrap_or(f64::NAN),
-            ));
-            let error = (fk[node] - want).length();
+            let error = (fk[node] - axes(json_point(p))).length();
             assert!(error < 0.01, "{name} frame {f}: BVH FK off by {error} mm");
             checked += 1;
         }
@@ -259,13 +259,8 @@ fn bvh_forward_kinematics_reproduces_the_json() {
     assert!(checked > 200, "only {checked} positions compared");
     // The JSON positions are the truth (exact poses, rigid bones).
     let doc = json(&out);
-    let p = &doc["joints"][2]["positions"][10];
+    let got = json_point(&doc["joints"][2]["positions"][10]);
     let want = DVec3::from_array(s.truth[2][10]);
-    let got = DVec3::new(
-        p[0].as_f64().unwrap_or(0.0),
-        p[1].as_f64().unwrap_or(0.0),
-        p[2].as_f64().unwrap_or(0.0),
-    );
     assert!((got - want).length() < 0.001);
 }
 
@@ -463,7 +458,7 @@ fn check_trc(out: &crate::Outputs, axes: impl Fn([f64; 3]) -> [f64; 3]) -> usize
                 );
                 continue;
             }
-            let want = axes([0, 1, 2].map(|i| p[i].as_f64().unwrap_or(f64::NAN)));
+            let want = axes(json_point(p).to_array());
             assert_eq!(got, Some(want), "{name} frame {f}");
             compared += 1;
         }
@@ -690,7 +685,7 @@ fn single_segment_bvh_ends_the_root_in_an_end_site_and_parses_back() {
         .unwrap_or_else(|e| panic!("{e}"));
     let names: Vec<&str> = glb.nodes().map(|n| n.name().unwrap_or_default()).collect();
     assert_eq!(&names[..2], ["root", "root end"]);
-    let (fk, _) = glb_fk(&glb, 3);
+    let (fk, _) = GlbMotion::read(&glb).at(3);
     assert!(
         (fk[0] * 1000.0 - want).length() < 1e-3,
         "{} vs {want}",
@@ -698,53 +693,79 @@ fn single_segment_bvh_ends_the_root_in_an_end_site_and_parses_back() {
     );
 }
 
-/// Node transforms of a parsed skeleton.glb at one keyframe: global position (m) and
-/// rotation per node.
-fn glb_fk(doc: &gltf::Gltf, frame: usize) -> (Vec<DVec3>, Vec<DQuat>) {
-    let blob = doc.blob.as_deref().unwrap_or_default();
-    let nodes: Vec<gltf::Node> = doc.nodes().collect();
-    let mut translation: Vec<DVec3> = Vec::new();
-    let mut rotation: Vec<DQuat> = Vec::new();
-    for n in &nodes {
-        let (t, r, _) = n.transform().decomposed();
-        translation.push(DVec3::from_array(t.map(f64::from)));
-        rotation.push(DQuat::from_array(r.map(f64::from)));
-    }
-    for anim in doc.animations() {
-        for channel in anim.channels() {
-            let node = channel.target().node().index();
-            let reader = channel.reader(|_| Some(blob));
-            match reader.read_outputs() {
-                Some(gltf::animation::util::ReadOutputs::Translations(t)) => {
-                    let t: Vec<[f32; 3]> = t.collect();
-                    translation[node] = DVec3::from_array(t[frame].map(f64::from));
-                }
-                Some(gltf::animation::util::ReadOutputs::Rotations(r)) => {
-                    let r: Vec<[f32; 4]> = r.into_f32().collect();
-                    rotation[node] = DQuat::from_array(r[frame].map(f64::from)).normalize();
-                }
-                _ => panic!("unexpected channel on node {node}"),
+/// A parsed skeleton.glb's motion, read once: each node's parent, rest translation and
+/// rotation, and its animated translation and rotation per keyframe where it has them.
+struct GlbMotion {
+    parent: Vec<Option<usize>>,
+    translation: Vec<DVec3>,
+    rotation: Vec<DQuat>,
+    translations: Vec<Option<Vec<DVec3>>>,
+    rotations: Vec<Option<Vec<DQuat>>>,
+}
+
+impl GlbMotion {
+    fn read(doc: &gltf::Gltf) -> Self {
+        let blob = doc.blob.as_deref().unwrap_or_default();
+        let count = doc.nodes().count();
+        let mut motion = GlbMotion {
+            parent: vec![None; count],
+            translation: Vec::new(),
+            rotation: Vec::new(),
+            translations: vec![None; count],
+            rotations: vec![None; count],
+        };
+        for n in doc.nodes() {
+            let (t, r, _) = n.transform().decomposed();
+            motion.translation.push(DVec3::from_array(t.map(f64::from)));
+            motion.rotation.push(DQuat::from_array(r.map(f64::from)));
+            for c in n.children() {
+                motion.parent[c.index()] = Some(n.index());
             }
         }
-    }
-    let mut parent = vec![None; nodes.len()];
-    for n in &nodes {
-        for c in n.children() {
-            parent[c.index()] = Some(n.index());
+        for anim in doc.animations() {
+            for channel in anim.channels() {
+                let node = channel.target().node().index();
+                match channel.reader(|_| Some(blob)).read_outputs() {
+                    Some(gltf::animation::util::ReadOutputs::Translations(t)) => {
+                        motion.translations[node] =
+                            Some(t.map(|v| DVec3::from_array(v.map(f64::from))).collect());
+                    }
+                    Some(gltf::animation::util::ReadOutputs::Rotations(r)) => {
+                        motion.rotations[node] = Some(
+                            r.into_f32()
+                                .map(|q| DQuat::from_array(q.map(f64::from)).normalize())
+                                .collect(),
+                        );
+                    }
+                    _ => panic!("unexpected channel on node {node}"),
+                }
+            }
         }
+        motion
     }
-    // Parents come before children in our files; resolve in index order.
-    let mut position = vec![DVec3::ZERO; nodes.len()];
-    let mut global = vec![DQuat::IDENTITY; nodes.len()];
-    for i in 0..nodes.len() {
-        let (p, q) = parent[i].map_or((DVec3::ZERO, DQuat::IDENTITY), |p| {
-            assert!(p < i, "node {i}'s parent {p} comes after it");
-            (position[p], global[p])
-        });
-        position[i] = p + q * translation[i];
-        global[i] = q * rotation[i];
+
+    /// Global position (m) and rotation per node at one keyframe.
+    fn at(&self, frame: usize) -> (Vec<DVec3>, Vec<DQuat>) {
+        let count = self.parent.len();
+        let mut position = vec![DVec3::ZERO; count];
+        let mut global = vec![DQuat::IDENTITY; count];
+        // Parents come before children in our files; resolve in index order.
+        for i in 0..count {
+            let (p, q) = self.parent[i].map_or((DVec3::ZERO, DQuat::IDENTITY), |p| {
+                assert!(p < i, "node {i}'s parent {p} comes after it");
+                (position[p], global[p])
+            });
+            let t = self.translations[i]
+                .as_ref()
+                .map_or(self.translation[i], |t| t[frame]);
+            let r = self.rotations[i]
+                .as_ref()
+                .map_or(self.rotation[i], |r| r[frame]);
+            position[i] = p + q * t;
+            global[i] = q * r;
+        }
+        (position, global)
     }
-    (position, global)
 }
 
 /// Checks skeleton.glb (parsed and validated by the `gltf` crate) against skeleton.json:
@@ -799,10 +820,32 @@ fn check_glb(out: &crate::Outputs, axes: impl Fn(DVec3) -> DVec3) -> usize {
     assert_eq!(vertices.len(), bound.len());
     assert!(!vertices.is_empty());
 
-    let joints = doc["joints"].as_array().cloned().unwrap_or_default();
+    // Every joint is a node nested as the JSON's parents say.
+    let joints: Vec<(String, usize, Value)> = doc["joints"]
+        .as_array()
+        .cloned()
+        .unwrap_or_default()
+        .into_iter()
+        .map(|j| {
+            let name = j["name"].as_str().unwrap_or_default().to_owned();
+            let Some(node) = names.iter().position(|n| *n == name) else {
+                panic!("joint {name} missing from the glTF")
+            };
+            let parent = glb
+                .nodes()
+                .find(|n| n.children().any(|c| c.index() == node))
+                .and_then(|n| n.name().map(str::to_owned));
+            assert_eq!(
+                parent.as_deref(),
+                Some(j["parent"].as_str().unwrap_or("root"))
+            );
+            (name, node, j["positions"].clone())
+        })
+        .collect();
+    let motion = GlbMotion::read(&glb);
     let mut checked = 0;
     for f in 0..frames {
-        let (fk, turn) = glb_fk(&glb, f);
+        let (fk, turn) = motion.at(f);
         // Every bone is six vertices: head, tail, waist; its tail is the next node.
         for (v, b) in vertices.chunks_exact(6).zip(bound.chunks_exact(6)) {
             let node = usize::from(b[0][0]);
@@ -819,29 +862,12 @@ fn check_glb(out: &crate::Outputs, axes: impl Fn(DVec3) -> DVec3) -> usize {
                 "frame {f}: a bone's tail is {nearest} m from any node"
             );
         }
-        for j in &joints {
-            let name = j["name"].as_str().unwrap_or_default();
-            let Some(node) = names.iter().position(|n| n == name) else {
-                panic!("joint {name} missing from the glTF")
-            };
-            let parent = glb
-                .nodes()
-                .find(|n| n.children().any(|c| c.index() == node))
-                .and_then(|n| n.name().map(str::to_owned));
-            assert_eq!(
-                parent.as_deref(),
-                Some(j["parent"].as_str().unwrap_or("root"))
-            );
-            let p = &j["positions"][f];
+        for (name, node, positions) in &joints {
+            let p = &positions[f];
             if p.is_null() {
                 continue;
             }
-            let want = axes(DVec3::new(
-                p[0].as_f64().unwrap_or(f64::NAN),
-                p[1].as_f64().unwrap_or(f64::NAN),
-                p[2].as_f64().unwrap_or(f64::NAN),
-            ));
-            let error = (fk[node] * 1000.0 - want).length();
+            let error = (fk[*node] * 1000.0 - axes(json_point(p))).length();
             assert!(error < 0.01, "{name} frame {f}: glTF FK off by {error} mm");
             checked += 1;
         }

@@ -11,21 +11,12 @@ use crate::{Error, Inputs, Params};
 /// `y_up`, (x, y, z) → (x, z, −y) as for the BVH: OpenSim's ground is Y-up.
 pub(crate) fn write(input: &Inputs<'_>, params: &Params) -> Result<Vec<u8>, Error> {
     let skel = input.skeleton;
-    if !(skel.frame_rate.is_finite() && skel.frame_rate > 0.0) {
-        return Err(Error::BadFrameRate {
-            rate: skel.frame_rate,
-        });
-    }
+    // The BVH's checks (a frame rate, a sample per frame on every track) are the TRC's too.
+    crate::bvh::children(skel)?;
     let frames = skel.frame_count;
     let tracks: Vec<&[[f64; 3]]> = std::iter::once(skel.root_positions.as_slice())
         .chain(skel.joints.iter().map(|j| j.positions.as_slice()))
         .collect();
-    if let Some(short) = tracks.iter().find(|t| t.len() != frames) {
-        return Err(Error::Mismatch(format!(
-            "a skeleton track has {} positions for {frames} frames",
-            short.len()
-        )));
-    }
     let labels: Vec<String> = std::iter::once(skel.root_name.clone())
         .chain(skel.joints.iter().map(|j| j.name.clone()))
         .collect();

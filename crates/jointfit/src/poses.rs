@@ -616,8 +616,7 @@ mod tests {
     /// A body of 4 markers under 2 mm scatter whose only marker off the line of the other
     /// three is hidden for a third of the trial: the three left (a 4.4 mm lever) fix the
     /// spin about their line to ~26°, so those frames get no pose of their own; with the
-    /// limit off they are
-    /// posed and turned far off.
+    /// limit off they are posed and turned far off.
     #[test]
     fn nearly_collinear_markers_left_alone_pose_no_frame() {
         let mut rng = TestRng(21);

@@ -959,10 +959,9 @@ fn nearest_marker_distance_skips_unknown_frames() {
 
 /// A middle segment whose three markers lie within 3 mm of a line 250 mm from both its
 /// joints: under 2 mm scatter (a 3.7 mm lever) its own poses turn ~31° about that line,
-/// which throws both
-/// joints' images tens of mm. Posed again along the tree (through a neighbour's joint),
-/// its joints come out far closer; the costs and relative rotations topo reads are the
-/// first pass's.
+/// which throws both joints' images tens of mm. Posed again along the tree (through a
+/// neighbour's joint), its joints come out far closer; the costs and relative rotations
+/// topo reads are the first pass's.
 #[test]
 fn a_loosely_spread_segment_is_posed_through_its_tree_joint() {
     let mut rng = TestRng(41);
