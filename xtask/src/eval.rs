@@ -45,6 +45,10 @@ pub struct Args {
     /// Frame rate of the generated trials in Hz [default: the generator's, 120].
     #[arg(long, value_name = "HZ")]
     pub rate: Option<f64>,
+    /// Share of each joint's range the trials sweep, as MIN:MAX (or one share), each in
+    /// (0, 1] [default: the generator's, 0.7:0.95; a walk is nearer 0.2:0.4].
+    #[arg(long, value_name = "MIN:MAX")]
+    pub sweep: Option<String>,
     /// Set a stage parameter for every trial (STAGE.PARAM=VALUE). Repeatable.
     #[arg(long = "set", value_name = "STAGE.PARAM=VALUE")]
     pub set: Vec<String>,
@@ -155,6 +159,10 @@ pub fn suite(args: &Args) -> Result<Vec<TrialSpec>> {
     };
     let seeds = seed_list(&args.seeds)?;
     let defaults = SynthConfig::default();
+    let sweep = match &args.sweep {
+        None => defaults.sweep,
+        Some(text) => crate::synth_cmd::parse_share_range(text)?,
+    };
     let mut specs = Vec::new();
     for subject in &subjects {
         for preset in &presets {
@@ -167,9 +175,10 @@ pub fn suite(args: &Args) -> Result<Vec<TrialSpec>> {
                     markers_per_segment,
                     noise_mm: args.noise.unwrap_or(defaults.noise_mm),
                     rate: args.rate.unwrap_or(defaults.rate),
+                    sweep,
                 };
                 config.validate().context(
-                    "--frames, --markers, --noise or --rate: not a trial the generator makes",
+                    "--frames, --markers, --noise, --rate or --sweep: not a trial the generator makes",
                 )?;
                 specs.push(TrialSpec { config });
             }
@@ -735,6 +744,32 @@ mod tests {
         line.extend(["--noise=-1"]);
         let err = format!("{:#}", suite(&parse(&line)).unwrap_err());
         assert!(err.contains("--noise") && err.contains("noise_mm"), "{err}");
+    }
+
+    #[test]
+    fn sweep_reaches_the_generator_and_is_checked() {
+        let base = [
+            "--subjects",
+            "snowman",
+            "--presets",
+            "clean",
+            "--seeds",
+            "7",
+        ];
+        let specs = suite(&parse(&base)).unwrap();
+        assert_eq!(specs[0].config.sweep, SynthConfig::default().sweep);
+        let mut line = base.to_vec();
+        line.extend(["--sweep", "0.2:0.4"]);
+        assert_eq!(suite(&parse(&line)).unwrap()[0].config.sweep, (0.2, 0.4));
+        for bad in ["0.5:0.2", "0:0.3", "0.3:1.5"] {
+            let mut line = base.to_vec();
+            line.extend(["--sweep", bad]);
+            let err = format!("{:#}", suite(&parse(&line)).unwrap_err());
+            assert!(
+                err.contains("--sweep") && err.contains("`sweep`"),
+                "{bad}: {err}"
+            );
+        }
     }
 
     fn result(subject: &str, preset: &str, exact: bool, mean_pct: f64) -> TrialResult {

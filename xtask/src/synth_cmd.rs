@@ -29,6 +29,10 @@ pub struct Args {
     /// Markers per segment as MIN:MAX (or one number) [default: 3:6].
     #[arg(long, value_name = "MIN:MAX")]
     pub markers: Option<String>,
+    /// Share of each joint's range swept, as MIN:MAX (or one share), each in (0, 1]
+    /// [default: 0.7:0.95; a walk is nearer 0.2:0.4].
+    #[arg(long, value_name = "MIN:MAX")]
+    pub sweep: Option<String>,
     /// Also write a TRC file.
     #[arg(long)]
     pub trc: bool,
@@ -48,6 +52,10 @@ pub fn config(args: &Args) -> Result<SynthConfig> {
             parse_range(text).with_context(|| format!("--markers {text}: expected MIN:MAX or N"))?
         }
     };
+    let sweep = match &args.sweep {
+        None => defaults.sweep,
+        Some(text) => parse_share_range(text)?,
+    };
     let config = SynthConfig {
         subject,
         preset,
@@ -56,6 +64,7 @@ pub fn config(args: &Args) -> Result<SynthConfig> {
         seed: args.seed.unwrap_or(defaults.seed),
         noise_mm: args.noise_mm.unwrap_or(defaults.noise_mm),
         markers_per_segment,
+        sweep,
     };
     config.validate()?;
     Ok(config)
@@ -65,6 +74,17 @@ pub fn config(args: &Args) -> Result<SynthConfig> {
 pub fn parse_range(text: &str) -> Result<(usize, usize)> {
     let (lo, hi) = text.split_once([':', '-', ',']).unwrap_or((text, text));
     Ok((lo.trim().parse()?, hi.trim().parse()?))
+}
+
+/// `MIN:MAX` (or `MIN,MAX`, one number) as a range of shares of a joint's range.
+pub fn parse_share_range(text: &str) -> Result<(f64, f64)> {
+    let (lo, hi) = text.split_once([':', ',']).unwrap_or((text, text));
+    let share = |s: &str| {
+        s.trim()
+            .parse::<f64>()
+            .with_context(|| format!("--sweep {text}: {s:?} is not a number"))
+    };
+    Ok((share(lo)?, share(hi)?))
 }
 
 /// Runs `synth`.
@@ -101,5 +121,8 @@ mod tests {
         assert_eq!(parse_range("2").unwrap(), (2, 2));
         assert_eq!(parse_range("1-4").unwrap(), (1, 4));
         assert!(parse_range("a:b").is_err());
+        assert_eq!(parse_share_range("0.2:0.4").unwrap(), (0.2, 0.4));
+        assert_eq!(parse_share_range("0.3").unwrap(), (0.3, 0.3));
+        assert!(parse_share_range("0.2:x").is_err());
     }
 }

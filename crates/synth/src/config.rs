@@ -1,4 +1,5 @@
-//! What to generate: subject, degradation preset, length, rate, seed, noise, marker counts.
+//! What to generate: subject, degradation preset, length, rate, seed, noise, marker counts,
+//! how much of its range each joint sweeps.
 
 use std::fmt;
 use std::str::FromStr;
@@ -31,6 +32,10 @@ pub struct SynthConfig {
     pub noise_mm: f64,
     /// Inclusive range of the number of markers per segment (1 ≤ min ≤ max). Default (3, 6).
     pub markers_per_segment: (usize, usize),
+    /// Range of the share of each joint's range a trial sweeps (0 < min ≤ max ≤ 1): every
+    /// degree of freedom draws its share in it. Default (0.7, 0.95); a walk moves most
+    /// joints through far less, (0.2, 0.4) or so.
+    pub sweep: (f64, f64),
 }
 
 impl Default for SynthConfig {
@@ -43,6 +48,7 @@ impl Default for SynthConfig {
             seed: 1,
             noise_mm: 1.0,
             markers_per_segment: (3, 6),
+            sweep: (0.7, 0.95),
         }
     }
 }
@@ -67,6 +73,10 @@ pub const CONFIG_DOCS: &[(&str, &str)] = &[
     (
         "markers_per_segment",
         "inclusive [min, max] markers per segment (min >= 1); default [3, 6]",
+    ),
+    (
+        "sweep",
+        "[min, max] share of each joint's range swept over the trial, drawn per degree of freedom (0 < min <= max <= 1); default [0.7, 0.95]",
     ),
 ];
 
@@ -94,6 +104,13 @@ impl SynthConfig {
             return bad(
                 "markers_per_segment",
                 format!("is ({lo}, {hi}), must satisfy 1 <= min <= max <= 64"),
+            );
+        }
+        let (lo, hi) = self.sweep;
+        if !(lo.is_finite() && hi.is_finite() && 0.0 < lo && lo <= hi && hi <= 1.0) {
+            return bad(
+                "sweep",
+                format!("is ({lo}, {hi}), must satisfy 0 < min <= max <= 1"),
             );
         }
         Ok(())

@@ -10,7 +10,8 @@
 //!
 //! Subjects are articulated trees (human, quadruped, robot arm, the paper's jumping
 //! snowman, hexapod, random trees) moving smoothly, every joint sweeping 70–95 % of its
-//! range while the whole body walks a circle and turns once about the vertical.
+//! range (or the share [`SynthConfig::sweep`] asks for) while the whole body walks a circle
+//! and turns once about the vertical.
 //!
 //! It does not estimate anything (that is the pipeline) and writes files only through
 //! [`write_trial`]. Same config → byte-identical output.
@@ -100,6 +101,7 @@ pub fn generate(config: &SynthConfig) -> Result<Trial, Error> {
         &body,
         config.frames,
         config.rate,
+        config.sweep,
         &mut rng(config.seed, Stream::Motion),
     );
     let preset = config.preset;

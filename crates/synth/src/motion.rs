@@ -2,7 +2,8 @@
 //!
 //! Every degree of freedom follows a sum of three sinusoids (random frequencies in a
 //! low band, random phases and amplitudes), affinely rescaled so that over the trial it
-//! spans exactly a random 70–95 % of the joint's range, placed at random inside it. The
+//! spans exactly a random share of the joint's range (by default 70–95 %, see
+//! [`crate::SynthConfig::sweep`]), placed at random inside it. The
 //! band is 0.25–0.8 Hz, raised for short trials so each track completes at least one
 //! cycle. The root walks a circle of 0.5–4 m circumference while its heading makes one
 //! full turn, bobs or jumps, and tilts a few degrees.
@@ -14,9 +15,6 @@ use rand::Rng;
 use rand_chacha::ChaCha8Rng;
 
 use crate::body::Body;
-
-/// Share of each joint's range swept over a trial: drawn uniformly in this interval.
-pub(crate) const SWEEP_FRACTION: [f64; 2] = [0.7, 0.95];
 
 /// Every segment's pose at every frame, and the joint angles behind them.
 #[derive(Clone, Debug)]
@@ -78,8 +76,15 @@ fn smooth_track(frames: usize, rate: f64, rng: &mut ChaCha8Rng) -> Vec<f64> {
         .collect()
 }
 
-/// Animates a body over `frames` frames at `rate` Hz from the motion random stream.
-pub(crate) fn animate(body: &Body, frames: usize, rate: f64, rng: &mut ChaCha8Rng) -> Motion {
+/// Animates a body over `frames` frames at `rate` Hz from the motion random stream, each
+/// degree of freedom sweeping a share of its range drawn uniformly in `sweep`.
+pub(crate) fn animate(
+    body: &Body,
+    frames: usize,
+    rate: f64,
+    sweep: (f64, f64),
+    rng: &mut ChaCha8Rng,
+) -> Motion {
     // angles[j][f * dofs + d] in degrees.
     let mut angles: Vec<Vec<f64>> = Vec::with_capacity(body.joints.len());
     let mut drive = Vec::with_capacity(body.joints.len());
@@ -88,7 +93,9 @@ pub(crate) fn animate(body: &Body, frames: usize, rate: f64, rng: &mut ChaCha8Rn
         let dofs = limits.len();
         let mut track = vec![0.0; frames * dofs];
         for (d, [lo, hi]) in limits.iter().copied().enumerate() {
-            let fraction = rng.random_range(SWEEP_FRACTION[0]..SWEEP_FRACTION[1]);
+            // One draw either way, so a fixed share leaves the rest of the stream alone.
+            let draw: f64 = rng.random_range(0.0..1.0);
+            let fraction = sweep.0 + (sweep.1 - sweep.0) * draw;
             let width = fraction * (hi - lo);
             let start = lo + rng.random_range(0.0..1.0) * (hi - lo - width);
             let unit = smooth_track(frames, rate, rng);

@@ -114,6 +114,37 @@ fn clean_markers_are_rigid_and_joint_centres_fixed_in_both_segments() {
     }
 }
 
+/// `sweep` bounds what every degree of freedom of every subject moves through, and a
+/// share outside (0, 1] is refused.
+#[test]
+fn a_narrow_sweep_moves_every_joint_through_that_share_of_its_range() {
+    for subject in Subject::ALL {
+        let t = generate(&SynthConfig {
+            sweep: (0.2, 0.3),
+            ..config(subject, Preset::Clean, 5)
+        })
+        .unwrap();
+        for j in &t.truth.joints {
+            for ([lo, hi], swept) in j.rom_deg.iter().zip(&j.swept_deg) {
+                let width = hi - lo;
+                assert!(
+                    *swept >= 0.2 * width - 1e-3 && *swept <= 0.3 * width + 1e-3,
+                    "{}: {} sweeps {swept}° of {width}°",
+                    t.name,
+                    j.name
+                );
+            }
+        }
+    }
+    for sweep in [(0.0, 0.5), (0.6, 0.5), (0.5, 1.01), (f64::NAN, 0.5)] {
+        let bad = SynthConfig {
+            sweep,
+            ..SynthConfig::default()
+        };
+        assert!(bad.validate().is_err(), "{sweep:?}");
+    }
+}
+
 #[test]
 fn every_joint_sweeps_most_of_its_range_in_enough_axes() {
     for subject in Subject::ALL {
