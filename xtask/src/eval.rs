@@ -335,9 +335,26 @@ fn variants(args: &Args) -> Result<Vec<Variant>> {
         .collect()
 }
 
+/// The generator settings every trial of the suite shares (all but subject, preset and
+/// seed), so a table or JSON says what it measured.
+fn generator_settings(specs: &[TrialSpec]) -> serde_json::Value {
+    specs.first().map_or(serde_json::Value::Null, |s| {
+        let c = &s.config;
+        json!({
+            "frames": c.frames,
+            "rate_hz": c.rate,
+            "noise_mm": c.noise_mm,
+            "markers_per_segment": [c.markers_per_segment.0, c.markers_per_segment.1],
+            "sweep": [c.sweep.0, c.sweep.1],
+        })
+    })
+}
+
 /// Runs `eval`.
 pub fn main(args: &Args) -> Result<()> {
     let specs = suite(args)?;
+    let settings = generator_settings(&specs);
+    eprintln!("generator: {settings}");
     let variants = variants(args)?;
     let pool = rayon::ThreadPoolBuilder::new()
         .num_threads(args.jobs.unwrap_or(0))
@@ -359,7 +376,7 @@ pub fn main(args: &Args) -> Result<()> {
             .collect();
         println!(
             "{}",
-            serde_json::to_string_pretty(&json!({ "variants": out }))?
+            serde_json::to_string_pretty(&json!({ "generator": settings, "variants": out }))?
         );
         return Ok(());
     }
@@ -759,8 +776,14 @@ mod tests {
         let specs = suite(&parse(&base)).unwrap();
         assert_eq!(specs[0].config.sweep, SynthConfig::default().sweep);
         let mut line = base.to_vec();
-        line.extend(["--sweep", "0.2:0.4"]);
-        assert_eq!(suite(&parse(&line)).unwrap()[0].config.sweep, (0.2, 0.4));
+        line.extend(["--sweep", "0.2:0.4", "--noise", "0.5"]);
+        let specs = suite(&parse(&line)).unwrap();
+        assert_eq!(specs[0].config.sweep, (0.2, 0.4));
+        // The report says what the trials were made with.
+        let settings = generator_settings(&specs);
+        assert_eq!(settings["sweep"], json!([0.2, 0.4]));
+        assert_eq!(settings["noise_mm"], json!(0.5));
+        assert_eq!(settings["frames"], json!(480));
         for bad in ["0.5:0.2", "0:0.3", "0.3:1.5"] {
             let mut line = base.to_vec();
             line.extend(["--sweep", bad]);
