@@ -114,6 +114,15 @@ fn clean_markers_are_rigid_and_joint_centres_fixed_in_both_segments() {
     }
 }
 
+/// Asserts that a joint's degree of freedom swept between `least` and `most` degrees.
+fn assert_swept_within(t: &Trial, joint: &str, swept: f64, least: f64, most: f64) {
+    assert!(
+        (least..=most).contains(&swept),
+        "{}: {joint} sweeps {swept}°, outside [{least}°, {most}°]",
+        t.name
+    );
+}
+
 /// `sweep` bounds what every degree of freedom of every subject moves through, and a
 /// share outside (0, 1] is refused.
 #[test]
@@ -127,12 +136,7 @@ fn a_narrow_sweep_moves_every_joint_through_that_share_of_its_range() {
         for j in &t.truth.joints {
             for ([lo, hi], swept) in j.rom_deg.iter().zip(&j.swept_deg) {
                 let width = hi - lo;
-                assert!(
-                    *swept >= 0.2 * width - 1e-3 && *swept <= 0.3 * width + 1e-3,
-                    "{}: {} sweeps {swept}° of {width}°",
-                    t.name,
-                    j.name
-                );
+                assert_swept_within(&t, &j.name, *swept, 0.2 * width - 1e-3, 0.3 * width + 1e-3);
             }
         }
     }
@@ -154,12 +158,7 @@ fn every_joint_sweeps_most_of_its_range_in_enough_axes() {
                 let mut big = 0;
                 for ([lo, hi], swept) in j.rom_deg.iter().zip(&j.swept_deg) {
                     let width = hi - lo;
-                    assert!(
-                        *swept >= 0.6 * width && *swept <= width + 1e-3,
-                        "{}: {} sweeps {swept}° of {width}°",
-                        t.name,
-                        j.name
-                    );
+                    assert_swept_within(&t, &j.name, *swept, 0.6 * width, width + 1e-3);
                     big += usize::from(*swept >= 30.0);
                 }
                 let needed = if j.kind == "ball" { 2 } else { 1 };
