@@ -26,9 +26,12 @@
 //! `jointsplit`); neighbours that move as one rigid body merge (`joint_merge_z`); a marker
 //! no body holds leaves its cluster (`eject_ratio`); a two-marker cluster whose markers
 //! two different bodies hold dissolves into them, a lone marker a body holds joins it
-//! (`pair_hold`). Last, label swaps (two markers' trajectories exchanged for a while; see
-//! `swaps`) are looked for on the result; any found are undone and the capture segmented
-//! again, and listed in [`Segmentation::swaps`] (`repair_swaps`).
+//! (`pair_hold`), and a pair one body holds rejoins it when the rigidity check had cut it
+//! from that body's spectral cluster and it sits there as still as the body's own markers
+//! (`pair_rejoin_ratio`: skin alike on two markers). Last, label swaps (two markers'
+//! trajectories exchanged for a while; see `swaps`) are looked for on the result; any found
+//! are undone and the capture segmented again, and listed in [`Segmentation::swaps`]
+//! (`repair_swaps`).
 //! Or agglomeration alone (`method = "linkage"`) or rigid cliques (`method = "cliques"`).
 //!
 //! It does not estimate poses, joints or topology (jointfit, topo) and does no I/O.
@@ -135,6 +138,8 @@ fn segment_capture(
             .max(params.tolerance_factor * noise_mm)
     };
 
+    // Each marker's spectral cluster, before the rigidity check cut it (`pair_rejoin_ratio`).
+    let mut spectral_of: Vec<Option<usize>> = vec![None; markers];
     let (mut clusters, eigenvalues, eigengap_segments) = match params.method {
         Method::Spectral if !nodes.is_empty() => {
             let a = affinity::affinity_matrix(&stats, &nodes, params);
@@ -144,6 +149,11 @@ fn segment_capture(
                 .iter()
                 .map(|c| c.iter().map(|&p| nodes[p]).collect())
                 .collect();
+            for (k, c) in clusters.iter().enumerate() {
+                for &m in c {
+                    spectral_of[m] = Some(k);
+                }
+            }
             let clusters = if params.rigidity_check && params.split_linkage {
                 let mut groups: Vec<Vec<usize>> = clusters
                     .iter()
@@ -250,7 +260,17 @@ fn segment_capture(
     if params.pair_hold > 0.0 && clusters.iter().any(|c| c.len() <= 2) {
         let hold_mm = params.pair_hold
             * typical_sigma(traj, &clusters, &mut sigma_memo).max(params.tolerance_min_mm);
-        if reassign::dissolve_small_clusters(traj, &mut clusters, hold_mm, min_overlap) > 0 {
+        if reassign::dissolve_small_clusters(
+            traj,
+            &mut clusters,
+            hold_mm,
+            min_overlap,
+            (params.pair_rejoin_ratio > 0.0).then_some(reassign::PairRejoin {
+                spectral_of: &spectral_of,
+                ratio: params.pair_rejoin_ratio,
+            }),
+        ) > 0
+        {
             rigidity::normalise(&mut clusters);
         }
     }

@@ -115,6 +115,8 @@ pub struct Params {
     pub joint_merge_z: f64,
     /// A two-marker cluster dissolves when two different other bodies hold its markers (a one-marker cluster when one does) within this × the typical fit σ; 0 = off.
     pub pair_hold: f64,
+    /// A two-marker cluster one body holds within pair_hold rejoins it when spectral clustering had them together and its scatter there is within this × the body's fit σ; 0 = off.
+    pub pair_rejoin_ratio: f64,
     /// Find label swaps (two markers' trajectories exchanged for a while), undo them and segment again.
     pub repair_swaps: bool,
 }
@@ -157,6 +159,7 @@ impl Default for Params {
             eject_ratio: 8.0,
             joint_merge_z: 4.5,
             pair_hold: 3.0,
+            pair_rejoin_ratio: 8.0,
             repair_swaps: true,
         }
     }
@@ -287,6 +290,10 @@ pub const PARAM_DOCS: &[(&str, &str)] = &[
         "after the rigid merge, a two-marker cluster whose markers are held by two different other clusters' bodies (≥ 3 markers each) within this × the typical segment fit σ (and tolerance_min_mm) dissolves, each marker joining the body that holds it: two markers near one joint axis, one per side, keep a steady distance and pair up although each moves with its own segment. A pair one body holds both of stays: it may be a segment that moved little against that body (Gait.trc's ASIS pair on the trunk, MACsample's heel and toe on the shank, arthuman's labelled bodies), and a true two-marker segment has a marker no other body holds (CMU's THI, SHN). A one-marker cluster a body holds within the same bound joins it (a trajectory swapped or glitching in a minority of frames; Sample_Jump2's virtual hip point VLHI joins its virtual pelvis); cargo xtask eval --presets swap on seeds 9001,9002,1001,1002,7001,7002: 25 -> 29/36 exact, 0.70 -> 0.58 %; 3001-3004: 17 -> 18/24. eval_segment 480, seeds 3001-3006, 5001, 5002: swap exact 23 -> 38/48, skin 19 -> 21, noise 47 -> 48, hard/clean/gaps unchanged; cargo xtask eval --presets swap --seeds 1001,1002: topology 6 -> 10/12; every real capture's segmentation unchanged; 0 = off; default 3.0",
     ),
     (
+        "pair_rejoin_ratio",
+        "with pair_hold: a two-marker cluster whose markers one body (≥ 3 markers) holds both of, within pair_hold's bound, rejoins that body when spectral clustering had put the pair and some of the body's markers in one cluster (the rigidity check's linkage cut them apart) and the pair's larger scatter in the body is within this × the body's own rigid-fit σ. Skin (5-15 mm, with two markers' skin alike) cuts a true segment into k + 2 this way when noise is low; exact data (σ near zero: arthuman's labelled bodies, whose pairs move 1-2 mm against their neighbour, 10⁴ × its σ) keeps its pairs. cargo xtask eval --compare segment.pair_rejoin_ratio=0,8: skin on seeds 10001-10032 82 -> 94/192 exact trees (4: 91, 16 and 100: 95), on 4001-4006,6001-6006,7001,9001,1001,5001 47 -> 52/96, hard --noise 0.5 there 56 -> 60/96; hard (there 71/96, on 10001-10032 137/192), clean, noise, gaps, swap, --sweep 0.4:0.6 and --markers 2:3 unchanged; messy on 10001-10032 124 -> 123/192 (quadruped-messy-s10010: a pair joined a cluster that already mixed two segments); every real capture's segmentation unchanged; 0 = off; default 8.0",
+    ),
+    (
         "repair_swaps",
         "look for label swaps on the finished segmentation: two markers of different segments whose distances to their segment-mates (to a nearby cluster's markers, for a marker left in a group of one or two) leave their usual values in the same minority of frames, and in those frames each sits at the other's usual distances from the other's segment (bound: max(pair_hold, 1) × the typical segment fit σ, at least tolerance_min_mm, or 3 × the marker's own median change if looser; ≥ 3 such frames, ≥ 90 % of frames explained either way). The swap's frames are those the exchange explains better. Each swap is undone, the capture segmented again, and the swaps listed in the artifact and skeleton.json (label_swaps); jointfit and bonefit read the trajectories with them undone. cargo xtask eval on seeds 9001,9002,1001,1002,7001,7002,4001,4002: swap 39 -> 47/48 exact trees, messy (hard + swap) 27 -> 29/48; on 24 swap trials (human, quadruped, snowman, robot arm, seeds 21-26) every swap found with its exact frames, on the same as messy 17 of 24; no swap reported on any real capture; default true",
     ),
@@ -379,6 +386,7 @@ impl Params {
         non_negative("eject_ratio", self.eject_ratio)?;
         non_negative("joint_merge_z", self.joint_merge_z)?;
         non_negative("pair_hold", self.pair_hold)?;
+        non_negative("pair_rejoin_ratio", self.pair_rejoin_ratio)?;
         Ok(())
     }
 }

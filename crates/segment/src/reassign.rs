@@ -424,15 +424,24 @@ pub(crate) fn reassign(
 /// two-marker segment has a marker no other body holds (CMU's THI, SHN). A one-marker
 /// cluster a body holds within `hold_mm` joins it: the robust scatter ignores the minority
 /// of frames where a swapped or glitching trajectory was elsewhere, which ρ (over every
-/// frame) does not. Returns how many clusters were dissolved.
+/// frame) does not. With `rejoin`, a pair one body holds both of rejoins that body when the
+/// rigidity check cut it from it (see [`PairRejoin`]). Returns how many clusters were
+/// dissolved.
 pub(crate) fn dissolve_small_clusters(
     traj: &Trajectories,
     clusters: &mut Vec<Vec<usize>>,
     hold_mm: f64,
     min_overlap: usize,
+    rejoin: Option<PairRejoin>,
 ) -> usize {
     let stride = stride_of(traj);
     let min_frames = min_overlap.div_ceil(stride);
+    // Both markers and some marker of the holder came out of one spectral cluster.
+    let cut_from = |r: &PairRejoin, a: usize, b: usize, holder: &[usize]| {
+        let origin = |m: usize| r.spectral_of.get(m).copied().flatten();
+        origin(a)
+            .is_some_and(|o| origin(b) == Some(o) && holder.iter().any(|&x| origin(x) == Some(o)))
+    };
     // A body costs a pose per frame: pose only those that could hold a lone or paired marker,
     // the clusters nearest it in space (a marker's own segment is among its neighbours).
     let mut candidates = std::collections::BTreeSet::new();
@@ -497,6 +506,21 @@ pub(crate) fn dissolve_small_clusters(
                 (Some((sa, da)), Some((sb, db))) if sa <= hold_mm && sb <= hold_mm && da != db => {
                     vec![(a, da), (b, db)]
                 }
+                (Some((sa, da)), Some((sb, db)))
+                    if sa <= hold_mm
+                        && sb <= hold_mm
+                        && da == db
+                        && rejoin.as_ref().is_some_and(|r| {
+                            let body_sigma = bodies[da].as_ref().map_or(0.0, |x| x.var.sqrt());
+                            cut_from(r, a, b, &clusters[da]) && sa.max(sb) <= r.ratio * body_sigma
+                        }) =>
+                {
+                    // Spectral clustering saw the three move as one and skin cut them
+                    // apart: as still in the body as its own markers are, the pair is
+                    // part of it. Exact data (a body's σ near zero) keeps a pair whose
+                    // millimetres of motion are real.
+                    vec![(a, da), (b, da)]
+                }
                 _ => Vec::new(),
             }
         })
@@ -514,6 +538,15 @@ pub(crate) fn dissolve_small_clusters(
     }
     clusters.retain(|c| !c.is_empty());
     dissolved
+}
+
+/// When a held pair rejoins the body it was cut from ([`dissolve_small_clusters`]).
+#[derive(Clone, Copy, Debug)]
+pub(crate) struct PairRejoin<'a> {
+    /// Each marker's spectral cluster before the rigidity check (`None`: not clustered).
+    pub spectral_of: &'a [Option<usize>],
+    /// The pair's larger scatter in the body may be at most this × the body's own fit σ.
+    pub ratio: f64,
 }
 
 /// Clusters [`dissolve_small_clusters`] poses as possible holders of each lone or paired marker.
@@ -647,7 +680,7 @@ pub(crate) fn sigma_in(traj: &Trajectories, group: &[usize], m: usize) -> Option
 
 #[cfg(test)]
 mod tests {
-    use super::{dissolve_small_clusters, eject, reassign};
+    use super::{PairRejoin, dissolve_small_clusters, eject, reassign};
     use crate::testscene::{CHILD, PARENT, hinge_x, hinged_capture, moving_capture};
 
     /// Two 4-marker bodies at a hinge swinging ±15°, with 1 mm deterministic jitter: a child
@@ -702,7 +735,10 @@ mod tests {
             _ => hinge_x(swing(t), hinge_x(1.2 * swing(t + 1.0), third, -400.0), 0.0),
         });
         let mut clusters = vec![vec![0, 1, 2, 3], vec![4, 5, 6, 7], vec![8], vec![9]];
-        assert_eq!(dissolve_small_clusters(&traj, &mut clusters, 3.0, 10), 1);
+        assert_eq!(
+            dissolve_small_clusters(&traj, &mut clusters, 3.0, 10, None),
+            1
+        );
         clusters.iter_mut().for_each(|c| c.sort_unstable());
         assert_eq!(
             clusters,
@@ -739,7 +775,10 @@ mod tests {
             vec![10, 11],
             vec![12, 13],
         ];
-        assert_eq!(dissolve_small_clusters(&traj, &mut clusters, 3.0, 10), 1);
+        assert_eq!(
+            dissolve_small_clusters(&traj, &mut clusters, 3.0, 10, None),
+            1
+        );
         clusters.iter_mut().for_each(|c| c.sort_unstable());
         assert_eq!(
             clusters,
@@ -750,5 +789,51 @@ mod tests {
                 vec![12, 13]
             ]
         );
+    }
+
+    /// Two markers riding on a 4-marker body, next to a hinged child: cut from the body
+    /// after spectral clustering had them together, the pair rejoins it; had spectral
+    /// clustering kept them apart, or did they drift 2 mm on an exactly rigid body (real
+    /// motion, 10⁴ × the body's σ), they stay a pair.
+    #[test]
+    fn pair_cut_from_the_body_that_holds_it_rejoins_it() {
+        let riders = [[50.0, 40.0, 250.0], [-45.0, 35.0, 120.0]];
+        let points: Vec<[f64; 3]> = PARENT
+            .iter()
+            .copied()
+            .chain(riders)
+            .chain(CHILD.iter().copied())
+            .collect();
+        let capture = |jitter_mm: f64, drift_mm: f64| {
+            moving_capture(points.len(), 300, jitter_mm, |t, k| match k {
+                4..=5 => {
+                    let mut p = points[k];
+                    p[0] += drift_mm * (0.3 * t).sin();
+                    p
+                }
+                6..=9 => hinge_x(20f64.to_radians() * (0.7 * t).sin(), points[k], 0.0),
+                _ => points[k],
+            })
+        };
+        let as_cut = || vec![vec![0, 1, 2, 3], vec![4, 5], vec![6, 7, 8, 9]];
+        let together = [0, 0, 0, 0, 0, 0, 1, 1, 1, 1].map(Some);
+        let apart = [0, 0, 0, 0, 2, 2, 1, 1, 1, 1].map(Some);
+        let dissolve = |traj, spectral_of: &[Option<usize>]| {
+            let mut clusters = as_cut();
+            let rejoin = PairRejoin {
+                spectral_of,
+                ratio: 8.0,
+            };
+            let n = dissolve_small_clusters(traj, &mut clusters, 3.0, 10, Some(rejoin));
+            clusters.iter_mut().for_each(|c| c.sort_unstable());
+            (n, clusters)
+        };
+        let jittered = capture(0.5, 0.0);
+        assert_eq!(
+            dissolve(&jittered, &together),
+            (1, vec![vec![0, 1, 2, 3, 4, 5], vec![6, 7, 8, 9]])
+        );
+        assert_eq!(dissolve(&jittered, &apart), (0, as_cut()));
+        assert_eq!(dissolve(&capture(0.0, 2.0), &together), (0, as_cut()));
     }
 }

@@ -418,6 +418,60 @@ fn synth_trial(subject: synth::Subject, preset: synth::Preset, seed: u64) -> syn
     synth::generate(&config).expect("synthetic trial")
 }
 
+/// How many found segments hold markers of `segment` (a true segment's name).
+fn pieces_of(trial: &synth::Trial, seg: &Segmentation, segment: &str) -> usize {
+    let labels = trial.trajectories.labels();
+    let truth = trial
+        .truth
+        .segments
+        .iter()
+        .find(|s| s.name == segment)
+        .expect("true segment");
+    seg.segments
+        .iter()
+        .filter(|s| {
+            s.markers
+                .iter()
+                .any(|&m| truth.markers.contains(&labels[m]))
+        })
+        .count()
+}
+
+/// Skin without noise (eval's 480 frames): two of the right foot's six markers, whose skin
+/// moves alike, are cut from it by the rigidity check, and only the pair rejoin puts them
+/// back (the foot's own body holds them as well as it holds its markers).
+#[test]
+fn a_pair_skin_cut_from_its_segment_rejoins_it() {
+    let config = synth::SynthConfig {
+        subject: synth::Subject::Human,
+        preset: synth::Preset::Skin,
+        seed: 10008,
+        frames: 480,
+        ..synth::SynthConfig::default()
+    };
+    let trial = synth::generate(&config).expect("synthetic trial");
+    let traj = &trial.trajectories;
+    let seg = run(traj, &Params::default()).expect("segments");
+    assert_eq!(
+        pieces_of(&trial, &seg, "r_foot"),
+        1,
+        "{:?}",
+        partition(&seg)
+    );
+    assert_eq!(seg.segments.len(), trial.truth.segments.len());
+    let off = Params {
+        pair_rejoin_ratio: 0.0,
+        ..Params::default()
+    };
+    let cut = run(traj, &off).expect("segments");
+    assert_eq!(
+        pieces_of(&trial, &cut, "r_foot"),
+        2,
+        "{:?}",
+        partition(&cut)
+    );
+}
+
 /// Segmentation of a synthetic trial against its truth: (ARI, exact partition); no label
 /// swap may be reported where the trial has none.
 fn score_on_synth(subject: synth::Subject, preset: synth::Preset, seed: u64) -> (f64, bool) {
