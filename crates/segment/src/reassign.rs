@@ -794,7 +794,7 @@ mod tests {
     /// Two markers riding on a 4-marker body, next to a hinged child: cut from the body
     /// after spectral clustering had them together, the pair rejoins it; had spectral
     /// clustering kept them apart, or did they drift 2 mm on an exactly rigid body (real
-    /// motion, 10⁴ × the body's σ), they stay a pair.
+    /// motion, however small, where the body's own σ is rounding error), they stay a pair.
     #[test]
     fn pair_cut_from_the_body_that_holds_it_rejoins_it() {
         let riders = [[50.0, 40.0, 250.0], [-45.0, 35.0, 120.0]];
