@@ -152,17 +152,10 @@ pub fn suite(args: &Args) -> Result<Vec<TrialSpec>> {
         .iter()
         .map(|s| s.parse::<Preset>().map_err(anyhow::Error::from))
         .collect::<Result<_>>()?;
-    let markers_per_segment = match &args.markers {
-        None => SynthConfig::default().markers_per_segment,
-        Some(text) => crate::synth_cmd::parse_range(text)
-            .with_context(|| format!("--markers {text}: expected MIN:MAX or N"))?,
-    };
+    let markers_per_segment = crate::synth_cmd::markers_arg(args.markers.as_deref())?;
+    let sweep = crate::synth_cmd::sweep_arg(args.sweep.as_deref())?;
     let seeds = seed_list(&args.seeds)?;
     let defaults = SynthConfig::default();
-    let sweep = match &args.sweep {
-        None => defaults.sweep,
-        Some(text) => crate::synth_cmd::parse_share_range(text)?,
-    };
     let mut specs = Vec::new();
     for subject in &subjects {
         for preset in &presets {

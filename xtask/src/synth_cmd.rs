@@ -46,16 +46,8 @@ pub fn config(args: &Args) -> Result<SynthConfig> {
     let defaults = SynthConfig::default();
     let subject: Subject = args.subject.parse()?;
     let preset: Preset = args.preset.parse()?;
-    let markers_per_segment = match &args.markers {
-        None => defaults.markers_per_segment,
-        Some(text) => {
-            parse_range(text).with_context(|| format!("--markers {text}: expected MIN:MAX or N"))?
-        }
-    };
-    let sweep = match &args.sweep {
-        None => defaults.sweep,
-        Some(text) => parse_share_range(text)?,
-    };
+    let markers_per_segment = markers_arg(args.markers.as_deref())?;
+    let sweep = sweep_arg(args.sweep.as_deref())?;
     let config = SynthConfig {
         subject,
         preset,
@@ -68,6 +60,18 @@ pub fn config(args: &Args) -> Result<SynthConfig> {
     };
     config.validate()?;
     Ok(config)
+}
+
+/// `--markers` as given (see [`parse_range`]), else the generator's default.
+pub fn markers_arg(text: Option<&str>) -> Result<(usize, usize)> {
+    text.map_or(Ok(SynthConfig::default().markers_per_segment), |text| {
+        parse_range(text).with_context(|| format!("--markers {text}: expected MIN:MAX or N"))
+    })
+}
+
+/// `--sweep` as given (see [`parse_share_range`]), else the generator's default.
+pub fn sweep_arg(text: Option<&str>) -> Result<(f64, f64)> {
+    text.map_or(Ok(SynthConfig::default().sweep), parse_share_range)
 }
 
 /// `MIN:MAX` (or `MIN-MAX`, `MIN,MAX`, one number) as a range of markers per segment.
