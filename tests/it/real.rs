@@ -319,3 +319,40 @@ fn a_static_trial_is_one_body_and_says_so() {
     assert!(notes.contains("move as one rigid body"), "{notes}");
     assert!(notes.contains("static trial"), "{notes}");
 }
+
+/// c3d.org's Eb015 walk: RSK1 leaves its shank plate by up to 50 mm in frames 136–166 of
+/// 450 (a reconstruction glitch). Those samples are read as gaps and reported, so the plate
+/// stays one segment, as every other 3- and 4-marker plate does (the pelvis markers sit on
+/// skin and are not checked).
+#[test]
+fn a_glitching_marker_keeps_its_plate_whole_and_is_reported() {
+    let Some((_, skeleton)) = real_skeleton(
+        "glitching_marker_plate_whole",
+        "c3d/c3d.org/sample01/Eb015pr.c3d",
+    ) else {
+        return;
+    };
+    let whole: Vec<BodyPart> = vec![
+        ("right foot", &["RFT1", "RFT2", "RFT3"]),
+        ("left foot", &["LFT1", "LFT2", "LFT3"]),
+        ("right shank", &["RSK1", "RSK2", "RSK3", "RSK4"]),
+        ("left shank", &["LSK1", "LSK2", "LSK3", "LSK4"]),
+        ("right thigh", &["RTH1", "RTH2", "RTH3", "RTH4"]),
+        ("left thigh", &["LTH1", "LTH2", "LTH3", "LTH4"]),
+    ];
+    let apart: Vec<BodyPart> = vec![("pelvis", &["PV1", "PV2", "PV3", "pv4"])];
+    let failures = body_parts_mismatch(&skeleton, &whole, &apart);
+    assert!(failures.is_empty(), "{}", failures.join("\n"));
+    let glitches = |label: &str| {
+        skeleton["markers"]
+            .as_array()
+            .and_then(|ms| ms.iter().find(|m| m["label"] == label))
+            .and_then(|m| m["glitch_frames"].as_u64())
+    };
+    let rsk1 = glitches("RSK1");
+    assert!(
+        rsk1.is_some_and(|g| (20..=31).contains(&g)),
+        "RSK1 glitch frames {rsk1:?}"
+    );
+    assert_eq!(glitches("RSK3"), Some(0));
+}

@@ -149,6 +149,7 @@ pub fn scene(frames: usize, rate: f64) -> Scene {
             .map(|m| MarkerDiagnostics {
                 segment: Some(m / 3),
                 visible_frames: frames,
+                glitch_frames: 0,
                 rigidity_residual_mm: 0.0,
                 slides: false,
             })

@@ -143,6 +143,9 @@ pub struct MarkerJson {
     pub segment: Option<usize>,
     /// Frames in which it is visible.
     pub visible_frames: usize,
+    /// Visible frames segmentation read as gaps: the marker left its steadiest partners (a glitch).
+    #[serde(default)]
+    pub glitch_frames: usize,
     /// RMS over its segment-mates of the standard deviation of their distance (mm).
     pub rigidity_residual_mm: Option<f64>,
     /// True when it moves relative to its segment (skin slide).
@@ -326,6 +329,7 @@ pub(crate) fn document(input: &Inputs<'_>) -> Result<SkeletonJson, Error> {
             label: l.clone(),
             segment: diagnostics.and_then(|d| d.segment),
             visible_frames: diagnostics.map_or(0, |d| d.visible_frames),
+            glitch_frames: diagnostics.map_or(0, |d| d.glitch_frames),
             rigidity_residual_mm: diagnostics.and_then(|d| round(d.rigidity_residual_mm, 3)),
             slides: diagnostics.is_some_and(|d| d.slides),
             unassigned_reason: seg

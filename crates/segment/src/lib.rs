@@ -2,9 +2,10 @@
 //!
 //! Takes [`mocap_io::Trajectories`] and gives a [`Segmentation`]: rigid segments (marker
 //! indices), the markers left out with the reason, and per-marker diagnostics (rigidity
-//! residual, skin sliding). One pass over the frames gives every pair's distance mean and
-//! standard deviation ρ over the frames where both are seen (a marker is never dropped for
-//! a gap); an affinity from ρ, normalised spectral clustering with the eigen-gap segment
+//! residual, skin sliding, glitch frames). First, samples where a marker leaves most of its
+//! steadiest partners at once are read as gaps (`glitch_factor`, see `glitch`). Then one
+//! pass over the frames gives every pair's distance mean and standard deviation ρ over the
+//! frames where both are seen (a marker is never dropped for a gap); an affinity from ρ, normalised spectral clustering with the eigen-gap segment
 //! count and seeded k-means (Aguiar et al. 2006, Sect. 3), then a rigidity check: each
 //! cluster is re-split by complete linkage on ρ / √(s_i s_j) (s = a marker's ρ to its
 //! nearest marker, floored at the noise), so a two-marker segment whose pair is each
@@ -42,6 +43,7 @@ mod eigen;
 pub mod eigen4;
 mod error;
 mod fitsplit;
+mod glitch;
 mod jointsplit;
 mod kmeans;
 mod linkage;
@@ -87,6 +89,16 @@ fn segment_capture(
     if frames == 0 || markers == 0 {
         return Err(Error::EmptyCapture { frames, markers });
     }
+    // Glitch samples are gaps to every step below; label swaps are looked for in the
+    // capture as it was, since a swapped sample is a glitch to its own segment too.
+    let raw = traj;
+    let (unglitched, glitch_frames) = glitch::mask_glitches(
+        raw,
+        params.min_overlap_frames,
+        params.glitch_factor,
+        params.tolerance_min_mm,
+    );
+    let traj = &unglitched;
     let labels = traj.labels();
     let stats = pair_stats(traj);
     let min_overlap = params.min_overlap_frames;
@@ -289,9 +301,9 @@ fn segment_capture(
         // A swap's bound is a typical segment's hold on its markers, as for pair_hold.
         let hold_mm = params.pair_hold.max(1.0)
             * typical_sigma(traj, &clusters, &mut sigma_memo).max(params.tolerance_min_mm);
-        let swaps = swaps::find_swaps(traj, &clusters, hold_mm, reassign::stride_of(traj));
+        let swaps = swaps::find_swaps(raw, &clusters, hold_mm, reassign::stride_of(raw));
         if !swaps.is_empty() {
-            let mut again = segment_capture(&untangle(traj, &swaps), params, false)?;
+            let mut again = segment_capture(&untangle(raw, &swaps), params, false)?;
             again.swaps = swaps;
             return Ok(again);
         }
@@ -323,7 +335,7 @@ fn segment_capture(
         .enumerate()
         .map(|(id, markers)| Segment { id, markers })
         .collect();
-    let markers = marker_diagnostics(&stats, &segments, params);
+    let markers = marker_diagnostics(&stats, &glitch_frames, &segments, params);
     Ok(Segmentation {
         segments,
         unassigned,
@@ -499,9 +511,10 @@ fn small_group_reason(
     )
 }
 
-/// Per-marker segment, visibility, rigidity residual and sliding flag.
+/// Per-marker segment, visibility, glitch frames, rigidity residual and sliding flag.
 fn marker_diagnostics(
     stats: &PairStats,
+    glitch_frames: &[usize],
     segments: &[Segment],
     params: &Params,
 ) -> Vec<MarkerDiagnostics> {
@@ -509,7 +522,9 @@ fn marker_diagnostics(
     let mut out: Vec<MarkerDiagnostics> = (0..stats.n)
         .map(|m| MarkerDiagnostics {
             segment: None,
-            visible_frames: stats.visible[m],
+            // The glitches were visible, only not believed.
+            visible_frames: stats.visible[m] + glitch_frames[m],
+            glitch_frames: glitch_frames[m],
             rigidity_residual_mm: f64::NAN,
             slides: false,
         })

@@ -119,6 +119,8 @@ pub struct Params {
     pub pair_rejoin_ratio: f64,
     /// Find label swaps (two markers' trajectories exchanged for a while), undo them and segment again.
     pub repair_swaps: bool,
+    /// A sample is a glitch (a gap to segmentation) when most of its marker's steadiest partners are off by more than this × their robust scatter; 0 = off.
+    pub glitch_factor: f64,
 }
 
 impl Default for Params {
@@ -161,6 +163,7 @@ impl Default for Params {
             pair_hold: 3.0,
             pair_rejoin_ratio: 8.0,
             repair_swaps: true,
+            glitch_factor: 8.0,
         }
     }
 }
@@ -294,6 +297,10 @@ pub const PARAM_DOCS: &[(&str, &str)] = &[
         "with pair_hold: a two-marker cluster whose markers one body (≥ 3 markers) holds both of, within pair_hold's bound, rejoins that body when spectral clustering had put the pair and some of the body's markers in one cluster (the rigidity check's linkage cut them apart) and the pair's larger scatter in the body is within this × the body's own rigid-fit σ. Skin (5-15 mm, with two markers' skin alike) cuts a true segment into k + 2 this way when noise is low; exact data (σ near zero: arthuman's labelled bodies, whose pairs move 1.5-2 mm against a body of σ about 3e-5 mm) keeps its pairs. cargo xtask eval --compare segment.pair_rejoin_ratio=0,8: skin on seeds 10001-10032 82 -> 94/192 exact trees (4: 91, 16 and 100: 95), on 4001-4006,6001-6006,7001,9001,1001,5001 47 -> 52/96, hard --noise 0.5 there 56 -> 60/96; hard (there 71/96, on 10001-10032 137/192), clean, noise, gaps, swap, --sweep 0.4:0.6 and --markers 2:3 unchanged; messy on 10001-10032 124 -> 123/192 (quadruped-messy-s10010: a pair joined a cluster that already mixed two segments); every real capture's segmentation unchanged; 0 = off; default 8.0",
     ),
     (
+        "glitch_factor",
+        "before anything else, a sample is a glitch, read as a gap by every segmentation step, when in that frame its marker is off its median distance to most of its 3 steadiest partners seen there (of its 6 steadiest; scatter: the 90th percentile of the distance's deviation from its median, in σ of Gaussian scatter) by more than this × that pair's scatter and tolerance_min_mm. A joint moves a marker against another segment's markers, never against its own, and skin or noise by about its usual scatter; a misreconstructed marker leaves them all at once (c3d.org Eb015: RSK1 off its shank plate by up to 50 mm in frames 136-166 of 450, ρ 8.6 mm against the plate's 0.5-1 mm, and the plate came out as two pairs). The 90th percentile, not the median absolute deviation: with the latter AlbertoINT had 6068 samples of 19 markers masked and its arm segments changed. Label swaps are still looked for in the capture as it was. Each marker's count is in skeleton.json (glitch_frames). cargo xtask eval --compare segment.glitch_factor=0,8: on seeds 4001-4006,6001-6006,7001,9001,1001,5001 clean, noise, skin, gaps, swap and hard unchanged, messy 66 -> 67/96 exact trees; on 10001-10032 swap, hard and messy unchanged (192, 137 and 123/192); real captures: Eb015 (6 files) and TESTBPI/TESTDPI keep the RSK plate whole, every other capture's segmentation unchanged; 0 = off; default 8.0",
+    ),
+    (
         "repair_swaps",
         "look for label swaps on the finished segmentation: two markers of different segments whose distances to their segment-mates (to a nearby cluster's markers, for a marker left in a group of one or two) leave their usual values in the same minority of frames, and in those frames each sits at the other's usual distances from the other's segment (bound: max(pair_hold, 1) × the typical segment fit σ, at least tolerance_min_mm, or 3 × the marker's own median change if looser; ≥ 3 such frames, ≥ 90 % of frames explained either way). The swap's frames are those the exchange explains better. Each swap is undone, the capture segmented again, and the swaps listed in the artifact and skeleton.json (label_swaps); jointfit and bonefit read the trajectories with them undone. cargo xtask eval on seeds 9001,9002,1001,1002,7001,7002,4001,4002: swap 39 -> 47/48 exact trees, messy (hard + swap) 27 -> 29/48; on 24 swap trials (human, quadruped, snowman, robot arm, seeds 21-26) every swap found with its exact frames, on the same as messy 17 of 24; no swap reported on any real capture; default true",
     ),
@@ -387,6 +394,7 @@ impl Params {
         non_negative("joint_merge_z", self.joint_merge_z)?;
         non_negative("pair_hold", self.pair_hold)?;
         non_negative("pair_rejoin_ratio", self.pair_rejoin_ratio)?;
+        non_negative("glitch_factor", self.glitch_factor)?;
         Ok(())
     }
 }

@@ -6,7 +6,7 @@ use mocap_io::Trajectories;
 use serde::{Deserialize, Serialize};
 
 /// Schema version of [`Segmentation`]; bump when its fields or the algorithm's output change.
-pub const SCHEMA_VERSION: u32 = 10;
+pub const SCHEMA_VERSION: u32 = 11;
 
 /// The rigid segments found in a capture.
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
@@ -106,6 +106,9 @@ pub struct MarkerDiagnostics {
     pub segment: Option<usize>,
     /// Frames in which the marker is visible.
     pub visible_frames: usize,
+    /// Visible frames read as gaps because the marker left its steadiest partners (`glitch_factor`).
+    #[serde(default)]
+    pub glitch_frames: usize,
     /// RMS over its segment-mates of the standard deviation of their distance (mm); NaN if alone.
     pub rigidity_residual_mm: f64,
     /// True when the marker moves relative to its segment more than its mates do (skin slide).

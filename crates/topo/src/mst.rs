@@ -504,6 +504,7 @@ mod tests {
             .map(|r| segment::MarkerDiagnostics {
                 segment: Some(0),
                 visible_frames: 100,
+                glitch_frames: 0,
                 rigidity_residual_mm: r,
                 slides: false,
             })

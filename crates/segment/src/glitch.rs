@@ -1,0 +1,210 @@
+//! Glitches: samples where a marker leaves the distances it keeps to its steadiest partners.
+//!
+//! A marker reconstructed wrongly for a few frames (c3d.org Eb015: RSK1 leaves its shank
+//! plate by up to 50 mm in frames 136–166 of 450) changes its distance to its plate-mates
+//! all at once, and a standard deviation over all frames then calls the plate jointed
+//! (ρ 8.6 mm against the plate's 0.5–1 mm). A joint moves a marker against the other
+//! segment's markers, never against its own, and skin or noise moves it by about its usual
+//! scatter. So a sample is a glitch when, in that frame, the marker is off its median
+//! distance to most of its [`PARTNERS`] steadiest partners seen in that frame (smallest robust scatter: the
+//! 90th percentile of the distance's deviation from its median, in σ of Gaussian scatter)
+//! by more than `factor` × that pair's scatter and at least `floor_mm`. These statistics
+//! hold while a glitch lasts under a tenth of the frames.
+//! Segmentation reads glitch samples as gaps; nothing else changes.
+
+use mocap_io::{MISSING, Trajectories};
+use rayon::prelude::*;
+
+/// Steadiest partners each marker is checked against in a frame: the first this many of
+/// its [`CANDIDATES`] steadiest that are seen in it.
+pub(crate) const PARTNERS: usize = 3;
+
+/// Steadiest partners a marker's judges are drawn from, so that gaps leave enough of them.
+const CANDIDATES: usize = 6;
+
+/// Most frames, evenly strided, whose distances give a pair's median and scatter.
+const MAX_FRAMES: usize = 2048;
+
+/// Share of a pair's frames its scatter covers: a pair's glitches may last this long, and a
+/// joint that turns in more of the frames cannot make markers across it look steady
+/// partners. A median absolute deviation lets a joint still in half the frames do that:
+/// with it, AlbertoINT had 6068 samples of 19 markers masked (an epicondyle in 1027 of
+/// 4921 frames) and its arm segments changed; with this, 26 samples of one marker.
+const SCATTER_QUANTILE: f64 = 0.9;
+
+/// The [`SCATTER_QUANTILE`] quantile of |Z| for a standard normal Z: scatter in units of σ.
+const QUANTILE_TO_SIGMA: f64 = 1.0 / 1.644_853_626_951_472_2;
+
+/// Median distance and robust scatter (mm, [`SCATTER_QUANTILE`]) of every marker pair over the co-visible frames
+/// of a stride; `None` for pairs seen together in fewer than `min_overlap` of those frames.
+type PairMedians = Vec<Option<(f64, f64)>>;
+
+/// `traj` with every glitch sample missing, and the number of glitch frames per marker.
+/// `factor` 0 turns the check off.
+pub(crate) fn mask_glitches(
+    traj: &Trajectories,
+    min_overlap: usize,
+    factor: f64,
+    floor_mm: f64,
+) -> (Trajectories, Vec<usize>) {
+    let (n, frames) = (traj.markers(), traj.frames());
+    if factor <= 0.0 || n < 3 || frames == 0 {
+        return (traj.clone(), vec![0; n]);
+    }
+    let medians = pair_medians(traj, min_overlap);
+    let distance = |f: usize, i: usize, j: usize| {
+        let (a, b) = (traj.get(f, i)?, traj.get(f, j)?);
+        Some(((a[0] - b[0]).powi(2) + (a[1] - b[1]).powi(2) + (a[2] - b[2]).powi(2)).sqrt())
+    };
+    let glitches: Vec<Vec<usize>> = (0..n)
+        .into_par_iter()
+        .map(|m| {
+            let mut partners: Vec<(f64, usize, f64)> = (0..n)
+                .filter(|&j| j != m)
+                .filter_map(|j| medians[m * n + j].map(|(median, scatter)| (scatter, j, median)))
+                .collect();
+            partners.sort_by(|a, b| a.0.total_cmp(&b.0).then(a.1.cmp(&b.1)));
+            partners.truncate(CANDIDATES);
+            if partners.len() < 2 {
+                return Vec::new();
+            }
+            (0..frames)
+                .filter(|&f| {
+                    let (mut seen, mut off) = (0, 0);
+                    for &(scatter, j, median) in &partners {
+                        if let Some(d) = distance(f, m, j) {
+                            seen += 1;
+                            if (d - median).abs() > (factor * scatter).max(floor_mm) {
+                                off += 1;
+                            }
+                            if seen == PARTNERS {
+                                break;
+                            }
+                        }
+                    }
+                    // Most partners seen and most of those off: one partner's own glitch or a
+                    // single frame's pair of gaps cannot mask a marker.
+                    seen >= 2 && 2 * off > seen
+                })
+                .collect()
+        })
+        .collect();
+    let mut positions = traj.positions().to_vec();
+    for (m, frames_off) in glitches.iter().enumerate() {
+        for &f in frames_off {
+            positions[f * n + m] = MISSING;
+        }
+    }
+    let counts = glitches.iter().map(Vec::len).collect();
+    // The same samples, some made missing: valid wherever the input was.
+    let masked = Trajectories::new(
+        traj.labels().to_vec(),
+        traj.frame_rate(),
+        traj.first_frame(),
+        frames,
+        positions,
+    )
+    .unwrap_or_else(|_| traj.clone());
+    (masked, counts)
+}
+
+/// Every pair's median distance and robust scatter ([`PairMedians`]), rows in parallel.
+fn pair_medians(traj: &Trajectories, min_overlap: usize) -> PairMedians {
+    let (n, frames) = (traj.markers(), traj.frames());
+    let stride = frames.div_ceil(MAX_FRAMES).max(1);
+    let rows: Vec<Vec<Option<(f64, f64)>>> = (0..n)
+        .into_par_iter()
+        .map(|i| {
+            // One scratch buffer per row: the pair loop itself does not allocate.
+            let mut scratch: Vec<f64> = Vec::with_capacity(frames.div_ceil(stride));
+            (0..n)
+                .map(|j| {
+                    if j == i {
+                        return None;
+                    }
+                    scratch.clear();
+                    scratch.extend((0..frames).step_by(stride).filter_map(|f| {
+                        let (a, b) = (traj.get(f, i)?, traj.get(f, j)?);
+                        Some(
+                            ((a[0] - b[0]).powi(2) + (a[1] - b[1]).powi(2) + (a[2] - b[2]).powi(2))
+                                .sqrt(),
+                        )
+                    }));
+                    if scratch.len() < min_overlap.max(2) {
+                        return None;
+                    }
+                    let median = median_in_place(&mut scratch);
+                    for d in scratch.iter_mut() {
+                        *d = (*d - median).abs();
+                    }
+                    let k = ((SCATTER_QUANTILE * scratch.len() as f64).ceil() as usize)
+                        .clamp(1, scratch.len());
+                    let q = *scratch.select_nth_unstable_by(k - 1, f64::total_cmp).1;
+                    Some((median, QUANTILE_TO_SIGMA * q))
+                })
+                .collect()
+        })
+        .collect();
+    rows.into_iter().flatten().collect()
+}
+
+/// The upper median of `values` (reorders them).
+fn median_in_place(values: &mut [f64]) -> f64 {
+    let mid = values.len() / 2;
+    *values.select_nth_unstable_by(mid, f64::total_cmp).1
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// Four markers of one rigid plate translating, with marker 0 thrown `jump_mm` off for
+    /// frames 40..60 of 200 (along the line from marker 1, so every distance changes).
+    fn plate(jump_mm: f64) -> Trajectories {
+        let shape = [
+            [0.0, 0.0, 0.0],
+            [100.0, 0.0, 0.0],
+            [0.0, 80.0, 0.0],
+            [60.0, 60.0, 30.0],
+        ];
+        let frames = 200;
+        let mut positions = Vec::new();
+        for f in 0..frames {
+            let t = f as f64 * 0.05;
+            for (m, p) in shape.iter().enumerate() {
+                let wobble = 0.3 * ((m as f64 + 1.0) * 1.7 * t).sin();
+                let mut q = [
+                    p[0] + 40.0 * t.sin() + wobble,
+                    p[1] + 10.0 * t,
+                    p[2] - wobble,
+                ];
+                if m == 0 && (40..60).contains(&f) {
+                    q[0] -= jump_mm;
+                }
+                positions.push(q);
+            }
+        }
+        let labels = (0..4).map(|m| format!("P{m}")).collect();
+        Trajectories::new(labels, 100.0, 1, frames, positions).expect("capture")
+    }
+
+    #[test]
+    fn a_marker_thrown_off_its_plate_is_masked_in_those_frames_only() {
+        let (masked, counts) = mask_glitches(&plate(40.0), 10, 8.0, 2.0);
+        assert_eq!(counts, vec![20, 0, 0, 0]);
+        for f in 0..200 {
+            assert_eq!(
+                masked.get(f, 0).is_none(),
+                (40..60).contains(&f),
+                "frame {f}"
+            );
+        }
+    }
+
+    #[test]
+    fn scatter_within_the_bounds_is_no_glitch_and_zero_factor_is_off() {
+        // 1 mm is within the 2 mm floor, whatever the scatter.
+        assert_eq!(mask_glitches(&plate(1.0), 10, 8.0, 2.0).1, vec![0; 4]);
+        assert_eq!(mask_glitches(&plate(40.0), 10, 0.0, 2.0).1, vec![0; 4]);
+    }
+}
