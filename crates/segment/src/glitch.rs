@@ -23,7 +23,7 @@ pub(crate) const PARTNERS: usize = 3;
 const CANDIDATES: usize = 6;
 
 /// Most frames, evenly strided, whose distances give a pair's median and scatter.
-const MAX_FRAMES: usize = 2048;
+const MAX_FRAMES: usize = 1024;
 
 /// Share of a pair's frames its scatter covers: a pair's glitches may last this long, and a
 /// joint that turns in more of the frames cannot make markers across it look steady
@@ -112,23 +112,26 @@ pub(crate) fn mask_glitches(
 fn pair_medians(traj: &Trajectories, min_overlap: usize) -> PairMedians {
     let (n, frames) = (traj.markers(), traj.frames());
     let stride = frames.div_ceil(MAX_FRAMES).max(1);
+    let strided: Vec<usize> = (0..frames).step_by(stride).collect();
+    // Marker-major copy of the strided samples: a pair's loop streams two short arrays.
+    let samples: Vec<[f64; 3]> = (0..n)
+        .flat_map(|m| strided.iter().map(move |&f| traj.frame(f)[m]))
+        .collect();
+    let track = |m: usize| &samples[m * strided.len()..(m + 1) * strided.len()];
     let rows: Vec<Vec<Option<(f64, f64)>>> = (0..n)
         .into_par_iter()
         .map(|i| {
             // One scratch buffer per row: the pair loop itself does not allocate.
-            let mut scratch: Vec<f64> = Vec::with_capacity(frames.div_ceil(stride));
-            (0..n)
+            let mut scratch: Vec<f64> = Vec::with_capacity(strided.len());
+            (i + 1..n)
                 .map(|j| {
-                    if j == i {
-                        return None;
-                    }
                     scratch.clear();
-                    scratch.extend((0..frames).step_by(stride).filter_map(|f| {
-                        let (a, b) = (traj.get(f, i)?, traj.get(f, j)?);
-                        Some(
+                    scratch.extend(track(i).iter().zip(track(j)).filter_map(|(a, b)| {
+                        let d =
                             ((a[0] - b[0]).powi(2) + (a[1] - b[1]).powi(2) + (a[2] - b[2]).powi(2))
-                                .sqrt(),
-                        )
+                                .sqrt();
+                        // A missing sample is NaN, so its distance is NaN.
+                        (!d.is_nan()).then_some(d)
                     }));
                     if scratch.len() < min_overlap.max(2) {
                         return None;
@@ -145,7 +148,15 @@ fn pair_medians(traj: &Trajectories, min_overlap: usize) -> PairMedians {
                 .collect()
         })
         .collect();
-    rows.into_iter().flatten().collect()
+    let mut out = vec![None; n * n];
+    for (i, row) in rows.into_iter().enumerate() {
+        for (off, v) in row.into_iter().enumerate() {
+            let j = i + 1 + off;
+            out[i * n + j] = v;
+            out[j * n + i] = v;
+        }
+    }
+    out
 }
 
 /// The upper median of `values` (reorders them).
