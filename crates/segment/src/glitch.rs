@@ -6,11 +6,11 @@
 //! (ρ 8.6 mm against the plate's 0.5–1 mm). A joint moves a marker against the other
 //! segment's markers, never against its own, and skin or noise moves it by about its usual
 //! scatter. So a sample is a glitch when, in that frame, the marker is off its median
-//! distance to most of its [`PARTNERS`] steadiest partners seen in that frame (smallest robust scatter: the
-//! 90th percentile of the distance's deviation from its median, in σ of Gaussian scatter)
-//! by more than `factor` × that pair's scatter and at least `floor_mm`. These statistics
-//! hold while a glitch lasts under a tenth of the frames.
-//! Segmentation reads glitch samples as gaps; nothing else changes.
+//! distance to most of its [`PARTNERS`] steadiest partners seen there (smallest robust
+//! scatter: the 90th percentile of the distance's deviation from its median, in σ of
+//! Gaussian scatter) by more than `factor` × that pair's scatter and at least `floor_mm`.
+//! These statistics hold while a glitch lasts under a tenth of the frames. Segmentation
+//! reads glitch samples as gaps; nothing else changes.
 
 use mocap_io::{MISSING, Trajectories};
 use rayon::prelude::*;
@@ -29,14 +29,15 @@ const MAX_FRAMES: usize = 1024;
 /// joint that turns in more of the frames cannot make markers across it look steady
 /// partners. A median absolute deviation lets a joint still in half the frames do that:
 /// with it, AlbertoINT had 6068 samples of 19 markers masked (an epicondyle in 1027 of
-/// 4921 frames) and its arm segments changed; with this, 26 samples of one marker.
+/// 4921 frames) and its arm segments changed; with this, 25 samples of one marker.
 const SCATTER_QUANTILE: f64 = 0.9;
 
 /// The [`SCATTER_QUANTILE`] quantile of |Z| for a standard normal Z: scatter in units of σ.
 const QUANTILE_TO_SIGMA: f64 = 1.0 / 1.644_853_626_951_472_2;
 
-/// Median distance and robust scatter (mm, [`SCATTER_QUANTILE`]) of every marker pair over the co-visible frames
-/// of a stride; `None` for pairs seen together in fewer than `min_overlap` of those frames.
+/// Median distance and robust scatter (mm, [`SCATTER_QUANTILE`]) of every marker pair over
+/// the co-visible frames of a stride; `None` for pairs seen together in fewer than
+/// `min_overlap` of those frames. Row-major `n × n`.
 type PairMedians = Vec<Option<(f64, f64)>>;
 
 /// `traj` with every glitch sample missing, and the number of glitch frames per marker.
@@ -52,10 +53,9 @@ pub(crate) fn mask_glitches(
         return (traj.clone(), vec![0; n]);
     }
     let medians = pair_medians(traj, min_overlap);
-    let distance = |f: usize, i: usize, j: usize| {
-        let (a, b) = (traj.get(f, i)?, traj.get(f, j)?);
-        Some(((a[0] - b[0]).powi(2) + (a[1] - b[1]).powi(2) + (a[2] - b[2]).powi(2)).sqrt())
-    };
+    // The distance in frame f, where both are seen.
+    let distance_in =
+        |f: usize, i: usize, j: usize| Some(distance(traj.get(f, i)?, traj.get(f, j)?));
     let glitches: Vec<Vec<usize>> = (0..n)
         .into_par_iter()
         .map(|m| {
@@ -72,7 +72,7 @@ pub(crate) fn mask_glitches(
                 .filter(|&f| {
                     let (mut seen, mut off) = (0, 0);
                     for &(scatter, j, median) in &partners {
-                        if let Some(d) = distance(f, m, j) {
+                        if let Some(d) = distance_in(f, m, j) {
                             seen += 1;
                             if (d - median).abs() > (factor * scatter).max(floor_mm) {
                                 off += 1;
@@ -82,8 +82,8 @@ pub(crate) fn mask_glitches(
                             }
                         }
                     }
-                    // Most partners seen and most of those off: one partner's own glitch or a
-                    // single frame's pair of gaps cannot mask a marker.
+                    // Two judges at least, and most of them off: one partner's own glitch
+                    // never masks a marker.
                     seen >= 2 && 2 * off > seen
                 })
                 .collect()
@@ -127,9 +127,7 @@ fn pair_medians(traj: &Trajectories, min_overlap: usize) -> PairMedians {
                 .map(|j| {
                     scratch.clear();
                     scratch.extend(track(i).iter().zip(track(j)).filter_map(|(a, b)| {
-                        let d =
-                            ((a[0] - b[0]).powi(2) + (a[1] - b[1]).powi(2) + (a[2] - b[2]).powi(2))
-                                .sqrt();
+                        let d = distance(*a, *b);
                         // A missing sample is NaN, so its distance is NaN.
                         (!d.is_nan()).then_some(d)
                     }));
@@ -157,6 +155,11 @@ fn pair_medians(traj: &Trajectories, min_overlap: usize) -> PairMedians {
         }
     }
     out
+}
+
+/// Distance between two samples, mm (NaN when either is missing).
+fn distance(a: [f64; 3], b: [f64; 3]) -> f64 {
+    ((a[0] - b[0]).powi(2) + (a[1] - b[1]).powi(2) + (a[2] - b[2]).powi(2)).sqrt()
 }
 
 /// The upper median of `values` (reorders them).
