@@ -12,6 +12,8 @@
 //! These statistics hold while a glitch lasts under a tenth of the frames. Segmentation
 //! reads glitch samples as gaps; nothing else changes.
 
+use std::borrow::Cow;
+
 use mocap_io::{MISSING, Trajectories};
 use rayon::prelude::*;
 
@@ -40,17 +42,17 @@ const QUANTILE_TO_SIGMA: f64 = 1.0 / 1.644_853_626_951_472_2;
 /// `min_overlap` of those frames. Row-major `n × n`.
 type PairMedians = Vec<Option<(f64, f64)>>;
 
-/// `traj` with every glitch sample missing, and the number of glitch frames per marker.
-/// `factor` 0 turns the check off.
+/// `traj` with every glitch sample missing (borrowed unchanged when there is none), and
+/// the number of glitch frames per marker. `factor` 0 turns the check off.
 pub(crate) fn mask_glitches(
     traj: &Trajectories,
     min_overlap: usize,
     factor: f64,
     floor_mm: f64,
-) -> (Trajectories, Vec<usize>) {
+) -> (Cow<'_, Trajectories>, Vec<usize>) {
     let (n, frames) = (traj.markers(), traj.frames());
     if factor <= 0.0 || n < 3 || frames == 0 {
-        return (traj.clone(), vec![0; n]);
+        return (Cow::Borrowed(traj), vec![0; n]);
     }
     let medians = pair_medians(traj, min_overlap);
     // The distance in frame f, where both are seen.
@@ -89,13 +91,16 @@ pub(crate) fn mask_glitches(
                 .collect()
         })
         .collect();
+    let counts: Vec<usize> = glitches.iter().map(Vec::len).collect();
+    if counts.iter().all(|&c| c == 0) {
+        return (Cow::Borrowed(traj), counts);
+    }
     let mut positions = traj.positions().to_vec();
     for (m, frames_off) in glitches.iter().enumerate() {
         for &f in frames_off {
             positions[f * n + m] = MISSING;
         }
     }
-    let counts = glitches.iter().map(Vec::len).collect();
     // The same samples, some made missing: valid wherever the input was.
     let masked = Trajectories::new(
         traj.labels().to_vec(),
@@ -104,7 +109,7 @@ pub(crate) fn mask_glitches(
         frames,
         positions,
     )
-    .unwrap_or_else(|_| traj.clone());
+    .map_or(Cow::Borrowed(traj), Cow::Owned);
     (masked, counts)
 }
 
@@ -204,7 +209,9 @@ mod tests {
 
     #[test]
     fn a_marker_thrown_off_its_plate_is_masked_in_those_frames_only() {
-        let (masked, counts) = mask_glitches(&plate(40.0), 10, 8.0, 2.0);
+        let capture = plate(40.0);
+        let (masked, counts) = mask_glitches(&capture, 10, 8.0, 2.0);
+        assert!(matches!(masked, Cow::Owned(_)));
         assert_eq!(counts, vec![20, 0, 0, 0]);
         for f in 0..200 {
             assert_eq!(
@@ -218,7 +225,11 @@ mod tests {
     #[test]
     fn scatter_within_the_bounds_is_no_glitch_and_zero_factor_is_off() {
         // 1 mm is within the 2 mm floor, whatever the scatter.
-        assert_eq!(mask_glitches(&plate(1.0), 10, 8.0, 2.0).1, vec![0; 4]);
+        let capture = plate(1.0);
+        let (unchanged, counts) = mask_glitches(&capture, 10, 8.0, 2.0);
+        assert_eq!(counts, vec![0; 4]);
+        // Nothing masked, nothing copied.
+        assert!(matches!(unchanged, Cow::Borrowed(_)));
         assert_eq!(mask_glitches(&plate(40.0), 10, 0.0, 2.0).1, vec![0; 4]);
     }
 }

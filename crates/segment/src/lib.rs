@@ -5,10 +5,11 @@
 //! residual, skin sliding, glitch frames). First, samples where a marker leaves most of its
 //! steadiest partners at once are read as gaps (`glitch_factor`, see `glitch`). Then one
 //! pass over the frames gives every pair's distance mean and standard deviation ρ over the
-//! frames where both are seen (a marker is never dropped for a gap); an affinity from ρ, normalised spectral clustering with the eigen-gap segment
-//! count and seeded k-means (Aguiar et al. 2006, Sect. 3), then a rigidity check: each
-//! cluster is re-split by complete linkage on ρ / √(s_i s_j) (s = a marker's ρ to its
-//! nearest marker, floored at the noise), so a two-marker segment whose pair is each
+//! frames where both are seen (a marker is never dropped for a gap); an affinity from ρ,
+//! normalised spectral clustering with the eigen-gap segment count and seeded k-means
+//! (Aguiar et al. 2006, Sect. 3), then a rigidity check: each cluster is re-split by
+//! complete linkage on ρ / √(s_i s_j) (s = a marker's ρ to its nearest marker, floored at
+//! the noise), so a two-marker segment whose pair is each
 //! other's nearest stays whole; orphans rejoin only a group they slide on no more than
 //! they slide on anything; then markers move and rigid neighbours merge under a tolerance.
 //! A marker still alone takes an ambiguous partner (rigid with it and with its own group,
@@ -98,7 +99,7 @@ fn segment_capture(
         params.glitch_factor,
         params.tolerance_min_mm,
     );
-    let traj = &unglitched;
+    let traj: &Trajectories = &unglitched;
     let labels = traj.labels();
     let stats = pair_stats(traj);
     let min_overlap = params.min_overlap_frames;
