@@ -213,6 +213,18 @@ pub fn findings(document: &export::SkeletonJson, spin_limit_deg: f64) -> Vec<Str
             sliding,
         ));
     }
+    let glitching: Vec<String> = document
+        .markers
+        .iter()
+        .filter(|m| m.glitch_frames > 0)
+        .map(|m| format!("{} ({} frames)", m.label, m.glitch_frames))
+        .collect();
+    if !glitching.is_empty() {
+        out.push(listed(
+            "markers that jumped off their partners in some frames (those samples read as gaps)",
+            glitching,
+        ));
+    }
     let swaps: Vec<String> = document
         .label_swaps
         .iter()
@@ -420,6 +432,7 @@ mod tests {
             m.unassigned_reason = Some("visible in 3 of 150 frames".into());
         }
         doc.markers[9].slides = true;
+        doc.markers[10].glitch_frames = 26;
         doc.detached_segments = vec![2];
         doc.notes = vec!["a rigid pair".into()];
         doc.segments[1].spin_deg = Some(14.2);
@@ -471,6 +484,11 @@ mod tests {
                 "markers sliding against their segment (skin or a loose marker): 1 — "
             ) && f.contains(&doc.markers[9].label))
         );
+        assert!(found.contains(&format!(
+            "markers that jumped off their partners in some frames (those samples read as \
+             gaps): 1 — {} (26 frames)",
+            doc.markers[10].label
+        )));
         assert!(found.contains(&"segments not in the tree: [2]".to_owned()));
         assert!(found.contains(&"topology: a rigid pair".to_owned()));
         assert!(

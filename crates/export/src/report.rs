@@ -289,6 +289,20 @@ fn markers(out: &mut String, doc: &SkeletonJson) {
             sliding.join("; ")
         );
     }
+    let glitching: Vec<String> = doc
+        .markers
+        .iter()
+        .filter(|m| m.glitch_frames > 0)
+        .map(|m| format!("{} ({} frames)", escape(&m.label), m.glitch_frames))
+        .collect();
+    if !glitching.is_empty() {
+        let _ = writeln!(
+            out,
+            "<p class=\"warn\">Jumped off their partners in some frames (a misreconstruction; \
+             those samples are read as gaps): {}.</p>",
+            glitching.join("; ")
+        );
+    }
     for swap in &doc.label_swaps {
         let spans: Vec<String> = swap
             .frames

@@ -515,16 +515,21 @@ fn report_tabulates_the_document_and_escapes_labels() {
             assert!(html.contains(m.as_str().unwrap_or("?")));
         }
     }
+    assert!(!html.contains("Jumped off their partners"));
     // A label from a file is text, never markup.
     let mut document: crate::SkeletonJson =
         serde_json::from_value(doc).unwrap_or_else(|e| panic!("{e}"));
     document.markers[0].label = "<b>\"L&R\"</b>".into();
     document.markers[0].segment = None;
     document.markers[0].unassigned_reason = Some("moves <alone>".into());
+    document.markers[1].glitch_frames = 26;
     let html = String::from_utf8(crate::report::write(&document)).unwrap_or_default();
     assert!(html.contains("&lt;b&gt;&quot;L&amp;R&quot;&lt;/b&gt;"));
     assert!(html.contains("moves &lt;alone&gt;"));
     assert!(!html.contains("<b>"));
+    // A glitching marker is named with its count of masked frames.
+    let glitch = format!("{} (26 frames).</p>", document.markers[1].label);
+    assert!(html.contains(&glitch), "no glitch line {glitch}");
 }
 
 #[test]
