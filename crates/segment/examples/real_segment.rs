@@ -54,6 +54,32 @@ fn main() {
             .collect();
         println!("segment {:>2}: {}", s.id, names.join(" "));
     }
+    // The joint test's weighed cut of every segment of >= 6 markers: on a real capture
+    // these are the scores one rigid body (or one the test failed to cut) reaches.
+    let clusters: Vec<Vec<usize>> = seg.segments.iter().map(|s| s.markers.clone()).collect();
+    let sigma = segment::typical_fit_sigma(traj, &clusters);
+    for s in &seg.segments {
+        if let Some((a, b, e)) = segment::joint_split_candidate(traj, &s.markers, sigma, &params) {
+            let names = |p: &[usize]| {
+                p.iter()
+                    .map(|&m| labels[m].as_str())
+                    .collect::<Vec<_>>()
+                    .join(",")
+            };
+            println!(
+                "cut {:>2}: z {:.2} rot {:.2} noise {:.2} centre {:.2} transl {:.2} part {:.2} typ {sigma:.2} [{}] | [{}]",
+                s.id,
+                e.rotation_z,
+                e.rotation_deg,
+                e.noise_deg,
+                e.centre_mm,
+                e.translation_mm,
+                e.part_sigma_mm,
+                names(&a),
+                names(&b)
+            );
+        }
+    }
     for u in &seg.unassigned {
         println!("unassigned {}: {}", labels[u.marker], u.reason);
     }

@@ -156,10 +156,10 @@ impl Default for Params {
             fit_split_ratio: 2.0,
             fit_split_floor: 2.0,
             reassign_ratio: 2.0,
-            joint_split_z: 4.5,
+            joint_split_z: 4.0,
             joint_centre_fraction: 1.0,
             eject_ratio: 8.0,
-            joint_merge_z: 4.5,
+            joint_merge_z: 4.0,
             pair_hold: 3.0,
             pair_rejoin_ratio: 8.0,
             repair_swaps: true,
@@ -286,7 +286,7 @@ pub const PARAM_DOCS: &[(&str, &str)] = &[
     ),
     (
         "joint_merge_z",
-        "after the joint test, two clusters of ≥ 3 markers with some marker pair within 2 × the tolerance of ρ merge when the joint test's rotation score of the pair is below this and the second's centroid stays within 2 × the part σ bound in the first's frame: they move as one rigid body (a rigid body's best cut scores about 2, true joints 4 and up). The default is joint_split_z's: a pair the joint test would not cut apart is one body; at 3.0 a pair scoring between the two stayed split (snowman-hard-s8104: a root split in two by skin, z 4.29). cargo xtask eval --compare segment.joint_merge_z=3,4.5: hard trees on seeds 8101-8124 90 -> 92/144, 8201-8230 130 -> 131/180, 4001-4006/6001-6006/7001/9001/1001/5001 71 -> 71/96 (and with --markers 2:3 unchanged); messy 8101-8112 40 -> 41/72, skin mean 2.30 -> 2.22 %; noise, gaps, swap, clean and every real capture's segmentation unchanged; most rigid pair first, repeatedly; 0 = off; default 4.5",
+        "after the joint test, two clusters of ≥ 3 markers with some marker pair within 2 × the tolerance of ρ merge when the joint test's rotation score of the pair is below this and the second's centroid stays within 2 × the part σ bound in the first's frame: they move as one rigid body (a rigid body's best cut scores about 2, true joints 4 and up). The default is joint_split_z's: a pair the joint test would not cut apart is one body; at 3.0 a pair scoring between the two stayed split (snowman-hard-s8104: a root split in two by skin, z 4.29). cargo xtask eval --compare segment.joint_merge_z=3,4.5: hard trees on seeds 8101-8124 90 -> 92/144, 8201-8230 130 -> 131/180, 4001-4006/6001-6006/7001/9001/1001/5001 71 -> 71/96 (and with --markers 2:3 unchanged); messy 8101-8112 40 -> 41/72, skin mean 2.30 -> 2.22 %; noise, gaps, swap, clean and every real capture's segmentation unchanged; most rigid pair first, repeatedly; 4.5 -> 4 with joint_split_z (see there); 0 = off; default 4.0",
     ),
     (
         "pair_hold",
@@ -310,7 +310,7 @@ pub const PARAM_DOCS: &[(&str, &str)] = &[
     ),
     (
         "joint_split_z",
-        "after the fit split, each cluster of ≥ 6 markers is cut in the two parts of ≥ 3 that two free rigid bodies fit best (all bipartitions up to 12 markers, else spectral cuts of the ρ affinity refined by single moves); each part is posed per frame (Horn) and the deviation of their relative rotation from its mean is weighed by the covariance the parts' pose errors give on one body (σ² J⁻¹ per part, σ = the median fit σ of the clusters of ≥ 3, J = the part's inertia tensor). It splits when that robust Mahalanobis length (75th-percentile frame; ≈ 2 on one rigid body) exceeds this and a centre of rotation fixed in both parts (SCoRE) explains their relative motion (joint_centre_fraction); recursively. Skin moves markers one by one, a joint turns a whole group about one point; 0 = off; default 4.5",
+        "after the fit split, each cluster of ≥ 6 markers is cut in the two parts of ≥ 3 that two free rigid bodies fit best (all bipartitions up to 12 markers, else spectral cuts of the ρ affinity refined by single moves); each part is posed per frame (Horn) and the deviation of their relative rotation from its mean is weighed by the covariance the parts' pose errors give on one body (σ² J⁻¹ per part, σ = the median fit σ of the clusters of ≥ 3, J = the part's inertia tensor). It splits when that robust Mahalanobis length (75th-percentile frame; ≈ 2 on one rigid body) exceeds this and a centre of rotation fixed in both parts (SCoRE) explains their relative motion (joint_centre_fraction); recursively. Skin moves markers one by one, a joint turns a whole group about one point. 4.5 -> 4 (with joint_merge_z): true single segments' weighed cuts score up to 3.97 on hard S16 and 4.15 on V (a human clavicle), a quadruped's carpus 4.07-4.54; cargo xtask eval (S16 = seeds 4001-4006, 6001-6006, 7001, 9001, 1001, 5001; V = 10001-10032): hard trees S16 71 -> 75/96 (quadruped 9 -> 12, robot arm 14 -> 15), V 137 -> 139/192; messy S16 67 -> 72, V 123 -> 124; skin S16 52 -> 53, V 94 -> 93; clean, noise, gaps, swap unchanged; 26 of 28 real captures segmented as before, btk Res16bits (a 100-frame standing trial, C3D and TRC) cuts its trunk-and-legs group in two (0.5-1 deg of sway); 0 = off; default 4.0",
     ),
     (
         "joint_centre_fraction",
