@@ -33,9 +33,9 @@ pub fn run(
     topo: &Topology,
     params: &Params,
 ) -> Result<Skeleton, Error> {
-    // The markers as they were, where the capture had exchanged two.
-    let untangled = seg.untangle(traj);
-    let traj = untangled.as_ref();
+    // The markers as segmentation read them: swaps undone, glitch samples missing.
+    let repaired = seg.repaired(traj);
+    let traj = repaired.as_ref();
     let frames = traj.frames();
     let segments = fits.poses.len();
     if seg.segments.len() != segments {

@@ -159,6 +159,7 @@ pub fn scene(frames: usize, rate: f64) -> Scene {
         eigenvalues: Vec::new(),
         eigengap_segments: 4,
         swaps: Vec::new(),
+        glitches: Vec::new(),
     };
 
     let topology = Topology {

@@ -143,7 +143,7 @@ pub struct MarkerJson {
     pub segment: Option<usize>,
     /// Frames in which it is visible.
     pub visible_frames: usize,
-    /// Visible frames segmentation read as gaps: the marker left its steadiest partners (a glitch).
+    /// Visible frames every stage read as gaps: the marker left its steadiest partners (a glitch).
     #[serde(default)]
     pub glitch_frames: usize,
     /// RMS over its segment-mates of the standard deviation of their distance (mm).

@@ -84,7 +84,7 @@ pub fn run(
         }
         segments.push(s.markers.clone());
     }
-    run_on_segments(&seg.untangle(traj), &segments, params)
+    run_on_segments(&seg.repaired(traj), &segments, params)
 }
 
 /// A segment's rotation uncertainty about its markers' line with all its markers seen

@@ -10,7 +10,8 @@
 //! scatter: the 90th percentile of the distance's deviation from its median, in σ of
 //! Gaussian scatter) by more than `factor` × that pair's scatter and at least `floor_mm`.
 //! These statistics hold while a glitch lasts under a tenth of the frames. Segmentation
-//! reads glitch samples as gaps; nothing else changes.
+//! reads glitch samples as gaps, and so do the later stages (`Segmentation::glitches`,
+//! applied by `Segmentation::repaired`).
 
 use std::borrow::Cow;
 
@@ -43,16 +44,16 @@ const QUANTILE_TO_SIGMA: f64 = 1.0 / 1.644_853_626_951_472_2;
 type PairMedians = Vec<Option<(f64, f64)>>;
 
 /// `traj` with every glitch sample missing (borrowed unchanged when there is none), and
-/// the number of glitch frames per marker. `factor` 0 turns the check off.
+/// each marker's glitch frames, ascending. `factor` 0 turns the check off.
 pub(crate) fn mask_glitches(
     traj: &Trajectories,
     min_overlap: usize,
     factor: f64,
     floor_mm: f64,
-) -> (Cow<'_, Trajectories>, Vec<usize>) {
+) -> (Cow<'_, Trajectories>, Vec<Vec<usize>>) {
     let (n, frames) = (traj.markers(), traj.frames());
     if factor <= 0.0 || n < 3 || frames == 0 {
-        return (Cow::Borrowed(traj), vec![0; n]);
+        return (Cow::Borrowed(traj), vec![Vec::new(); n]);
     }
     let medians = pair_medians(traj, min_overlap);
     // The distance in frame f, where both are seen.
@@ -91,9 +92,8 @@ pub(crate) fn mask_glitches(
                 .collect()
         })
         .collect();
-    let counts: Vec<usize> = glitches.iter().map(Vec::len).collect();
-    if counts.iter().all(|&c| c == 0) {
-        return (Cow::Borrowed(traj), counts);
+    if glitches.iter().all(Vec::is_empty) {
+        return (Cow::Borrowed(traj), glitches);
     }
     let mut positions = traj.positions().to_vec();
     for (m, frames_off) in glitches.iter().enumerate() {
@@ -110,7 +110,19 @@ pub(crate) fn mask_glitches(
         positions,
     )
     .map_or(Cow::Borrowed(traj), Cow::Owned);
-    (masked, counts)
+    (masked, glitches)
+}
+
+/// Ascending frame indices as inclusive runs `[first, last]`.
+pub(crate) fn runs(frames: &[usize]) -> Vec<[usize; 2]> {
+    let mut out: Vec<[usize; 2]> = Vec::new();
+    for &f in frames {
+        match out.last_mut() {
+            Some(run) if run[1] + 1 == f => run[1] = f,
+            _ => out.push([f, f]),
+        }
+    }
+    out
 }
 
 /// Every pair's median distance and robust scatter ([`PairMedians`]), rows in parallel.
@@ -210,9 +222,11 @@ mod tests {
     #[test]
     fn a_marker_thrown_off_its_plate_is_masked_in_those_frames_only() {
         let capture = plate(40.0);
-        let (masked, counts) = mask_glitches(&capture, 10, 8.0, 2.0);
+        let (masked, frames) = mask_glitches(&capture, 10, 8.0, 2.0);
         assert!(matches!(masked, Cow::Owned(_)));
-        assert_eq!(counts, vec![20, 0, 0, 0]);
+        assert_eq!(frames[0], (40..60).collect::<Vec<_>>());
+        assert!(frames[1..].iter().all(Vec::is_empty));
+        assert_eq!(runs(&frames[0]), vec![[40, 59]]);
         for f in 0..200 {
             assert_eq!(
                 masked.get(f, 0).is_none(),
@@ -226,10 +240,17 @@ mod tests {
     fn scatter_within_the_bounds_is_no_glitch_and_zero_factor_is_off() {
         // 1 mm is within the 2 mm floor, whatever the scatter.
         let capture = plate(1.0);
-        let (unchanged, counts) = mask_glitches(&capture, 10, 8.0, 2.0);
-        assert_eq!(counts, vec![0; 4]);
+        let (unchanged, frames) = mask_glitches(&capture, 10, 8.0, 2.0);
+        assert!(frames.iter().all(Vec::is_empty));
         // Nothing masked, nothing copied.
         assert!(matches!(unchanged, Cow::Borrowed(_)));
-        assert_eq!(mask_glitches(&plate(40.0), 10, 0.0, 2.0).1, vec![0; 4]);
+        let off = mask_glitches(&plate(40.0), 10, 0.0, 2.0).1;
+        assert!(off.iter().all(Vec::is_empty));
+    }
+
+    #[test]
+    fn frames_become_inclusive_runs() {
+        assert_eq!(runs(&[]), Vec::<[usize; 2]>::new());
+        assert_eq!(runs(&[3, 4, 5, 9, 11, 12]), vec![[3, 5], [9, 9], [11, 12]]);
     }
 }

@@ -93,7 +93,7 @@ fn segment_capture(
     // Glitch samples are gaps to every step below; label swaps are looked for in the
     // capture as it was, since a swapped sample is a glitch to its own segment too.
     let raw = traj;
-    let (unglitched, glitch_frames) = glitch::mask_glitches(
+    let (unglitched, glitch_frames_of) = glitch::mask_glitches(
         raw,
         params.min_overlap_frames,
         params.glitch_factor,
@@ -336,7 +336,17 @@ fn segment_capture(
         .enumerate()
         .map(|(id, markers)| Segment { id, markers })
         .collect();
+    let glitch_frames: Vec<usize> = glitch_frames_of.iter().map(Vec::len).collect();
     let markers = marker_diagnostics(&stats, &glitch_frames, &segments, params);
+    let glitches = glitch_frames_of
+        .iter()
+        .enumerate()
+        .filter(|(_, frames)| !frames.is_empty())
+        .map(|(marker, frames)| Glitch {
+            marker,
+            frames: glitch::runs(frames),
+        })
+        .collect();
     Ok(Segmentation {
         segments,
         unassigned,
@@ -346,6 +356,7 @@ fn segment_capture(
         eigenvalues,
         eigengap_segments,
         swaps: Vec::new(),
+        glitches,
     })
 }
 

@@ -2,11 +2,11 @@
 
 use std::borrow::Cow;
 
-use mocap_io::Trajectories;
+use mocap_io::{MISSING, Trajectories};
 use serde::{Deserialize, Serialize};
 
 /// Schema version of [`Segmentation`]; bump when its fields or the algorithm's output change.
-pub const SCHEMA_VERSION: u32 = 12;
+pub const SCHEMA_VERSION: u32 = 13;
 
 /// The rigid segments found in a capture.
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
@@ -26,9 +26,23 @@ pub struct Segmentation {
     /// Cluster count spectral clustering chose (eigen-gap or forced), before the rigidity check; 0 for cliques.
     pub eigengap_segments: usize,
     /// Pairs of markers whose trajectories the capture has exchanged for a while; later
-    /// stages read the trajectories through [`Segmentation::untangle`].
+    /// stages read the trajectories through [`Segmentation::repaired`].
     #[serde(default)]
     pub swaps: Vec<LabelSwap>,
+    /// Markers' samples read as gaps because they left their steadiest partners (in the
+    /// capture with the swaps undone); later stages read them as gaps too.
+    #[serde(default)]
+    pub glitches: Vec<Glitch>,
+}
+
+/// The frames in which one marker was off its steadiest partners (`glitch_factor`): a
+/// misreconstruction, not the marker's motion.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+pub struct Glitch {
+    /// Marker index into the capture's labels.
+    pub marker: usize,
+    /// Frame index ranges `[first, last]` (0-based, inclusive).
+    pub frames: Vec<[usize; 2]>,
 }
 
 /// Two markers of different segments whose trajectories were exchanged (a tracker
@@ -43,14 +57,36 @@ pub struct LabelSwap {
 }
 
 impl Segmentation {
-    /// The capture's trajectories with every label swap undone: borrowed unchanged when
-    /// there is none.
-    pub fn untangle<'a>(&self, traj: &'a Trajectories) -> Cow<'a, Trajectories> {
-        if self.swaps.is_empty() {
-            Cow::Borrowed(traj)
-        } else {
-            Cow::Owned(untangle(traj, &self.swaps))
+    /// The capture's trajectories as segmentation read them: every label swap undone, then
+    /// every glitch sample missing; borrowed unchanged when there is neither.
+    pub fn repaired<'a>(&self, traj: &'a Trajectories) -> Cow<'a, Trajectories> {
+        if self.swaps.is_empty() && self.glitches.is_empty() {
+            return Cow::Borrowed(traj);
         }
+        let untangled = untangle(traj, &self.swaps);
+        if self.glitches.is_empty() {
+            return Cow::Owned(untangled);
+        }
+        let (n, frames) = (untangled.markers(), untangled.frames());
+        let mut positions = untangled.positions().to_vec();
+        for glitch in self.glitches.iter().filter(|g| g.marker < n) {
+            for &[first, last] in &glitch.frames {
+                for f in first..=last.min(frames.saturating_sub(1)) {
+                    positions[f * n + glitch.marker] = MISSING;
+                }
+            }
+        }
+        // The same samples, some made missing: valid wherever the input was.
+        Cow::Owned(
+            Trajectories::new(
+                untangled.labels().to_vec(),
+                untangled.frame_rate(),
+                untangled.first_frame(),
+                frames,
+                positions,
+            )
+            .unwrap_or(untangled),
+        )
     }
 }
 

@@ -322,12 +322,31 @@ fn a_glitching_marker_stays_with_its_body_and_its_glitch_is_counted() {
         .map(|m| seg.markers[m].glitch_frames)
         .sum();
     assert_eq!(others, 0);
+    // Later stages read the same samples as gaps: exactly the counted ones, all in the jump.
+    assert!(seg.glitches.iter().all(|g| g.marker == 9));
+    let repaired = seg.repaired(&traj);
+    let blanked: Vec<usize> = (0..frames)
+        .filter(|&f| traj.get(f, 9).is_some() && repaired.get(f, 9).is_none())
+        .collect();
+    assert_eq!(blanked.len(), counted);
+    assert!(
+        blanked.iter().all(|f| (300..340).contains(f)),
+        "{blanked:?}"
+    );
+    assert!((0..n).filter(|&m| m != 9).all(|m| {
+        (0..frames).all(|f| traj.get(f, m).is_some() == repaired.get(f, m).is_some())
+    }));
     let unchecked = Params {
         glitch_factor: 0.0,
         ..Params::default()
     };
     let plain = run(&traj, &unchecked).expect("segments");
     assert_eq!(plain.markers[9].glitch_frames, 0);
+    assert!(plain.glitches.is_empty());
+    assert!(matches!(
+        plain.repaired(&traj),
+        std::borrow::Cow::Borrowed(_)
+    ));
     // Its distances to its body steady again (10.7 mm unchecked, 1.2 mm checked).
     let (checked, unchecked) = (
         seg.markers[9].rigidity_residual_mm,

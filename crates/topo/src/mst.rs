@@ -391,6 +391,7 @@ mod tests {
             eigenvalues: Vec::new(),
             eigengap_segments: 0,
             swaps: Vec::new(),
+            glitches: Vec::new(),
         }
     }
 
