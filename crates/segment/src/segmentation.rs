@@ -58,42 +58,34 @@ pub struct LabelSwap {
 
 impl Segmentation {
     /// The capture's trajectories as segmentation read them: every label swap undone, then
-    /// every glitch sample missing; borrowed unchanged when there is neither.
+    /// every glitch sample missing; borrowed unchanged when there is neither. Markers or
+    /// frames out of the capture's range are left alone.
     pub fn repaired<'a>(&self, traj: &'a Trajectories) -> Cow<'a, Trajectories> {
         if self.swaps.is_empty() && self.glitches.is_empty() {
             return Cow::Borrowed(traj);
         }
-        let untangled = untangle(traj, &self.swaps);
-        if self.glitches.is_empty() {
-            return Cow::Owned(untangled);
-        }
-        let (n, frames) = (untangled.markers(), untangled.frames());
-        let mut positions = untangled.positions().to_vec();
+        let (n, frames) = (traj.markers(), traj.frames());
+        let mut positions = untangled_positions(traj, &self.swaps);
         for glitch in self.glitches.iter().filter(|g| g.marker < n) {
             for &[first, last] in &glitch.frames {
-                for f in first..=last.min(frames.saturating_sub(1)) {
+                for f in (first..=last).take_while(|&f| f < frames) {
                     positions[f * n + glitch.marker] = MISSING;
                 }
             }
         }
-        // The same samples, some made missing: valid wherever the input was.
-        Cow::Owned(
-            Trajectories::new(
-                untangled.labels().to_vec(),
-                untangled.frame_rate(),
-                untangled.first_frame(),
-                frames,
-                positions,
-            )
-            .unwrap_or(untangled),
-        )
+        Cow::Owned(with_positions(traj, positions))
     }
 }
 
 /// `traj` with the trajectories of each swap's two markers exchanged back in its frames;
 /// markers or frames out of range are left alone.
 pub fn untangle(traj: &Trajectories, swaps: &[LabelSwap]) -> Trajectories {
-    let n = traj.labels().len();
+    with_positions(traj, untangled_positions(traj, swaps))
+}
+
+/// `traj`'s samples with each swap's two trajectories exchanged back (see [`untangle`]).
+fn untangled_positions(traj: &Trajectories, swaps: &[LabelSwap]) -> Vec<[f64; 3]> {
+    let (n, frames) = (traj.markers(), traj.frames());
     let mut positions = traj.positions().to_vec();
     for swap in swaps {
         let [a, b] = swap.markers;
@@ -101,12 +93,17 @@ pub fn untangle(traj: &Trajectories, swaps: &[LabelSwap]) -> Trajectories {
             continue;
         }
         for &[first, last] in &swap.frames {
-            for f in first..=last.min(traj.frames().saturating_sub(1)) {
+            for f in (first..=last).take_while(|&f| f < frames) {
                 positions.swap(f * n + a, f * n + b);
             }
         }
     }
-    // The same samples rearranged: valid wherever the input was.
+    positions
+}
+
+/// `traj` with its samples replaced by `positions` (rearranged or some made missing, so
+/// valid wherever `traj` was; `traj` itself should they somehow not be).
+fn with_positions(traj: &Trajectories, positions: Vec<[f64; 3]>) -> Trajectories {
     Trajectories::new(
         traj.labels().to_vec(),
         traj.frame_rate(),

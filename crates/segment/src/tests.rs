@@ -750,6 +750,37 @@ fn untangle_exchanges_the_swapped_frames_back() {
         assert_eq!(fixed.get(f, 1), Some([f as f64, 1.0, 0.0]));
         assert_eq!(fixed.get(f, 2), Some([f as f64, c, 0.0]));
     }
+    // Markers and frames the capture does not have are left alone, never a panic.
+    let beyond = Segmentation {
+        segments: Vec::new(),
+        unassigned: Vec::new(),
+        markers: Vec::new(),
+        noise_mm: 0.0,
+        tolerance_mm: 0.0,
+        eigenvalues: Vec::new(),
+        eigengap_segments: 0,
+        swaps: vec![LabelSwap {
+            markers: [0, 7],
+            frames: vec![[0, 3]],
+        }],
+        glitches: vec![
+            crate::Glitch {
+                marker: 1,
+                frames: vec![[3, usize::MAX]],
+            },
+            crate::Glitch {
+                marker: 9,
+                frames: vec![[0, 3]],
+            },
+        ],
+    };
+    let repaired = beyond.repaired(&traj);
+    for f in 0..4 {
+        assert_eq!(repaired.get(f, 0), traj.get(f, 0));
+        assert_eq!(repaired.get(f, 1).is_none(), f == 3, "frame {f}");
+    }
+    let empty = Trajectories::new(traj.labels().to_vec(), 100.0, 1, 0, Vec::new()).unwrap();
+    assert_eq!(beyond.repaired(&empty).frames(), 0);
 }
 
 /// CMU 02_01 segmented with the defaults; `None` (the test says it skipped) without the
