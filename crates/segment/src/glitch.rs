@@ -18,6 +18,8 @@ use std::borrow::Cow;
 use mocap_io::{MISSING, Trajectories};
 use rayon::prelude::*;
 
+use crate::segmentation::with_positions;
+
 /// Steadiest partners each marker is checked against in a frame: the first this many of
 /// its [`CANDIDATES`] steadiest that are seen in it.
 pub(crate) const PARTNERS: usize = 3;
@@ -101,16 +103,7 @@ pub(crate) fn mask_glitches(
             positions[f * n + m] = MISSING;
         }
     }
-    // The same samples, some made missing: valid wherever the input was.
-    let masked = Trajectories::new(
-        traj.labels().to_vec(),
-        traj.frame_rate(),
-        traj.first_frame(),
-        frames,
-        positions,
-    )
-    .map_or(Cow::Borrowed(traj), Cow::Owned);
-    (masked, glitches)
+    (Cow::Owned(with_positions(traj, positions)), glitches)
 }
 
 /// Ascending frame indices as inclusive runs `[first, last]`.

@@ -103,7 +103,7 @@ fn untangled_positions(traj: &Trajectories, swaps: &[LabelSwap]) -> Vec<[f64; 3]
 
 /// `traj` with its samples replaced by `positions` (rearranged or some made missing, so
 /// valid wherever `traj` was; `traj` itself should they somehow not be).
-fn with_positions(traj: &Trajectories, positions: Vec<[f64; 3]>) -> Trajectories {
+pub(crate) fn with_positions(traj: &Trajectories, positions: Vec<[f64; 3]>) -> Trajectories {
     Trajectories::new(
         traj.labels().to_vec(),
         traj.frame_rate(),

@@ -479,6 +479,18 @@ fn synth_trial(subject: synth::Subject, preset: synth::Preset, seed: u64) -> syn
     synth::generate(&config).expect("synthetic trial")
 }
 
+/// A synthetic trial as `cargo xtask eval` makes it: the generator's defaults, 480 frames.
+fn eval_trial(subject: synth::Subject, preset: synth::Preset, seed: u64) -> synth::Trial {
+    let config = synth::SynthConfig {
+        subject,
+        preset,
+        seed,
+        frames: 480,
+        ..synth::SynthConfig::default()
+    };
+    synth::generate(&config).expect("synthetic trial")
+}
+
 /// How many found segments hold markers of `segment` (a true segment's name).
 fn pieces_of(trial: &synth::Trial, seg: &Segmentation, segment: &str) -> usize {
     let labels = trial.trajectories.labels();
@@ -503,14 +515,7 @@ fn pieces_of(trial: &synth::Trial, seg: &Segmentation, segment: &str) -> usize {
 /// back (the foot's own body holds them as well as it holds its markers).
 #[test]
 fn a_pair_skin_cut_from_its_segment_rejoins_it() {
-    let config = synth::SynthConfig {
-        subject: synth::Subject::Human,
-        preset: synth::Preset::Skin,
-        seed: 10008,
-        frames: 480,
-        ..synth::SynthConfig::default()
-    };
-    let trial = synth::generate(&config).expect("synthetic trial");
+    let trial = eval_trial(synth::Subject::Human, synth::Preset::Skin, 10008);
     let traj = &trial.trajectories;
     let seg = run(traj, &Params::default()).expect("segments");
     assert_eq!(
@@ -538,14 +543,7 @@ fn a_pair_skin_cut_from_its_segment_rejoins_it() {
 /// and below the 4.5 it had, where the two stayed one segment.
 #[test]
 fn a_carpus_scoring_just_above_the_joint_threshold_is_cut() {
-    let config = synth::SynthConfig {
-        subject: synth::Subject::Quadruped,
-        preset: synth::Preset::Hard,
-        seed: 4002,
-        frames: 480,
-        ..synth::SynthConfig::default()
-    };
-    let trial = synth::generate(&config).expect("synthetic trial");
+    let trial = eval_trial(synth::Subject::Quadruped, synth::Preset::Hard, 4002);
     let traj = &trial.trajectories;
     let together = |seg: &Segmentation| {
         let labels = traj.labels();
