@@ -34,7 +34,7 @@
 // Index loops read like the matrix formulas they implement.
 #![allow(clippy::needless_range_loop)]
 
-use glam::DVec3;
+use glam::{DMat3, DVec3};
 
 use crate::fit::joint_positions;
 use crate::pairfits::{PairFit, PairFits};
@@ -312,6 +312,83 @@ fn parent_row_floors(
         floors = next;
     }
     floors
+}
+
+/// How far (radians) skin may tilt a hinge's fitted axis without showing in its wobble.
+///
+/// Skin moves a segment's markers with its joints' angles, so each pose turns by an amount
+/// that follows the hinge angle; the relative rotation then looks like a clean hinge about
+/// a tilted axis (hexapod-hard-s1001's tibia joints: 10-33° off, while the true axis
+/// scatters 2-8° per frame and their least wobble is 2.5-6°). No fit of the pair can see
+/// that tilt; its size is about the two poses' smooth rotation error over the hinge's
+/// rotation RMS, `atan(√(θ_a² + θ_b²) / rms)` ([`smooth_pose_rotation`]). White noise
+/// does not follow the angle and averages out of the axis: it counts for nothing here.
+fn skin_tilt(fits: &PairFits, fit: &PairFit) -> f64 {
+    let range = fit.rotation_rms_deg.to_radians();
+    let pose = |x: usize| fits.poses.get(x).map_or(0.0, smooth_pose_rotation);
+    let turn = pose(fit.a).hypot(pose(fit.b));
+    if range > 0.0 && turn.is_finite() {
+        (turn / range).atan()
+    } else {
+        0.0
+    }
+}
+
+/// A segment's per-frame rotation error that is smooth in time (radians): the median RMS
+/// marker misfit as a σ per coordinate, times the rotation a σ of marker error gives the
+/// Horn fit of its reference markers (√tr J⁻¹, J their inertia tensor), times the misfit's
+/// lag-1 autocorrelation (0 for white noise, near 1 for skin), clamped to [0, 1].
+fn smooth_pose_rotation(poses: &crate::pairfits::SegmentPoses) -> f64 {
+    let points: Vec<DVec3> = poses
+        .reference
+        .iter()
+        .map(|&m| DVec3::from_array(m))
+        .filter(|m| m.is_finite())
+        .collect();
+    if points.len() < 3 {
+        return 0.0;
+    }
+    let centroid = points.iter().sum::<DVec3>() / points.len() as f64;
+    let inertia = points.iter().fold(DMat3::ZERO, |j, &p| {
+        let d = p - centroid;
+        j + DMat3::from_diagonal(DVec3::splat(d.length_squared()))
+            - DMat3::from_cols(d * d.x, d * d.y, d * d.z)
+    });
+    // Collinear markers leave the spin about their line free: no finite gain.
+    let trace = inertia.x_axis.x + inertia.y_axis.y + inertia.z_axis.z;
+    let determinant = inertia.determinant();
+    if determinant.is_nan() || determinant <= 1e-12 * trace.powi(3) {
+        return 0.0;
+    }
+    let inverse = inertia.inverse();
+    let gain = (inverse.x_axis.x + inverse.y_axis.y + inverse.z_axis.z)
+        .max(0.0)
+        .sqrt();
+    let mut misfit: Vec<f64> = poses
+        .rms_mm
+        .iter()
+        .copied()
+        .filter(|v| v.is_finite())
+        .collect();
+    if misfit.len() < 3 {
+        return 0.0;
+    }
+    let mean = misfit.iter().sum::<f64>() / misfit.len() as f64;
+    let (mut lagged, mut spread) = (0.0, 0.0);
+    for w in poses.rms_mm.windows(2) {
+        if w[0].is_finite() && w[1].is_finite() {
+            lagged += (w[0] - mean) * (w[1] - mean);
+            spread += 0.5 * ((w[0] - mean).powi(2) + (w[1] - mean).powi(2));
+        }
+    }
+    let smooth = if spread > 0.0 {
+        (lagged / spread).clamp(0.0, 1.0)
+    } else {
+        0.0
+    };
+    misfit.sort_by(f64::total_cmp);
+    let sigma = misfit[misfit.len() / 2] / 3f64.sqrt();
+    smooth * sigma * gain
 }
 
 /// Smallest standard deviation (mm) given to "the bone from a hinge to a neighbouring
@@ -596,8 +673,8 @@ struct MarkerEvidence {
 /// both sides of that plane. One weighted least-squares solve over all hinges takes:
 /// - each joint the child carries (a ball centre, or a hinge centre on its own axis,
 ///   itself unknown): `u·(c_g − c_e) = 0`, σ `BONE_SIGMA_FLOOR_MM` (1 mm), the two fits'
-///   residual RMS and the axis's tilt (the fit's least wobble) times the joint's distance
-///   from the axis;
+///   residual RMS and the axis's tilt (the fit's least wobble, or what skin can tilt it
+///   by unseen, [`skin_tilt`]) times the joint's distance from the axis;
 /// - the child's markers: the midpoint of their extremes along the axis is the centre's
 ///   (markers surround a bone; on the random trees' leaf hinges, from the truth, it misses
 ///   by 13.6 mm on average where their mean misses by 16.1, and by less at every marker
@@ -671,12 +748,18 @@ pub fn place_hinges_across_bones(fits: &mut PairFits, edges: &[(usize, usize, us
             .max(0.0)
     };
     // How far (radians) hinge e's axis may be tilted: its relative rotation's least
-    // wobble, which is 0 for a noise-free hinge. A tilt turns the plane across the axis,
-    // so evidence far from the centre says less.
+    // wobble, which is 0 for a noise-free hinge, or what skin can turn it by unseen
+    // ([`skin_tilt`]), whichever is larger. A tilt turns the plane across the axis, so
+    // evidence far from the centre says less.
+    let skin: Vec<f64> = edges
+        .iter()
+        .map(|&(pair, _, _)| fits.pairs.get(pair).map_or(0.0, |f| skin_tilt(fits, f)))
+        .collect();
     let tilt = |e: usize| {
         fits.pairs
             .get(edges[e].0)
             .map_or(0.0, |f| f.wobble_deg[0].to_radians())
+            .max(skin[e])
             .max(0.0)
     };
     // Evidence of edge e's side x (x one of its segments).
@@ -1173,5 +1256,41 @@ mod tests {
             knee[1] > 0.8 && backwards[1] < 0.01,
             "{knee:?} {backwards:?}"
         );
+    }
+
+    /// Four markers 50 mm out along ±x and ±y: tr J⁻¹ = 5 / (4 · 50²), so a σ of 1.732 mm
+    /// per coordinate (an RMS misfit of 3 mm) turns the pose by 1.732 · √5 / 100 rad.
+    /// A misfit that drifts with the motion counts in full; one that flickers from frame
+    /// to frame (white noise) not at all; nor do collinear markers, whose spin is free.
+    #[test]
+    fn smooth_pose_error_counts_and_white_noise_does_not() {
+        let poses = |reference: Vec<[f64; 3]>, rms_mm: Vec<f64>| crate::pairfits::SegmentPoses {
+            segment: 0,
+            reference,
+            rotations: vec![[0.0, 0.0, 0.0, 1.0]; rms_mm.len()],
+            translations: vec![[0.0; 3]; rms_mm.len()],
+            rms_mm,
+        };
+        let cross = vec![
+            [50.0, 0.0, 0.0],
+            [-50.0, 0.0, 0.0],
+            [0.0, 50.0, 0.0],
+            [0.0, -50.0, 0.0],
+        ];
+        let drifting: Vec<f64> = (0..400)
+            .map(|f| 3.0 + 0.5 * (f as f64 * std::f64::consts::TAU / 200.0).sin())
+            .collect();
+        let flickering: Vec<f64> = (0..400)
+            .map(|f| if f % 2 == 0 { 2.5 } else { 3.5 })
+            .collect();
+        let expected = 3.0 / 3f64.sqrt() * 5f64.sqrt() / 100.0;
+        let smooth = smooth_pose_rotation(&poses(cross.clone(), drifting.clone()));
+        assert!(
+            (smooth / expected - 1.0).abs() < 0.02,
+            "{smooth} vs {expected}"
+        );
+        assert_eq!(smooth_pose_rotation(&poses(cross, flickering)), 0.0);
+        let line = vec![[0.0, 0.0, 0.0], [0.0, 0.0, 50.0], [0.0, 0.0, 100.0]];
+        assert_eq!(smooth_pose_rotation(&poses(line, drifting)), 0.0);
     }
 }
