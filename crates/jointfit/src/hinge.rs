@@ -34,11 +34,11 @@
 // Index loops read like the matrix formulas they implement.
 #![allow(clippy::needless_range_loop)]
 
-use glam::{DMat3, DVec3};
+use glam::DVec3;
 
 use crate::fit::joint_positions;
 use crate::pairfits::{PairFit, PairFits};
-use crate::poses::{Pose, pose_track};
+use crate::poses::{Pose, inverse_inertia, median_rms_mm, pose_track, reference_points};
 
 /// Moves every hinge centre of the tree along its axis (see the module docs) and
 /// recomputes its `centre_in_a`, `centre_in_b` and `positions`.
@@ -339,41 +339,23 @@ fn skin_tilt(fits: &PairFits, fit: &PairFit) -> f64 {
 /// Horn fit of its reference markers (√tr J⁻¹, J their inertia tensor), times the misfit's
 /// lag-1 autocorrelation (0 for white noise, near 1 for skin), clamped to [0, 1].
 fn smooth_pose_rotation(poses: &crate::pairfits::SegmentPoses) -> f64 {
-    let points: Vec<DVec3> = poses
-        .reference
-        .iter()
-        .map(|&m| DVec3::from_array(m))
-        .filter(|m| m.is_finite())
-        .collect();
-    if points.len() < 3 {
-        return 0.0;
-    }
-    let centroid = points.iter().sum::<DVec3>() / points.len() as f64;
-    let inertia = points.iter().fold(DMat3::ZERO, |j, &p| {
-        let d = p - centroid;
-        j + DMat3::from_diagonal(DVec3::splat(d.length_squared()))
-            - DMat3::from_cols(d * d.x, d * d.y, d * d.z)
-    });
-    // Collinear markers leave the spin about their line free: no finite gain.
-    let trace = inertia.x_axis.x + inertia.y_axis.y + inertia.z_axis.z;
-    let determinant = inertia.determinant();
-    if determinant.is_nan() || determinant <= 1e-12 * trace.powi(3) {
-        return 0.0;
-    }
-    let inverse = inertia.inverse();
-    let gain = (inverse.x_axis.x + inverse.y_axis.y + inverse.z_axis.z)
-        .max(0.0)
-        .sqrt();
-    let mut misfit: Vec<f64> = poses
+    let points = reference_points(poses);
+    let finite: Vec<f64> = poses
         .rms_mm
         .iter()
         .copied()
         .filter(|v| v.is_finite())
         .collect();
-    if misfit.len() < 3 {
+    if points.len() < 3 || finite.len() < 3 {
         return 0.0;
     }
-    let mean = misfit.iter().sum::<f64>() / misfit.len() as f64;
+    let (Some(inverse), Some(median)) = (inverse_inertia(&points), median_rms_mm(poses)) else {
+        return 0.0;
+    };
+    let gain = (inverse.x_axis.x + inverse.y_axis.y + inverse.z_axis.z)
+        .max(0.0)
+        .sqrt();
+    let mean = finite.iter().sum::<f64>() / finite.len() as f64;
     let (mut lagged, mut spread) = (0.0, 0.0);
     for w in poses.rms_mm.windows(2) {
         if w[0].is_finite() && w[1].is_finite() {
@@ -386,9 +368,7 @@ fn smooth_pose_rotation(poses: &crate::pairfits::SegmentPoses) -> f64 {
     } else {
         0.0
     };
-    misfit.sort_by(f64::total_cmp);
-    let sigma = misfit[misfit.len() / 2] / 3f64.sqrt();
-    smooth * sigma * gain
+    smooth * median / 3f64.sqrt() * gain
 }
 
 /// Smallest standard deviation (mm) given to "the bone from a hinge to a neighbouring

@@ -466,24 +466,56 @@ pub(crate) fn spin_error_deg(poses: &SegmentPoses) -> Option<f64> {
 /// in a segment without many gaps) and its reference points; `None` for fewer than 3
 /// points or no fit.
 fn fit_scatter(poses: &SegmentPoses) -> Option<(f64, Vec<DVec3>)> {
-    let reference: Vec<DVec3> = poses
+    let reference = reference_points(poses);
+    let n = reference.len() as f64;
+    if n < 3.0 {
+        return None;
+    }
+    Some((scatter_from_rms(median_rms_mm(poses)?, n), reference))
+}
+
+/// A segment's reference points that were ever seen together with the others (mm, local).
+pub(crate) fn reference_points(poses: &SegmentPoses) -> Vec<DVec3> {
+    poses
         .reference
         .iter()
         .map(|r| DVec3::from_array(*r))
         .filter(|r| r.is_finite())
-        .collect();
-    let n = reference.len() as f64;
+        .collect()
+}
+
+/// The median over frames of a segment's RMS marker misfit (mm); `None` without a fit.
+pub(crate) fn median_rms_mm(poses: &SegmentPoses) -> Option<f64> {
     let mut rms: Vec<f64> = poses
         .rms_mm
         .iter()
         .copied()
         .filter(|r| r.is_finite())
         .collect();
-    if n < 3.0 || rms.is_empty() {
+    if rms.is_empty() {
         return None;
     }
     rms.sort_by(f64::total_cmp);
-    Some((scatter_from_rms(rms[rms.len() / 2], n), reference))
+    Some(rms[rms.len() / 2])
+}
+
+/// The inverse of the inertia tensor of `points` about their centroid (mm⁻²): how far a
+/// marker scatter turns a rigid fit of them (linearised least squares). `None` for
+/// collinear points (the least principal moment vanishes against the largest: no bound
+/// on their spin).
+pub(crate) fn inverse_inertia(points: &[DVec3]) -> Option<DMat3> {
+    let centroid = points.iter().copied().sum::<DVec3>() / points.len() as f64;
+    let inertia = points.iter().fold(DMat3::ZERO, |j, &r| {
+        let d = r - centroid;
+        j + DMat3::from_diagonal(DVec3::splat(d.length_squared()))
+            - DMat3::from_cols(d * d.x, d * d.y, d * d.z)
+    });
+    let scale = inertia.x_axis.x + inertia.y_axis.y + inertia.z_axis.z;
+    let determinant = inertia.determinant();
+    if determinant.is_nan() || determinant <= 1e-9 * scale.powi(3) {
+        return None;
+    }
+    Some(inertia.inverse())
 }
 
 /// Variance (rad²) of a segment's pose turn about the two directions across `axis` (unit,
@@ -493,19 +525,7 @@ fn fit_scatter(poses: &SegmentPoses) -> Option<(f64, Vec<DVec3>)> {
 /// without a fit or for collinear points (no bound on their spin).
 pub(crate) fn tilt_variance(poses: &SegmentPoses, axis: DVec3) -> Option<f64> {
     let (sigma, reference) = fit_scatter(poses)?;
-    let centroid = reference.iter().copied().sum::<DVec3>() / reference.len() as f64;
-    let inertia = reference.iter().fold(DMat3::ZERO, |j, &r| {
-        let d = r - centroid;
-        j + DMat3::from_diagonal(DVec3::splat(d.length_squared()))
-            - DMat3::from_cols(d * d.x, d * d.y, d * d.z)
-    });
-    // Collinear points: the least principal moment vanishes against the largest.
-    let scale = inertia.x_axis.x + inertia.y_axis.y + inertia.z_axis.z;
-    let determinant = inertia.determinant();
-    if determinant.is_nan() || determinant <= 1e-9 * scale.powi(3) {
-        return None;
-    }
-    let inverse = inertia.inverse();
+    let inverse = inverse_inertia(&reference)?;
     let trace = inverse.x_axis.x + inverse.y_axis.y + inverse.z_axis.z;
     Some(sigma * sigma * (trace - axis.dot(inverse * axis)).max(0.0))
 }
