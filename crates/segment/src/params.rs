@@ -278,7 +278,7 @@ pub const PARAM_DOCS: &[(&str, &str)] = &[
     ),
     (
         "fit_split_floor",
-        "fit split: the cluster's fit σ must also exceed this × the typical segment's (the median fit σ of the clusters of ≥ 3 markers: skin artefact sets it, not the noise), and tolerance_min_mm; a split piece rejoins a cluster whose union with it stays within this floor and within fit_split_ratio × the two bodies' pooled σ; default 2.0",
+        "fit split: the cluster's fit σ must also exceed this × the typical segment's (the median fit σ of the clusters of ≥ 3 markers: skin artefact sets it, not the noise), and tolerance_min_mm; a split piece rejoins the cluster (of the three it keeps its distances to best) whose union with it stays within this floor, smallest union σ first; default 2.0",
     ),
     (
         "reassign_ratio",
