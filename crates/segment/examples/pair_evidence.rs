@@ -4,20 +4,16 @@
 //! `cargo run --release -p segment --example pair_evidence PATH [key=value ...]`
 #![allow(clippy::print_stdout)]
 
-use std::path::Path;
-
 mod common;
 
 fn main() {
     let args: Vec<String> = std::env::args().skip(1).collect();
-    let Some(path) = args.first() else {
-        println!("usage: pair_evidence PATH [key=value ...]");
+    let Some((_, traj)) = common::capture_from_args(&args, "pair_evidence PATH [key=value ...]")
+    else {
         return;
     };
     let params = common::params_from_overrides(args.iter().skip(1));
-    let capture =
-        mocap_io::read_capture(Path::new(path), &Default::default()).expect("readable capture");
-    let traj = &capture.trajectories;
+    let traj = &traj;
     let seg = segment::run(traj, &params).expect("segmentation");
     let clusters: Vec<Vec<usize>> = seg.segments.iter().map(|s| s.markers.clone()).collect();
     let sigma = segment::typical_fit_sigma(traj, &clusters);
@@ -29,15 +25,7 @@ fn main() {
             if let Some(e) = segment::joint_evidence(traj, a, b, sigma)
                 && e.rotation_z < 8.0
             {
-                println!(
-                    "{i:>2} + {j:>2}: z {:.2} rot {:.2} noise {:.2} centre {:.2} transl {:.2} part {:.2} typ {sigma:.2}",
-                    e.rotation_z,
-                    e.rotation_deg,
-                    e.noise_deg,
-                    e.centre_mm,
-                    e.translation_mm,
-                    e.part_sigma_mm
-                );
+                println!("{i:>2} + {j:>2}: {}", common::evidence_line(&e, sigma));
             }
         }
     }

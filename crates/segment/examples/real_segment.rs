@@ -3,20 +3,16 @@
 //! `cargo run --release -p segment --example real_segment PATH [key=value ...]`
 #![allow(clippy::print_stdout)]
 
-use std::path::Path;
-
 mod common;
 
 fn main() {
     let args: Vec<String> = std::env::args().skip(1).collect();
-    let Some(path) = args.first() else {
-        println!("usage: real_segment PATH [key=value ...]");
+    let Some((path, traj)) = common::capture_from_args(&args, "real_segment PATH [key=value ...]")
+    else {
         return;
     };
     let params = common::params_from_overrides(args.iter().skip(1));
-    let capture =
-        mocap_io::read_capture(Path::new(path), &Default::default()).expect("readable capture");
-    let traj = &capture.trajectories;
+    let traj = &traj;
     let start = std::time::Instant::now();
     let seg = segment::run(traj, &params).expect("segmentation");
     let labels = traj.labels();
@@ -67,14 +63,9 @@ fn main() {
                     .join(",")
             };
             println!(
-                "cut {:>2}: z {:.2} rot {:.2} noise {:.2} centre {:.2} transl {:.2} part {:.2} typ {sigma:.2} [{}] | [{}]",
+                "cut {:>2}: {} [{}] | [{}]",
                 s.id,
-                e.rotation_z,
-                e.rotation_deg,
-                e.noise_deg,
-                e.centre_mm,
-                e.translation_mm,
-                e.part_sigma_mm,
+                common::evidence_line(&e, sigma),
                 names(&a),
                 names(&b)
             );

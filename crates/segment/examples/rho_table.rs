@@ -5,17 +5,15 @@
 //! `cargo run --release -p segment --example rho_table PATH [markers] [neighbours]`
 #![allow(clippy::print_stdout)]
 
-use std::path::Path;
+mod common;
 
 fn main() {
     let args: Vec<String> = std::env::args().skip(1).collect();
-    let Some(path) = args.first() else {
-        println!("usage: rho_table PATH [markers] [neighbours]");
+    let Some((_, traj)) = common::capture_from_args(&args, "rho_table PATH [markers] [neighbours]")
+    else {
         return;
     };
-    let capture =
-        mocap_io::read_capture(Path::new(path), &Default::default()).expect("readable capture");
-    let traj = &capture.trajectories;
+    let traj = &traj;
     let n = args
         .get(1)
         .and_then(|s| s.parse().ok())

@@ -1,4 +1,5 @@
-//! What the segment probes share: a synthetic trial and parameter overrides from argv.
+//! What the segment probes share: a synthetic trial, a real capture and parameter overrides
+//! from argv, and the joint test's evidence as one line.
 
 // Each example compiles this module on its own and uses only part of it.
 #![allow(dead_code)]
@@ -92,4 +93,24 @@ pub fn trial_set_from_args(args: &[String]) -> TrialSet {
         frames: args.get(2).and_then(|s| s.parse().ok()).unwrap_or(480),
         seeds: args.iter().skip(3).filter_map(|s| s.parse().ok()).collect(),
     }
+}
+
+/// The capture whose path is `args[0]` (path, trajectories); prints `usage` and gives `None`
+/// when no path was given.
+pub fn capture_from_args(args: &[String], usage: &str) -> Option<(String, mocap_io::Trajectories)> {
+    let Some(path) = args.first() else {
+        println!("usage: {usage}");
+        return None;
+    };
+    let capture = mocap_io::read_capture(std::path::Path::new(path), &Default::default())
+        .expect("readable capture");
+    Some((path.clone(), capture.trajectories))
+}
+
+/// The joint test's evidence on one line, with the typical segment σ it was weighed by.
+pub fn evidence_line(e: &segment::JointEvidence, typical_sigma_mm: f64) -> String {
+    format!(
+        "z {:.2} rot {:.2} noise {:.2} centre {:.2} transl {:.2} part {:.2} typ {typical_sigma_mm:.2}",
+        e.rotation_z, e.rotation_deg, e.noise_deg, e.centre_mm, e.translation_mm, e.part_sigma_mm
+    )
 }
