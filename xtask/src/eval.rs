@@ -10,6 +10,7 @@
 use std::time::Instant;
 
 use anyhow::{Context as _, Result, anyhow, bail};
+use glam::{DQuat, DVec3};
 use mocap_io::{Capture, CaptureInfo, Format};
 use rayon::prelude::*;
 use serde::Serialize;
@@ -61,7 +62,8 @@ pub struct Args {
     /// Print one JSON object on stdout instead of tables.
     #[arg(long)]
     pub json: bool,
-    /// Under each trial, one line per true joint: kind, estimated kind, error, known.
+    /// Under each trial, one line per true joint: kind, estimated joint and kind, mean and
+    /// worst error, its steady and varying parts in the parent's frame (mm), known %.
     #[arg(long)]
     pub joints: bool,
 }
@@ -133,8 +135,35 @@ pub struct JointResult {
     pub mean_mm: Option<f64>,
     /// Worst centre error, mm.
     pub worst_mm: Option<f64>,
+    /// The error's mean in the true parent segment's frame, length in mm: where the
+    /// estimate puts the centre in that segment, wrong by the same amount every frame.
+    pub steady_mm: Option<f64>,
+    /// RMS of the error about that mean, mm: what changes frame to frame.
+    pub varying_mm: Option<f64>,
     /// Share of the truth's frames where the estimate is known.
     pub known_fraction: f64,
+}
+
+/// A joint's error split into its mean in a moving frame and the RMS about that mean:
+/// `(steady, varying)` in mm, `None` with no frame where both are known. `errors[f]` is the
+/// estimate minus the truth at frame f (global), `rotations[f]` the frame's local → global
+/// rotation `[x, y, z, w]`.
+pub fn error_in_frame(errors: &[Option<[f64; 3]>], rotations: &[[f64; 4]]) -> Option<(f64, f64)> {
+    let (mut sum, mut squares, mut count) = (DVec3::ZERO, 0.0, 0usize);
+    for (e, q) in errors.iter().zip(rotations) {
+        let Some(e) = e.map(DVec3::from_array).filter(|e| e.is_finite()) else {
+            continue;
+        };
+        let local = DQuat::from_array(*q).normalize().inverse() * e;
+        sum += local;
+        squares += local.length_squared();
+        count += 1;
+    }
+    (count > 0).then(|| {
+        let mean = sum / count as f64;
+        let spread = (squares / count as f64 - mean.length_squared()).max(0.0);
+        (mean.length(), spread.sqrt())
+    })
 }
 
 /// The suite the arguments describe, in print order.
@@ -243,6 +272,22 @@ fn evaluate(config: &SynthConfig, params: &Params, result: &mut TrialResult) -> 
         .iter()
         .map(|j| {
             let matched = score.joints.iter().find(|s| s.truth == j.name);
+            let split = matched.and_then(|m| {
+                let e = estimate.joints.iter().find(|e| e.name == m.estimate)?;
+                let scale = estimate.scale();
+                let errors: Vec<Option<[f64; 3]>> = j
+                    .positions
+                    .iter()
+                    .zip(&e.positions)
+                    .map(|(t, p)| p.map(|p| std::array::from_fn(|i| p[i] * scale - t[i])))
+                    .collect();
+                let segments = trial.truth.segments.len();
+                let rotations: Vec<[f64; 4]> = (0..errors.len())
+                    .filter_map(|f| trial.segment_rotations.get(f * segments + j.parent_segment))
+                    .copied()
+                    .collect();
+                error_in_frame(&errors, &rotations)
+            });
             let estimate_name = matched.map(|m| m.estimate.clone());
             let estimated_kind = estimate_name.as_ref().and_then(|name| {
                 estimate
@@ -258,6 +303,8 @@ fn evaluate(config: &SynthConfig, params: &Params, result: &mut TrialResult) -> 
                 estimated_kind,
                 mean_mm: matched.and_then(|m| m.mean_mm),
                 worst_mm: matched.and_then(|m| m.worst_mm),
+                steady_mm: split.map(|(steady, _)| steady),
+                varying_mm: split.map(|(_, varying)| varying),
                 known_fraction: matched.map_or(0.0, |m| m.known_fraction),
             }
         })
@@ -447,13 +494,15 @@ fn print_joints(joints: &[JointResult]) {
     let opt = |x: Option<f64>| x.map_or_else(|| "-".into(), |v| fmt_f(v, 1));
     for j in joints {
         println!(
-            "    {:<14} {:<9} {:<14} {:<9} {:>8} {:>8} {:>6}",
+            "    {:<14} {:<9} {:<14} {:<9} {:>8} {:>8} {:>8} {:>8} {:>6}",
             j.truth,
             j.kind,
             j.estimate.as_deref().unwrap_or("(missed)"),
             j.estimated_kind.as_deref().unwrap_or("-"),
             opt(j.mean_mm),
             opt(j.worst_mm),
+            opt(j.steady_mm),
+            opt(j.varying_mm),
             fmt_f(j.known_fraction * 100.0, 1),
         );
     }
@@ -701,6 +750,33 @@ mod tests {
     use super::*;
 
     #[test]
+    fn error_in_a_turning_frame_is_steady_when_fixed_in_it() {
+        // A frame turning a full circle about z; an offset of 10 mm along its local x.
+        let frames = 360;
+        let rotations: Vec<[f64; 4]> = (0..frames)
+            .map(|f| DQuat::from_rotation_z((f as f64).to_radians()).to_array())
+            .collect();
+        let fixed: Vec<Option<[f64; 3]>> = rotations
+            .iter()
+            .map(|q| Some((DQuat::from_array(*q) * DVec3::new(10.0, 0.0, 0.0)).to_array()))
+            .collect();
+        let (steady, varying) = error_in_frame(&fixed, &rotations).unwrap();
+        assert!(
+            (steady - 10.0).abs() < 1e-9 && varying < 1e-6,
+            "{steady} {varying}"
+        );
+        // The same offset fixed in the global frame turns in the segment's: all varying.
+        let global = vec![Some([10.0, 0.0, 0.0]); frames];
+        let (steady, varying) = error_in_frame(&global, &rotations).unwrap();
+        assert!(
+            steady < 1e-9 && (varying - 10.0).abs() < 1e-9,
+            "{steady} {varying}"
+        );
+        // Unknown frames are skipped; none known, no split.
+        assert!(error_in_frame(&[None, None], &rotations).is_none());
+    }
+
+    #[test]
     fn seeds_take_ranges_and_say_what_is_wrong() {
         let list =
             |items: &[&str]| seed_list(&items.iter().map(|s| s.to_string()).collect::<Vec<_>>());
@@ -847,6 +923,8 @@ mod tests {
             estimated_kind: estimate.map(|_| "hinge".into()),
             mean_mm: None,
             worst_mm: None,
+            steady_mm: None,
+            varying_mm: None,
             known_fraction: 1.0,
         };
         let mut a = result("human", "hard", true, 1.0);

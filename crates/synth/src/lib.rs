@@ -49,6 +49,10 @@ pub struct Trial {
     pub trajectories: Trajectories,
     /// What the trajectories really show.
     pub truth: Truth,
+    /// Each segment's local → global rotation per frame as a quaternion `[x, y, z, w]`,
+    /// `[frame * segments + segment]` (segment frames have the global axes at the rest
+    /// pose); in memory only, for scoring errors in a segment's own frame.
+    pub segment_rotations: Vec<[f64; 4]>,
 }
 
 impl Trial {
@@ -150,6 +154,7 @@ pub fn generate(config: &SynthConfig) -> Result<Trial, Error> {
         name: truth.name.clone(),
         trajectories,
         truth,
+        segment_rotations: motion.rot.iter().map(|q| q.to_array()).collect(),
     })
 }
 

@@ -119,7 +119,7 @@ impl Estimate {
     }
 
     /// Millimetres per unit of `positions`.
-    fn scale(&self) -> f64 {
+    pub fn scale(&self) -> f64 {
         match self.units.trim().to_ascii_lowercase().as_str() {
             "cm" => 10.0,
             "m" => 1000.0,
