@@ -266,6 +266,7 @@ fn evaluate(config: &SynthConfig, params: &Params, result: &mut TrialResult) -> 
         .context("skeleton.json does not parse as an Estimate")?;
     let score = synth::score::score(&trial.truth, &estimate);
     fill_from_score(result, &score);
+    let (scale, segments) = (estimate.scale(), trial.truth.segments.len());
     result.joints = trial
         .truth
         .joints
@@ -274,14 +275,12 @@ fn evaluate(config: &SynthConfig, params: &Params, result: &mut TrialResult) -> 
             let matched = score.joints.iter().find(|s| s.truth == j.name);
             let split = matched.and_then(|m| {
                 let e = estimate.joints.iter().find(|e| e.name == m.estimate)?;
-                let scale = estimate.scale();
                 let errors: Vec<Option<[f64; 3]>> = j
                     .positions
                     .iter()
                     .zip(&e.positions)
                     .map(|(t, p)| p.map(|p| std::array::from_fn(|i| p[i] * scale - t[i])))
                     .collect();
-                let segments = trial.truth.segments.len();
                 let rotations: Vec<[f64; 4]> = (0..errors.len())
                     .filter_map(|f| trial.segment_rotations.get(f * segments + j.parent_segment))
                     .copied()
