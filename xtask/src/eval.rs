@@ -66,6 +66,11 @@ pub struct Args {
     /// worst error, its steady and varying parts in the parent's frame (mm), known %.
     #[arg(long)]
     pub joints: bool,
+    /// Give the later stages the true segments instead of the segment stage's, to tell
+    /// how much of the error the segmentation causes (a diagnostic: the truth is not
+    /// something a capture has).
+    #[arg(long)]
+    pub true_segments: bool,
 }
 
 /// One trial of the suite.
@@ -211,7 +216,7 @@ pub fn suite(args: &Args) -> Result<Vec<TrialSpec>> {
 
 /// Generates, runs and scores one trial. Any failure (generator, pipeline, an unreadable
 /// skeleton.json) is recorded in the result, so one bad trial does not hide the others.
-pub fn run_trial(spec: &TrialSpec, params: &Params) -> TrialResult {
+pub fn run_trial(spec: &TrialSpec, params: &Params, true_segments: bool) -> TrialResult {
     let config = &spec.config;
     let mut result = TrialResult {
         trial: config.trial_name(),
@@ -235,22 +240,32 @@ pub fn run_trial(spec: &TrialSpec, params: &Params) -> TrialResult {
         error: None,
         joints: Vec::new(),
     };
-    if let Err(e) = evaluate(config, params, &mut result) {
+    if let Err(e) = evaluate(config, params, true_segments, &mut result) {
         result.error = Some(format!("{e:#}"));
     }
     result
 }
 
-fn evaluate(config: &SynthConfig, params: &Params, result: &mut TrialResult) -> Result<()> {
+fn evaluate(
+    config: &SynthConfig,
+    params: &Params,
+    true_segments: bool,
+    result: &mut TrialResult,
+) -> Result<()> {
     let trial = synth::generate(config).context("generating the trial")?;
     result.true_segments = trial.truth.segments.len();
+    let truth_groups = trial.true_segment_markers();
     let capture = Capture {
         format: Format::C3d,
         trajectories: trial.trajectories,
         info: CaptureInfo::default(),
     };
     let start = Instant::now();
-    let ran = pipeline::run_in_memory(capture, params);
+    let ran = pipeline::run_in_memory_with(capture, params, |seg| {
+        if true_segments {
+            put_true_segments(seg, &truth_groups);
+        }
+    });
     result.seconds = start.elapsed().as_secs_f64();
     let (products, _) = ran?;
     result.segments = products
@@ -327,12 +342,57 @@ fn fill_from_score(result: &mut TrialResult, score: &synth::score::Score) {
     result.kind_accuracy = nan(score.kind_accuracy);
 }
 
+/// Replaces the segment stage's groups with the true ones (markers on no true segment
+/// become unassigned). The per-marker diagnostics other than the segment stay the stage's.
+fn put_true_segments(seg: &mut segment::Segmentation, truth: &[Vec<usize>]) {
+    let mut groups: Vec<Vec<usize>> = truth
+        .iter()
+        .filter(|markers| !markers.is_empty())
+        .map(|markers| {
+            let mut markers = markers.clone();
+            markers.sort_unstable();
+            markers
+        })
+        .collect();
+    // The stage's order: by smallest marker index.
+    groups.sort_unstable_by_key(|markers| markers[0]);
+    seg.segments = groups
+        .into_iter()
+        .enumerate()
+        .map(|(id, markers)| segment::Segment { id, markers })
+        .collect();
+    for d in &mut seg.markers {
+        d.segment = None;
+    }
+    for s in &seg.segments {
+        for &m in &s.markers {
+            if let Some(d) = seg.markers.get_mut(m) {
+                d.segment = Some(s.id);
+            }
+        }
+    }
+    let stage_said: Vec<segment::UnassignedMarker> = std::mem::take(&mut seg.unassigned);
+    seg.unassigned = (0..seg.markers.len())
+        .filter(|&m| seg.markers[m].segment.is_none())
+        .map(|m| {
+            stage_said
+                .iter()
+                .find(|u| u.marker == m)
+                .cloned()
+                .unwrap_or_else(|| segment::UnassignedMarker {
+                    marker: m,
+                    reason: "on no true segment".into(),
+                })
+        })
+        .collect();
+}
+
 /// Runs the suite with one parameter set; results in suite order.
-pub fn run_suite(specs: &[TrialSpec], params: &Params) -> Vec<TrialResult> {
+pub fn run_suite(specs: &[TrialSpec], params: &Params, true_segments: bool) -> Vec<TrialResult> {
     // Trials are independent: run them in parallel, collect, then print in order.
     specs
         .par_iter()
-        .map(|spec| run_trial(spec, params))
+        .map(|spec| run_trial(spec, params, true_segments))
         .collect()
 }
 
@@ -394,7 +454,12 @@ pub fn main(args: &Args) -> Result<()> {
     let specs = suite(args)?;
     let settings = generator_settings(&specs);
     eprintln!("generator: {settings}");
-    let variants = variants(args)?;
+    let mut variants = variants(args)?;
+    if args.true_segments {
+        for v in &mut variants {
+            v.label.push_str(", true segments");
+        }
+    }
     let pool = rayon::ThreadPoolBuilder::new()
         .num_threads(args.jobs.unwrap_or(0))
         .build()
@@ -403,7 +468,7 @@ pub fn main(args: &Args) -> Result<()> {
     for v in &variants {
         let start = Instant::now();
         eprintln!("eval {}: {} trials...", v.label, specs.len());
-        let results = pool.install(|| run_suite(&specs, &v.params));
+        let results = pool.install(|| run_suite(&specs, &v.params, args.true_segments));
         all.push((v.label.clone(), results, start.elapsed().as_secs_f64()));
     }
     if args.json {
@@ -747,6 +812,60 @@ fn seed_list(items: &[String]) -> Result<Vec<u64>> {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn true_segments_replace_the_stages_groups() {
+        let diagnostics = |segment| segment::MarkerDiagnostics {
+            segment,
+            visible_frames: 100,
+            glitch_frames: 0,
+            rigidity_residual_mm: 1.0,
+            slides: false,
+        };
+        // The stage: {0, 1}, {2, 3}, marker 4 unassigned.
+        let mut seg = segment::Segmentation {
+            segments: vec![
+                segment::Segment {
+                    id: 0,
+                    markers: vec![0, 1],
+                },
+                segment::Segment {
+                    id: 1,
+                    markers: vec![2, 3],
+                },
+            ],
+            unassigned: vec![segment::UnassignedMarker {
+                marker: 4,
+                reason: "visible in 3 of 100 frames".into(),
+            }],
+            markers: vec![
+                diagnostics(Some(0)),
+                diagnostics(Some(0)),
+                diagnostics(Some(1)),
+                diagnostics(Some(1)),
+                diagnostics(None),
+            ],
+            noise_mm: 1.0,
+            tolerance_mm: 5.0,
+            eigenvalues: Vec::new(),
+            eigengap_segments: 2,
+            swaps: Vec::new(),
+            glitches: Vec::new(),
+        };
+        // The truth: {3, 4} and {2, 0}; marker 1 on none; an empty segment.
+        put_true_segments(&mut seg, &[vec![3, 4], vec![2, 0], vec![]]);
+        let groups: Vec<(usize, Vec<usize>)> = seg
+            .segments
+            .iter()
+            .map(|s| (s.id, s.markers.clone()))
+            .collect();
+        assert_eq!(groups, vec![(0, vec![0, 2]), (1, vec![3, 4])]);
+        let of: Vec<Option<usize>> = seg.markers.iter().map(|d| d.segment).collect();
+        assert_eq!(of, vec![Some(0), None, Some(0), Some(1), Some(1)]);
+        assert_eq!(seg.unassigned.len(), 1);
+        assert_eq!(seg.unassigned[0].marker, 1);
+        assert_eq!(seg.unassigned[0].reason, "on no true segment");
+    }
 
     #[test]
     fn error_in_a_turning_frame_is_steady_when_fixed_in_it() {

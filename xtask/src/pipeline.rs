@@ -593,16 +593,32 @@ fn load_checked(
 ///
 /// Returns the products and the time of each stage (mocap-io not included).
 pub fn run_in_memory(capture: Capture, params: &Params) -> Result<(Products, Vec<StageRun>)> {
+    run_in_memory_with(capture, params, |_| {})
+}
+
+/// As [`run_in_memory`], with `adjust` applied to the segmentation before the later stages
+/// read it (eval's `--true-segments` puts the true groups there).
+pub fn run_in_memory_with(
+    capture: Capture,
+    params: &Params,
+    adjust: impl FnOnce(&mut segment::Segmentation),
+) -> Result<(Products, Vec<StageRun>)> {
     let mut products = Products {
         capture: Some(capture),
         ..Products::default()
     };
     let mut runs = Vec::new();
+    let mut adjust = Some(adjust);
     for stage in &StageId::ALL[1..] {
         let start = Instant::now();
-        let payload = products
+        let mut payload = products
             .compute(*stage, params, None)
             .with_context(|| format!("stage {} failed", stage.name()))?;
+        if let Payload::Segmentation(seg) = &mut payload
+            && let Some(adjust) = adjust.take()
+        {
+            adjust(seg);
+        }
         products.put(payload);
         runs.push(StageRun {
             name: stage.name(),
