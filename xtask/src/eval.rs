@@ -63,7 +63,8 @@ pub struct Args {
     #[arg(long)]
     pub json: bool,
     /// Under each trial, one line per true joint: kind, estimated joint and kind, mean and
-    /// worst error, its steady and varying parts in the parent's frame (mm), known %.
+    /// worst error, its steady and varying parts in the parent's frame (mm), known %; then
+    /// each estimated joint no true joint matched, by the true segments it joins.
     #[arg(long)]
     pub joints: bool,
     /// Give the later stages the true segments instead of the segment stage's, to tell
@@ -123,6 +124,9 @@ pub struct TrialResult {
     pub error: Option<String>,
     /// Per true joint, in the truth's order.
     pub joints: Vec<JointResult>,
+    /// Estimated joints no true joint matched, as "name: parent → child", each segment named
+    /// by the true segment most of its markers are on.
+    pub extra_joints: Vec<String>,
 }
 
 /// How one true joint did in a trial.
@@ -239,6 +243,7 @@ pub fn run_trial(spec: &TrialSpec, params: &Params, true_segments: bool) -> Tria
         seconds: 0.0,
         error: None,
         joints: Vec::new(),
+        extra_joints: Vec::new(),
     };
     if let Err(e) = evaluate(config, params, true_segments, &mut result) {
         result.error = Some(format!("{e:#}"));
@@ -323,7 +328,50 @@ fn evaluate(
             }
         })
         .collect();
+    result.extra_joints = extra_joints(&trial.truth, &estimate, &score);
     Ok(())
+}
+
+/// The estimated joints no true joint matched, named by the true segments they join.
+fn extra_joints(
+    truth: &synth::Truth,
+    estimate: &synth::score::Estimate,
+    score: &synth::score::Score,
+) -> Vec<String> {
+    let true_segment_of = |label: &str| {
+        truth
+            .segments
+            .iter()
+            .position(|s| s.markers.iter().any(|m| m == label))
+    };
+    // Each estimated segment's majority true segment (ties to the lower index).
+    let name_of = |segment: usize| {
+        let Some(s) = estimate.segments.iter().find(|s| s.id == segment) else {
+            return format!("segment {segment}");
+        };
+        let mut counts = vec![0usize; truth.segments.len()];
+        for t in s.markers.iter().filter_map(|m| true_segment_of(m)) {
+            counts[t] += 1;
+        }
+        let best = (0..counts.len()).rev().max_by_key(|&t| counts[t]);
+        match best {
+            Some(t) if counts[t] > 0 => truth.segments[t].name.clone(),
+            _ => format!("segment {segment}"),
+        }
+    };
+    estimate
+        .joints
+        .iter()
+        .filter(|e| !score.joints.iter().any(|m| m.estimate == e.name))
+        .map(|e| {
+            format!(
+                "{}: {} → {}",
+                e.name,
+                name_of(e.parent_segment),
+                name_of(e.child_segment)
+            )
+        })
+        .collect()
 }
 
 /// Copies the scorer's figures into a result.
@@ -550,6 +598,9 @@ fn print_table(results: &[TrialResult], joints: bool) {
         );
         if joints {
             print_joints(&r.joints);
+            for extra in &r.extra_joints {
+                println!("    extra          {extra}");
+            }
         }
     }
 }
@@ -814,6 +865,35 @@ mod tests {
     use super::*;
 
     #[test]
+    fn extra_joints_are_named_by_the_true_segments_they_join() {
+        let trial = synth::generate(&SynthConfig {
+            subject: Subject::Human,
+            frames: 60,
+            seed: 11,
+            ..SynthConfig::default()
+        })
+        .unwrap();
+        let truth = &trial.truth;
+        let mut estimate = synth::score::Estimate::from_truth(truth);
+        let score = synth::score::score(truth, &estimate);
+        assert!(extra_joints(truth, &estimate, &score).is_empty());
+        // Hang the left foot on the right thigh: no true joint matches that.
+        let id = |name: &str| truth.segments.iter().position(|s| s.name == name).unwrap();
+        let ankle = estimate
+            .joints
+            .iter_mut()
+            .find(|j| j.child_segment == id("l_foot"))
+            .unwrap();
+        ankle.parent_segment = id("r_thigh");
+        let name = ankle.name.clone();
+        let score = synth::score::score(truth, &estimate);
+        assert_eq!(
+            extra_joints(truth, &estimate, &score),
+            vec![format!("{name}: r_thigh → l_foot")]
+        );
+    }
+
+    #[test]
     fn true_segments_replace_the_stages_groups() {
         let diagnostics = |segment| segment::MarkerDiagnostics {
             segment,
@@ -1004,6 +1084,7 @@ mod tests {
             seconds: 0.1,
             error: None,
             joints: Vec::new(),
+            extra_joints: Vec::new(),
         }
     }
 
