@@ -22,8 +22,11 @@
 //!   of those pairs about as cheap, and it turns clearly more than either: its motion
 //!   composes theirs) is taken after them (`composite_rotation_ratio`): with skin, two
 //!   clavicles on the sternum fit a common centre as well as each fits the thorax.
-//! - Root: the tree's centre (minimum eccentricity in hops), ties by most markers, then
-//!   lowest id; it lands on the pelvis or torso of a human and the body of an animal.
+//! - Root: the tree's centre (minimum eccentricity in hops), ties by the smaller sum of
+//!   hops to every segment, then most markers, then the smaller mean distance to the
+//!   other segments over the capture, then lowest id; it lands on the pelvis or torso of
+//!   a human and the body of an animal, and not on whichever of two like centres the
+//!   capture's marker order numbered first (the root shapes every chained pose below it).
 //!   `topo.root` forces a segment id (its component becomes the tree).
 //!
 //! It does not fit joints, bone lengths or rotations (jointfit and bonefit do), and does

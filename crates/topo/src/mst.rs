@@ -161,7 +161,9 @@ pub fn run(seg: &Segmentation, fits: &PairFits, params: &Params) -> Result<Topol
 
     let root_segment = match params.root {
         Some(root) => root,
-        None => centre(&tree_set, &adjacency, &marker_count),
+        None => centre(&tree_set, &adjacency, &marker_count, |s| {
+            spatial_spread(fits, &tree_set, s)
+        }),
     };
 
     // Breadth-first from the root: every parent joint before its children.
@@ -290,10 +292,20 @@ fn composite_of(
         .min_by(f64::total_cmp)
 }
 
-/// The tree's centre: minimum eccentricity in hops, ties by most markers, then lowest id.
-fn centre(tree: &[usize], adjacency: &[Vec<(usize, usize, f64)>], marker_count: &[usize]) -> usize {
+/// The tree's centre: minimum eccentricity in hops, ties by the smaller sum of hops to
+/// every segment (the centre with more of the tree on its side), then by most markers,
+/// then by the smaller mean distance to the tree's other segments over the capture
+/// (`spread`), then lowest id. Nothing before the last key depends on how the segments
+/// happen to be numbered (the capture's marker order).
+fn centre(
+    tree: &[usize],
+    adjacency: &[Vec<(usize, usize, f64)>],
+    marker_count: &[usize],
+    spread: impl Fn(usize) -> f64,
+) -> usize {
     let n = adjacency.len();
-    let mut best: Option<(usize, usize, usize)> = None; // (eccentricity, markers, id)
+    // (eccentricity, sum of hops, fewer markers first reversed), per segment of the tree.
+    let mut keys = Vec::with_capacity(tree.len());
     let mut hops = vec![usize::MAX; n];
     let mut queue = VecDeque::new();
     for &s in tree {
@@ -301,9 +313,10 @@ fn centre(tree: &[usize], adjacency: &[Vec<(usize, usize, f64)>], marker_count: 
         hops[s] = 0;
         queue.clear();
         queue.push_back(s);
-        let mut eccentricity = 0;
+        let (mut eccentricity, mut total) = (0, 0);
         while let Some(u) = queue.pop_front() {
             eccentricity = eccentricity.max(hops[u]);
+            total += hops[u];
             for &(v, _, _) in &adjacency[u] {
                 if hops[v] == usize::MAX {
                     hops[v] = hops[u] + 1;
@@ -311,17 +324,57 @@ fn centre(tree: &[usize], adjacency: &[Vec<(usize, usize, f64)>], marker_count: 
                 }
             }
         }
-        let candidate = (eccentricity, marker_count[s], s);
-        best = match best {
-            None => Some(candidate),
-            Some(b) => {
-                let better = candidate.0 < b.0 || (candidate.0 == b.0 && candidate.1 > b.1);
-                // Same eccentricity and markers: `tree` is ascending, so the first stays.
-                Some(if better { candidate } else { b })
-            }
-        };
+        keys.push(((eccentricity, total, std::cmp::Reverse(marker_count[s])), s));
     }
-    best.map_or(0, |b| b.2)
+    let Some(best) = keys.iter().map(|k| k.0).min() else {
+        return 0;
+    };
+    // `tree` is ascending, so the lowest id comes first among exact ties.
+    let tied: Vec<usize> = keys.iter().filter(|k| k.0 == best).map(|k| k.1).collect();
+    if tied.len() == 1 {
+        return tied[0];
+    }
+    let spreads: Vec<f64> = tied.iter().map(|&s| spread(s)).collect();
+    let mut pick = 0;
+    for (i, &d) in spreads.iter().enumerate() {
+        if d < spreads[pick] {
+            pick = i;
+        }
+    }
+    tied[pick]
+}
+
+/// Mean over the tree's other segments of the mean distance (mm) between their pose
+/// origins (marker centroids) and segment `s`'s, over the frames where both are posed:
+/// small for the segment in the middle of the body. Infinite when nothing is posed.
+fn spatial_spread(fits: &PairFits, tree: &[usize], s: usize) -> f64 {
+    let Some(own) = fits.poses.get(s) else {
+        return f64::INFINITY;
+    };
+    let mut sum = 0.0;
+    let mut count = 0usize;
+    for &u in tree.iter().filter(|&&u| u != s) {
+        let Some(other) = fits.poses.get(u) else {
+            continue;
+        };
+        let (mut total, mut frames) = (0.0, 0usize);
+        for (a, b) in own.translations.iter().zip(&other.translations) {
+            let d = ((a[0] - b[0]).powi(2) + (a[1] - b[1]).powi(2) + (a[2] - b[2]).powi(2)).sqrt();
+            if d.is_finite() {
+                total += d;
+                frames += 1;
+            }
+        }
+        if frames > 0 {
+            sum += total / frames as f64;
+            count += 1;
+        }
+    }
+    if count == 0 {
+        f64::INFINITY
+    } else {
+        sum / count as f64
+    }
 }
 
 /// Union–find with path halving and union by size.
@@ -535,7 +588,7 @@ mod tests {
     }
 
     #[test]
-    fn centre_ties_go_to_most_markers_then_lowest_id() {
+    fn centre_ties_go_to_most_markers_then_lowest_id_where_nothing_else_differs() {
         // Chain 0-1-2-3: centres 1 and 2 (eccentricity 2).
         let edges = [(0, 1), (1, 2), (2, 3)];
         let f = fits(4, tree_costs(&edges));
@@ -547,6 +600,34 @@ mod tests {
         assert_eq!(t.joints[1].name, "j2");
         assert_eq!(t.joints[2].name, "j3");
         assert_eq!(t.joints[2].parent_joint, Some(1));
+    }
+
+    #[test]
+    fn centre_ties_go_by_the_trees_shape_then_by_where_segments_are_not_by_id() {
+        // Centres 3 and 1 (eccentricity 2); 3 carries two leaves (0, 4), 1 one (2): 3 is
+        // nearer the rest in hops (5 against 6), though its id is higher.
+        let edges = [(3, 1), (3, 0), (3, 4), (1, 2)];
+        let t = run(
+            &segmentation(&[3; 5]),
+            &fits(5, tree_costs(&edges)),
+            &Params::default(),
+        )
+        .unwrap();
+        assert_eq!(t.root_segment, 3);
+        // Chain 0-1-2-3, a tie in hops and markers: segment 2 sits nearer the others
+        // (mean distance 90.5 mm against 110).
+        let mut f = fits(4, tree_costs(&[(0, 1), (1, 2), (2, 3)]));
+        let at = [
+            [0.0, 0.0, 0.0],
+            [100.0, 0.0, 0.0],
+            [100.0, 100.0, 0.0],
+            [100.0, 130.0, 0.0],
+        ];
+        for (pose, p) in f.poses.iter_mut().zip(at) {
+            pose.translations = vec![p, p];
+        }
+        let t = run(&segmentation(&[3; 4]), &f, &Params::default()).unwrap();
+        assert_eq!(t.root_segment, 2);
     }
 
     #[test]
