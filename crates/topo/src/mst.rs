@@ -304,7 +304,8 @@ fn centre(
     spread: impl Fn(usize) -> f64,
 ) -> usize {
     let n = adjacency.len();
-    // (eccentricity, sum of hops, fewer markers first reversed), per segment of the tree.
+    // Per segment of the tree: (eccentricity, sum of hops, markers reversed so that more
+    // sorts first), and its id.
     let mut keys = Vec::with_capacity(tree.len());
     let mut hops = vec![usize::MAX; n];
     let mut queue = VecDeque::new();
