@@ -259,7 +259,7 @@ fn evaluate(
 ) -> Result<()> {
     let trial = synth::generate(config).context("generating the trial")?;
     result.true_segments = trial.truth.segments.len();
-    let truth_groups = trial.true_segment_markers();
+    let truth_groups = true_segments.then(|| trial.true_segment_markers());
     let capture = Capture {
         format: Format::C3d,
         trajectories: trial.trajectories,
@@ -267,8 +267,8 @@ fn evaluate(
     };
     let start = Instant::now();
     let ran = pipeline::run_in_memory_with(capture, params, |seg| {
-        if true_segments {
-            put_true_segments(seg, &truth_groups);
+        if let Some(groups) = &truth_groups {
+            put_true_segments(seg, groups);
         }
     });
     result.seconds = start.elapsed().as_secs_f64();
@@ -293,8 +293,9 @@ fn evaluate(
         .iter()
         .map(|j| {
             let matched = score.joints.iter().find(|s| s.truth == j.name);
-            let split = matched.and_then(|m| {
-                let e = estimate.joints.iter().find(|e| e.name == m.estimate)?;
+            let estimated =
+                matched.and_then(|m| estimate.joints.iter().find(|e| e.name == m.estimate));
+            let split = estimated.and_then(|e| {
                 let errors: Vec<Option<[f64; 3]>> = j
                     .positions
                     .iter()
@@ -307,19 +308,11 @@ fn evaluate(
                     .collect();
                 error_in_frame(&errors, &rotations)
             });
-            let estimate_name = matched.map(|m| m.estimate.clone());
-            let estimated_kind = estimate_name.as_ref().and_then(|name| {
-                estimate
-                    .joints
-                    .iter()
-                    .find(|e| &e.name == name)
-                    .map(|e| e.kind.clone())
-            });
             JointResult {
                 truth: j.name.clone(),
                 kind: j.kind.clone(),
-                estimate: estimate_name,
-                estimated_kind,
+                estimate: matched.map(|m| m.estimate.clone()),
+                estimated_kind: estimated.map(|e| e.kind.clone()),
                 mean_mm: matched.and_then(|m| m.mean_mm),
                 worst_mm: matched.and_then(|m| m.worst_mm),
                 steady_mm: split.map(|(steady, _)| steady),

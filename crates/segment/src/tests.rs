@@ -470,22 +470,26 @@ fn ari(a: &[usize], b: &[usize]) -> f64 {
 
 /// A synthetic trial with the generator's defaults.
 fn synth_trial(subject: synth::Subject, preset: synth::Preset, seed: u64) -> synth::Trial {
-    let config = synth::SynthConfig {
-        subject,
-        preset,
-        seed,
-        ..synth::SynthConfig::default()
-    };
-    synth::generate(&config).expect("synthetic trial")
+    trial_of(subject, preset, seed, synth::SynthConfig::default().frames)
 }
 
 /// A synthetic trial as `cargo xtask eval` makes it: the generator's defaults, 480 frames.
 fn eval_trial(subject: synth::Subject, preset: synth::Preset, seed: u64) -> synth::Trial {
+    trial_of(subject, preset, seed, 480)
+}
+
+/// A synthetic trial with the generator's defaults but its length.
+fn trial_of(
+    subject: synth::Subject,
+    preset: synth::Preset,
+    seed: u64,
+    frames: usize,
+) -> synth::Trial {
     let config = synth::SynthConfig {
         subject,
         preset,
         seed,
-        frames: 480,
+        frames,
         ..synth::SynthConfig::default()
     };
     synth::generate(&config).expect("synthetic trial")
