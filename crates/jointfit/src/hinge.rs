@@ -38,7 +38,7 @@ use glam::DVec3;
 
 use crate::fit::joint_positions;
 use crate::pairfits::{PairFit, PairFits};
-use crate::poses::{Pose, inverse_inertia, median_rms_mm, pose_track, reference_points};
+use crate::poses::{Pose, inverse_inertia, median_rms_mm, pose_track, reference_points, trace};
 
 /// Moves every hinge centre of the tree along its axis (see the module docs) and
 /// recomputes its `centre_in_a`, `centre_in_b` and `positions`.
@@ -352,9 +352,7 @@ fn smooth_pose_rotation(poses: &crate::pairfits::SegmentPoses) -> f64 {
     let (Some(inverse), Some(median)) = (inverse_inertia(&points), median_rms_mm(poses)) else {
         return 0.0;
     };
-    let gain = (inverse.x_axis.x + inverse.y_axis.y + inverse.z_axis.z)
-        .max(0.0)
-        .sqrt();
+    let gain = trace(inverse).max(0.0).sqrt();
     let mean = finite.iter().sum::<f64>() / finite.len() as f64;
     let (mut lagged, mut spread) = (0.0, 0.0);
     for w in poses.rms_mm.windows(2) {

@@ -510,12 +510,17 @@ pub(crate) fn inverse_inertia(points: &[DVec3]) -> Option<DMat3> {
         j + DMat3::from_diagonal(DVec3::splat(d.length_squared()))
             - DMat3::from_cols(d * d.x, d * d.y, d * d.z)
     });
-    let scale = inertia.x_axis.x + inertia.y_axis.y + inertia.z_axis.z;
+    let scale = trace(inertia);
     let determinant = inertia.determinant();
     if determinant.is_nan() || determinant <= 1e-9 * scale.powi(3) {
         return None;
     }
     Some(inertia.inverse())
+}
+
+/// The sum of a 3×3 matrix's diagonal.
+pub(crate) fn trace(m: DMat3) -> f64 {
+    m.x_axis.x + m.y_axis.y + m.z_axis.z
 }
 
 /// Variance (rad²) of a segment's pose turn about the two directions across `axis` (unit,
@@ -526,8 +531,7 @@ pub(crate) fn inverse_inertia(points: &[DVec3]) -> Option<DMat3> {
 pub(crate) fn tilt_variance(poses: &SegmentPoses, axis: DVec3) -> Option<f64> {
     let (sigma, reference) = fit_scatter(poses)?;
     let inverse = inverse_inertia(&reference)?;
-    let trace = inverse.x_axis.x + inverse.y_axis.y + inverse.z_axis.z;
-    Some(sigma * sigma * (trace - axis.dot(inverse * axis)).max(0.0))
+    Some(sigma * sigma * (trace(inverse) - axis.dot(inverse * axis)).max(0.0))
 }
 
 /// Per-coordinate scatter (mm) from a rigid fit's RMS over `points` points: the fit takes
