@@ -11,7 +11,9 @@
 //! complete linkage on ρ / √(s_i s_j) (s = a marker's ρ to its nearest marker, floored at
 //! the noise), so a two-marker segment whose pair is each
 //! other's nearest stays whole; orphans rejoin only a group they slide on no more than
-//! they slide on anything; then markers move and rigid neighbours merge under a tolerance.
+//! they slide on anything; then markers move within a tolerance on the noise, and rigid
+//! neighbours merge within one on the spread of ρ inside the spectral clusters (skin
+//! widens it beyond the noise; see `rigidity::rigid_spread`).
 //! A marker still alone takes an ambiguous partner (rigid with it and with its own group,
 //! near a joint axis) from a group that keeps three, so both sides stay poseable; if none,
 //! it is a 1-marker segment when some distance of its stays within the tolerance, else
@@ -143,17 +145,20 @@ fn segment_capture(
     nodes.retain(|m| !lonely.contains(m));
 
     let noise_mm = rigidity::noise_level(&stats, &nodes, min_overlap);
-    let tolerance_mm = if params.tolerance_mm > 0.0 {
-        params.tolerance_mm
-    } else {
-        params
-            .tolerance_min_mm
-            .max(params.tolerance_factor * noise_mm)
+    // The rigidity tolerance: given, or a multiple of how much ρ a rigid body shows here.
+    let tolerance_from = |spread_mm: f64| {
+        if params.tolerance_mm > 0.0 {
+            params.tolerance_mm
+        } else {
+            params
+                .tolerance_min_mm
+                .max(params.tolerance_factor * spread_mm)
+        }
     };
 
     // Each marker's spectral cluster, before the rigidity check cut it (`pair_rejoin_ratio`).
     let mut spectral_of: Vec<Option<usize>> = vec![None; markers];
-    let (mut clusters, eigenvalues, eigengap_segments) = match params.method {
+    let (mut clusters, eigenvalues, eigengap_segments, tolerance_mm) = match params.method {
         Method::Spectral if !nodes.is_empty() => {
             let a = affinity::affinity_matrix(&stats, &nodes, params);
             let found = spectral::spectral_clusters(&a, nodes.len(), params)?;
@@ -167,13 +172,22 @@ fn segment_capture(
                     spectral_of[m] = Some(k);
                 }
             }
+            // Skin widens ρ within a segment beyond the noise; the spectral clusters, mostly
+            // segments already, say by how much (see `rigid_spread`), and clusters whose every
+            // cross pair stays within that merge. A marker still moves to another cluster only
+            // within the noise's tolerance: its RMS ρ to a cluster is one marker's evidence,
+            // which skin fakes more easily than every cross pair of a merge.
+            let spread_mm = rigidity::rigid_spread(&stats, &clusters, min_overlap)
+                .map_or(noise_mm, |s| s.max(noise_mm));
+            let tolerance_mm = tolerance_from(spread_mm);
+            let move_tolerance_mm = tolerance_from(noise_mm);
             let clusters = if params.rigidity_check && params.split_linkage {
                 let mut groups: Vec<Vec<usize>> = clusters
                     .iter()
                     .flat_map(|c| linkage_groups(&stats, &nodes, c, noise_mm, tolerance_mm, params))
                     .collect();
                 rejoin_orphans(&mut groups, &stats, &nodes, noise_mm, tolerance_mm, params);
-                rigidity::repair(groups, &stats, tolerance_mm, min_overlap)
+                rigidity::repair(groups, &stats, move_tolerance_mm, tolerance_mm, min_overlap)
             } else if params.rigidity_check {
                 rigidity::refine(
                     clusters,
@@ -185,19 +199,24 @@ fn segment_capture(
             } else {
                 clusters
             };
-            (clusters, found.eigenvalues, found.chosen)
+            (clusters, found.eigenvalues, found.chosen, tolerance_mm)
         }
-        Method::Spectral => (Vec::new(), Vec::new(), 0),
+        Method::Spectral => (Vec::new(), Vec::new(), 0, tolerance_from(noise_mm)),
         Method::Linkage => {
+            let tolerance_mm = tolerance_from(noise_mm);
             let mut groups = linkage_groups(&stats, &nodes, &nodes, noise_mm, tolerance_mm, params);
             rejoin_orphans(&mut groups, &stats, &nodes, noise_mm, tolerance_mm, params);
-            (groups, Vec::new(), 0)
+            (groups, Vec::new(), 0, tolerance_mm)
         }
-        Method::Cliques => (
-            cliques::rigid_cliques(&stats, &nodes, tolerance_mm, min_overlap),
-            Vec::new(),
-            0,
-        ),
+        Method::Cliques => {
+            let tolerance_mm = tolerance_from(noise_mm);
+            (
+                cliques::rigid_cliques(&stats, &nodes, tolerance_mm, min_overlap),
+                Vec::new(),
+                0,
+                tolerance_mm,
+            )
+        }
     };
     rigidity::normalise(&mut clusters);
     // The typical fit σ of the clusters as they stand (see `typical_sigma`).

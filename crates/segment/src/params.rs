@@ -87,7 +87,7 @@ pub struct Params {
     pub split_linkage: bool,
     /// Rigidity tolerance on ρ, mm; 0 = automatic from the noise level.
     pub tolerance_mm: f64,
-    /// Automatic tolerance = max(tolerance_min_mm, tolerance_factor × noise).
+    /// Automatic tolerance = max(tolerance_min_mm, tolerance_factor × spread); spread: see `tolerance_mm`'s description.
     pub tolerance_factor: f64,
     /// Smallest automatic tolerance, mm.
     pub tolerance_min_mm: f64,
@@ -246,11 +246,11 @@ pub const PARAM_DOCS: &[(&str, &str)] = &[
     ),
     (
         "tolerance_mm",
-        "rigidity tolerance on ρ (distance std), mm; 0 = automatic: max(tolerance_min_mm, tolerance_factor × noise), noise = median over markers of the smallest ρ; default 0",
+        "rigidity tolerance on ρ (distance std), mm; 0 = automatic: max(tolerance_min_mm, tolerance_factor × spread), spread = median over the markers of spectral clusters of ≥ 4 of the second-smallest ρ to a cluster-mate (the noise level, the median smallest ρ, when such clusters hold under half the markers, and for moving single markers); default 0",
     ),
     (
         "tolerance_factor",
-        "automatic tolerance as a multiple of the noise level; default 5.0",
+        "automatic tolerance as a multiple of the rigid spread (or the noise level); default 5.0",
     ),
     (
         "tolerance_min_mm",

@@ -6,7 +6,7 @@ use mocap_io::{MISSING, Trajectories};
 use serde::{Deserialize, Serialize};
 
 /// Schema version of [`Segmentation`]; bump when its fields or the algorithm's output change.
-pub const SCHEMA_VERSION: u32 = 13;
+pub const SCHEMA_VERSION: u32 = 14;
 
 /// The rigid segments found in a capture.
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
@@ -19,7 +19,7 @@ pub struct Segmentation {
     pub markers: Vec<MarkerDiagnostics>,
     /// Noise level: median over markers of the smallest distance standard deviation ρ, mm.
     pub noise_mm: f64,
-    /// Rigidity tolerance on ρ used by the rigidity check and the cliques, mm.
+    /// Rigidity tolerance on ρ used by the rigidity check's merges and the cliques, mm (from the rigid spread; single markers move within tolerance_factor × noise_mm).
     pub tolerance_mm: f64,
     /// Top eigenvalues of D^-1/2 A D^-1/2, descending (spectral method; empty otherwise).
     pub eigenvalues: Vec<f64>,
