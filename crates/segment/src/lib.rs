@@ -11,9 +11,9 @@
 //! complete linkage on ρ / √(s_i s_j) (s = a marker's ρ to its nearest marker, floored at
 //! the noise), so a two-marker segment whose pair is each
 //! other's nearest stays whole; orphans rejoin only a group they slide on no more than
-//! they slide on anything; then markers move within a tolerance on the noise, and rigid
-//! neighbours merge within one on the spread of ρ inside the spectral clusters (skin
-//! widens it beyond the noise; see `rigidity::rigid_spread`).
+//! they slide on anything; then markers move and rigid neighbours merge within a tolerance
+//! on the noise, and pieces of one or two markers within one on the spread of ρ inside the
+//! spectral clusters (skin widens it beyond the noise; see `rigidity::rigid_spread`).
 //! A marker still alone takes an ambiguous partner (rigid with it and with its own group,
 //! near a joint axis) from a group that keeps three, so both sides stay poseable; if none,
 //! it is a 1-marker segment when some distance of its stays within the tolerance, else
@@ -173,21 +173,29 @@ fn segment_capture(
                 }
             }
             // Skin widens ρ within a segment beyond the noise; the spectral clusters, mostly
-            // segments already, say by how much (see `rigid_spread`), and clusters whose every
-            // cross pair stays within that merge. A marker still moves to another cluster only
-            // within the noise's tolerance: its RMS ρ to a cluster is one marker's evidence,
-            // which skin fakes more easily than every cross pair of a merge.
+            // segments already, say by how much (see `rigid_spread`). A piece of one or two
+            // markers has no pose, so only ρ can say where it belongs: it merges within that
+            // spread's tolerance. Markers move, and clusters that can be posed merge, only
+            // within the noise's: skin fakes one marker's RMS ρ, and a joint that turns little
+            // keeps its cross pairs within the skin's spread; whether two posed clusters move
+            // as one is the joint test's to say (`joint_merge_z`), from their rotation.
             let spread_mm = rigidity::rigid_spread(&stats, &clusters, min_overlap)
                 .map_or(noise_mm, |s| s.max(noise_mm));
             let tolerance_mm = tolerance_from(spread_mm);
-            let move_tolerance_mm = tolerance_from(noise_mm);
+            let noise_tolerance_mm = tolerance_from(noise_mm);
             let clusters = if params.rigidity_check && params.split_linkage {
                 let mut groups: Vec<Vec<usize>> = clusters
                     .iter()
                     .flat_map(|c| linkage_groups(&stats, &nodes, c, noise_mm, tolerance_mm, params))
                     .collect();
                 rejoin_orphans(&mut groups, &stats, &nodes, noise_mm, tolerance_mm, params);
-                rigidity::repair(groups, &stats, move_tolerance_mm, tolerance_mm, min_overlap)
+                rigidity::repair(
+                    groups,
+                    &stats,
+                    noise_tolerance_mm,
+                    tolerance_mm,
+                    min_overlap,
+                )
             } else if params.rigidity_check {
                 rigidity::refine(
                     clusters,

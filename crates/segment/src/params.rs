@@ -246,7 +246,7 @@ pub const PARAM_DOCS: &[(&str, &str)] = &[
     ),
     (
         "tolerance_mm",
-        "rigidity tolerance on ρ (distance std), mm; 0 = automatic: max(tolerance_min_mm, tolerance_factor × spread), spread = median over the markers of spectral clusters of ≥ 4 of the second-smallest ρ to a cluster-mate (the noise level, the median smallest ρ, when such clusters hold under half the markers, and for moving single markers); default 0",
+        "rigidity tolerance on ρ (distance std), mm; 0 = automatic: max(tolerance_min_mm, tolerance_factor × spread), spread = median over the markers of spectral clusters of ≥ 4 of the second-smallest ρ to a cluster-mate (or the noise level, the median smallest ρ, when such clusters hold under half the markers), for merging pieces of 1-2 markers and the later checks; markers move and posed clusters merge within max(tolerance_min_mm, tolerance_factor × noise); default 0",
     ),
     (
         "tolerance_factor",

@@ -117,18 +117,19 @@ pub(crate) fn refine(
     repair(clusters, stats, tol, tol, min_overlap)
 }
 
-/// Moves misplaced markers and merges rigid neighbours until nothing changes (at most
+/// Moves misplaced markers (within `tol`) and merges rigid neighbours (within `tol`, or
+/// `small_tol` where one has fewer than [`POSED_MARKERS`]) until nothing changes (at most
 /// [`MAX_SWEEPS`] sweeps), then normalises.
 pub(crate) fn repair(
     mut clusters: Vec<Vec<usize>>,
     stats: &PairStats,
-    move_tol: f64,
-    merge_tol: f64,
+    tol: f64,
+    small_tol: f64,
     min_overlap: usize,
 ) -> Vec<Vec<usize>> {
     for _ in 0..MAX_SWEEPS {
-        let moved = move_markers(&mut clusters, stats, move_tol, min_overlap);
-        let merged = merge_rigid(&mut clusters, stats, merge_tol, min_overlap);
+        let moved = move_markers(&mut clusters, stats, tol, min_overlap);
+        let merged = merge_rigid(&mut clusters, stats, small_tol, tol, min_overlap);
         if !moved && !merged {
             break;
         }
@@ -280,12 +281,17 @@ pub(crate) fn move_markers(
     any
 }
 
-/// Merges pairs of clusters whose every measurable cross pair has ρ ≤ `tol` (they move as
-/// one body within the tolerance), most rigid pair first. Returns whether any merged.
+/// Fewest markers that give a cluster a pose of its own.
+const POSED_MARKERS: usize = 3;
+
+/// Merges pairs of clusters whose every measurable cross pair has ρ ≤ `posed_tol`, or
+/// `small_tol` where one of them has fewer than [`POSED_MARKERS`] (they move as one body
+/// within the tolerance), most rigid pair first. Returns whether any merged.
 fn merge_rigid(
     clusters: &mut Vec<Vec<usize>>,
     stats: &PairStats,
-    tol: f64,
+    small_tol: f64,
+    posed_tol: f64,
     min_overlap: usize,
 ) -> bool {
     let mut any = false;
@@ -302,6 +308,8 @@ fn merge_rigid(
                         }
                     }
                 }
+                let posed = clusters[a].len().min(clusters[b].len()) >= POSED_MARKERS;
+                let tol = if posed { posed_tol } else { small_tol };
                 if let Some(w) = worst
                     && w <= tol
                     && best.is_none_or(|(bw, _, _)| w < bw)

@@ -19,7 +19,7 @@ pub struct Segmentation {
     pub markers: Vec<MarkerDiagnostics>,
     /// Noise level: median over markers of the smallest distance standard deviation ρ, mm.
     pub noise_mm: f64,
-    /// Rigidity tolerance on ρ used by the rigidity check's merges and the cliques, mm (from the rigid spread; single markers move within tolerance_factor × noise_mm).
+    /// Rigidity tolerance on ρ for pieces of 1-2 markers, the later checks and the cliques, mm (from the rigid spread; markers move and posed clusters merge within tolerance_factor × noise_mm).
     pub tolerance_mm: f64,
     /// Top eigenvalues of D^-1/2 A D^-1/2, descending (spectral method; empty otherwise).
     pub eigenvalues: Vec<f64>,
