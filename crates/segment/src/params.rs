@@ -85,9 +85,9 @@ pub struct Params {
     pub rigidity_check: bool,
     /// Rigidity check: split clusters by the linkage method's agglomeration instead of the average-linkage split.
     pub split_linkage: bool,
-    /// Rigidity tolerance on ρ, mm; 0 = automatic from the noise level.
+    /// Rigidity tolerance on ρ, mm; 0 = automatic from the noise level and the rigid spread.
     pub tolerance_mm: f64,
-    /// Automatic tolerance = max(tolerance_min_mm, tolerance_factor × spread); spread: see `tolerance_mm`'s description.
+    /// Automatic tolerances = max(tolerance_min_mm, tolerance_factor × noise or spread).
     pub tolerance_factor: f64,
     /// Smallest automatic tolerance, mm.
     pub tolerance_min_mm: f64,
