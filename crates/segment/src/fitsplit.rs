@@ -337,7 +337,7 @@ pub(crate) fn typical_sigma(traj: &Trajectories, clusters: &[Vec<usize>]) -> f64
 /// wrong side of a joint go back to their own segment rather than stand alone. The union's
 /// σ is not also held to `ratio` × the two bodies' pooled σ: a piece of two or three
 /// markers absorbs skin as a body of its own, so that test keeps true pieces apart (S16
-/// seeds: hard trees 75 → 74 of 96, skin 53 → 52, messy 72 → 71 with it).
+/// seeds, measured at 06c9387: hard trees 75 → 74 of 96, skin 53 → 52, messy 72 → 71 with it).
 pub(crate) fn split_and_rejoin(
     traj: &Trajectories,
     stats: &PairStats,

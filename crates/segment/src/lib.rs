@@ -200,6 +200,7 @@ fn segment_capture(
                 rigidity::refine(
                     clusters,
                     &stats,
+                    noise_tolerance_mm,
                     tolerance_mm,
                     min_overlap,
                     params.min_segment_markers,

@@ -102,19 +102,22 @@ pub(crate) fn rms_rho(
     (count > 0).then(|| (sum / count as f64).sqrt())
 }
 
-/// Makes every cluster rigid within `tol` (mm): splits, moves and merges, deterministically.
+/// Makes every cluster rigid, deterministically: splits within `small_tol` (mm), then
+/// [`repair`]s with `tol` and `small_tol`, as the linkage split and repair of the default
+/// path do.
 pub(crate) fn refine(
     clusters: Vec<Vec<usize>>,
     stats: &PairStats,
     tol: f64,
+    small_tol: f64,
     min_overlap: usize,
     min_group: usize,
 ) -> Vec<Vec<usize>> {
     let clusters: Vec<Vec<usize>> = clusters
         .iter()
-        .flat_map(|c| split(c, stats, tol, min_overlap, min_group))
+        .flat_map(|c| split(c, stats, small_tol, min_overlap, min_group))
         .collect();
-    repair(clusters, stats, tol, tol, min_overlap)
+    repair(clusters, stats, tol, small_tol, min_overlap)
 }
 
 /// Moves misplaced markers (within `tol`) and merges rigid neighbours (within `tol`, or
