@@ -47,7 +47,9 @@ pub const READ_PARAM_DOCS: &[(&str, &str)] = &[
         "keep_model_outputs",
         "C3D: keep the points listed in POINT:ANGLES, FORCES, MOMENTS, POWERS, SCALARS, \
          REACTIONS or a group POINT:TYPE_GROUPS names (angles, forces and the like stored as \
-         points); default false: they are not read, with a warning",
+         points), and the points no camera saw (every sample's residual word 0) in a file \
+         whose other points cameras did see (bone-model and virtual points); default false: \
+         they are not read, with a warning",
     ),
 ];
 

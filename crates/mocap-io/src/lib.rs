@@ -29,7 +29,7 @@ pub use trajectories::{ABSURD_MM, MISSING, Trajectories, is_present};
 /// Stage name of capture artifacts.
 pub const STAGE: &str = "mocap-io";
 /// Schema version of capture artifacts ([`Capture`]).
-pub const SCHEMA_VERSION: u32 = 3;
+pub const SCHEMA_VERSION: u32 = 4;
 
 /// The file formats we read.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize)]
@@ -89,9 +89,11 @@ pub struct ReadOptions {
     /// they are read as missing, with a warning naming this option.
     pub keep_invalid_residuals: bool,
     /// C3D: keep the points a file lists as model outputs (POINT:ANGLES, FORCES, MOMENTS,
-    /// POWERS, SCALARS, REACTIONS and any group POINT:TYPE_GROUPS names). Default false:
-    /// they are angles, forces and the like stored as points, not marker positions, and
-    /// are dropped with a warning naming them.
+    /// POWERS, SCALARS, REACTIONS and any group POINT:TYPE_GROUPS names), and the points
+    /// no camera saw (residual word 0 in every sample) in a file whose other points
+    /// cameras did see. Default false: those are angles, forces, bone-model and virtual
+    /// points a program computed, not marker positions, and are dropped with a warning
+    /// naming them.
     pub keep_model_outputs: bool,
 }
 

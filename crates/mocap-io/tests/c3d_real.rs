@@ -370,3 +370,52 @@ fn model_outputs_are_not_read_as_markers() {
     };
     assert_eq!(sacr(&default.trajectories), sacr(&all.trajectories));
 }
+
+/// CMU 49_04 holds 41 tracked markers and 289 bone-model points (PEL0, LFEM1, ...) that no
+/// camera saw (every residual word 0): those are not read as markers unless asked, and
+/// the warning says how many and which. Every other shared capture keeps all its points
+/// (the check above reads each with the default options too).
+#[test]
+fn computed_points_are_not_read_as_markers() {
+    let Some((dir, files)) = reference() else {
+        return;
+    };
+    let bytes = std::fs::read(dir.join("c3d/cmu/49_04.c3d")).unwrap();
+    let default = c3d::parse(&bytes, &ReadOptions::default()).unwrap();
+    let t = &default.trajectories;
+    assert_eq!(t.markers(), 41);
+    for marker in ["Cristine1:LBWT", "Cristine1:RTOE", "Cristine1:LKNE"] {
+        assert!(t.labels().iter().any(|l| l == marker), "{marker} dropped");
+    }
+    for computed in ["Cristine1:PEL0", "Cristine1:LFEM1", "Cristine1:RTB8"] {
+        assert!(!t.labels().iter().any(|l| l == computed), "{computed} read");
+    }
+    let warning = default
+        .info
+        .warnings
+        .iter()
+        .find(|w| w.contains("never seen by a camera"))
+        .expect("a warning about the computed points");
+    assert!(
+        warning.starts_with("289 points") && warning.contains("while 41 were"),
+        "{warning}"
+    );
+    // No other readable file has points that are both present and unseen beside seen ones.
+    for entry in files.iter().filter(|e| is_c3d(e) && e["expect"] == "read") {
+        let path = entry["path"].as_str().unwrap();
+        if path.ends_with("49_04.c3d") {
+            continue;
+        }
+        let bytes = std::fs::read(dir.join(path)).unwrap();
+        let capture = c3d::parse(&bytes, &ReadOptions::default()).unwrap();
+        assert!(
+            !capture
+                .info
+                .warnings
+                .iter()
+                .any(|w| w.contains("never seen by a camera")),
+            "{path}: {:?}",
+            capture.info.warnings
+        );
+    }
+}

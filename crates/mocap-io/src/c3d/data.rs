@@ -8,8 +8,10 @@ pub trait SampleCodec {
     /// Bytes of one point (4 words).
     const BYTES: usize;
     /// Decodes one point's bytes (exactly `BYTES` long) into raw coordinates (file units,
-    /// integer scale applied by the caller) and whether its residual word is negative.
-    fn decode(b: &[u8]) -> ([f32; 3], bool);
+    /// integer scale applied by the caller) and its fourth word as a number: negative
+    /// flags the sample invalid, 0 says no camera saw it (a computed point), positive
+    /// holds the camera mask and residual.
+    fn decode(b: &[u8]) -> ([f32; 3], f32);
 }
 
 macro_rules! int_codec {
@@ -19,15 +21,15 @@ macro_rules! int_codec {
         impl SampleCodec for $name {
             const BYTES: usize = 8;
             #[inline(always)]
-            fn decode(b: &[u8]) -> ([f32; 3], bool) {
+            fn decode(b: &[u8]) -> ([f32; 3], f32) {
                 let Ok(w) = <[u8; 8]>::try_from(b) else {
-                    return ([0.0; 3], true);
+                    return ([0.0; 3], -1.0);
                 };
                 let x = i16::$from([w[0], w[1]]);
                 let y = i16::$from([w[2], w[3]]);
                 let z = i16::$from([w[4], w[5]]);
                 let r = i16::$from([w[6], w[7]]);
-                ([f32::from(x), f32::from(y), f32::from(z)], r < 0)
+                ([f32::from(x), f32::from(y), f32::from(z)], f32::from(r))
             }
         }
     };
@@ -40,16 +42,16 @@ macro_rules! float_codec {
         impl SampleCodec for $name {
             const BYTES: usize = 16;
             #[inline(always)]
-            fn decode(b: &[u8]) -> ([f32; 3], bool) {
+            fn decode(b: &[u8]) -> ([f32; 3], f32) {
                 let Ok(w) = <[u8; 16]>::try_from(b) else {
-                    return ([0.0; 3], true);
+                    return ([0.0; 3], -1.0);
                 };
                 let f = $conv;
                 let x = f([w[0], w[1], w[2], w[3]]);
                 let y = f([w[4], w[5], w[6], w[7]]);
                 let z = f([w[8], w[9], w[10], w[11]]);
                 let r = f([w[12], w[13], w[14], w[15]]);
-                ([x, y, z], r < 0.0)
+                ([x, y, z], r)
             }
         }
     };
@@ -76,6 +78,26 @@ pub struct Counts {
     pub out_of_range: usize,
 }
 
+/// What decoding gives: positions frame-major (mm, [`MISSING`] where absent) and, per
+/// point, whether a camera saw any of its present samples (a positive fourth word).
+#[derive(Clone, Debug, Default)]
+pub struct Decoded {
+    /// `frames × points` positions, frame-major.
+    pub positions: Vec<[f64; 3]>,
+    /// One entry per point.
+    pub seen: Vec<bool>,
+}
+
+impl Decoded {
+    /// Room for `frames` frames of `points` points, so decoding does not reallocate.
+    pub fn with_capacity(frames: usize, points: usize) -> Self {
+        Self {
+            positions: Vec::with_capacity(frames * points),
+            seen: vec![false; points],
+        }
+    }
+}
+
 /// Stored coordinates this large are gap fills (SIMI writes −1e9), not positions.
 pub const GAP_FILL: f32 = 1.0e9;
 
@@ -84,8 +106,10 @@ pub const GAP_FILL: f32 = 1.0e9;
 /// `frame_bytes` is the stride (points plus analog data, which is skipped); `factor` turns
 /// stored numbers into millimetres (integer scale × unit factor). A sample is missing when
 /// its residual is negative (unless `keep_flagged`), its coordinates are exactly zero, or a
-/// coordinate is not finite or reaches ±1e9 (stored units). The caller has checked that `data` holds the frames and
-/// reserved `out`, so the loop does not allocate.
+/// coordinate is not finite or reaches ±1e9 (stored units). `out.seen[p]` becomes true
+/// when a present sample of point p has a positive fourth word (cameras saw it). The
+/// caller has checked that `data` holds the frames and made `out` with
+/// [`Decoded::with_capacity`], so the loop does not allocate.
 pub fn decode<C: SampleCodec>(
     data: &[u8],
     frame_bytes: usize,
@@ -93,7 +117,7 @@ pub fn decode<C: SampleCodec>(
     points: usize,
     factor: f64,
     keep_flagged: bool,
-    out: &mut Vec<[f64; 3]>,
+    out: &mut Decoded,
 ) -> Counts {
     let mut counts = Counts::default();
     let point_bytes = points * C::BYTES;
@@ -104,8 +128,10 @@ pub fn decode<C: SampleCodec>(
         let Some(point_data) = frame.get(..point_bytes) else {
             break;
         };
-        for sample in point_data.chunks_exact(C::BYTES) {
-            let ([x, y, z], flagged) = C::decode(sample);
+        for (point, sample) in point_data.chunks_exact(C::BYTES).enumerate() {
+            let ([x, y, z], word) = C::decode(sample);
+            // NaN is neither: not flagged, not seen.
+            let flagged = word < 0.0;
             let zero = x == 0.0 && y == 0.0 && z == 0.0;
             counts.flagged += usize::from(flagged);
             counts.zero += usize::from(zero);
@@ -119,10 +145,15 @@ pub fn decode<C: SampleCodec>(
                 f64::from(z) * factor,
             ];
             if zero || (flagged && !keep_flagged) || !in_range {
-                out.push(MISSING);
+                out.positions.push(MISSING);
             } else {
                 counts.present += 1;
-                out.push(p);
+                if word > 0.0
+                    && let Some(seen) = out.seen.get_mut(point)
+                {
+                    *seen = true;
+                }
+                out.positions.push(p);
             }
         }
     }

@@ -22,7 +22,7 @@ mod params;
 mod write;
 
 use crate::{Capture, CaptureInfo, Format, FormatError, ReadOptions, Trajectories};
-use data::{Counts, FloatBe, FloatLe, FloatVax, IntBe, IntLe, SampleCodec};
+use data::{Counts, Decoded, FloatBe, FloatLe, FloatVax, IntBe, IntLe, SampleCodec};
 use header::{BLOCK, Header, KEY, Processor, take};
 use params::Params;
 
@@ -106,15 +106,20 @@ pub fn parse(bytes: &[u8], options: &ReadOptions) -> Result<Capture, FormatError
     };
     let factor = storage_factor * unit_factor;
     let data = bytes.get(layout.data_offset..).unwrap_or(&[]);
-    let mut positions = Vec::with_capacity(layout.frames * layout.points);
-    let counts = decode(&layout, processor, data, factor, false, &mut positions);
+    let mut decoded = Decoded::with_capacity(layout.frames, layout.points);
+    let counts = decode(&layout, processor, data, factor, false, &mut decoded);
+    let Decoded {
+        mut positions,
+        seen,
+    } = decoded;
 
     let unflagged_out_of_range = counts.out_of_range;
     // SIMI-style files flag every sample invalid although the coordinates are real.
     let mut flagged_positions = None;
     if counts.present == 0 && counts.flagged_nonzero > 0 {
-        let mut kept = Vec::with_capacity(positions.len());
-        let kept_counts = decode(&layout, processor, data, factor, true, &mut kept);
+        let mut decoded = Decoded::with_capacity(layout.frames, layout.points);
+        let kept_counts = decode(&layout, processor, data, factor, true, &mut decoded);
+        let kept = decoded.positions;
         if kept_counts.out_of_range > 0 {
             warnings.push(format!(
                 "{} samples hold coordinates of ±1e9 or non-finite values (a gap fill): read as missing",
@@ -163,7 +168,9 @@ pub fn parse(bytes: &[u8], options: &ReadOptions) -> Result<Capture, FormatError
     let (labels, positions) = if options.keep_model_outputs {
         (labels, positions)
     } else {
-        drop_model_outputs(&params, labels, positions, &mut warnings)
+        let (labels, positions, seen) =
+            drop_model_outputs(&params, labels, positions, seen, &mut warnings);
+        drop_computed_points(labels, positions, &seen, &mut warnings)
     };
     let trajectories = Trajectories::new(
         labels,
@@ -208,8 +215,9 @@ fn drop_model_outputs(
     params: &Params,
     labels: Vec<String>,
     positions: Vec<[f64; 3]>,
+    seen: Vec<bool>,
     warnings: &mut Vec<String>,
-) -> (Vec<String>, Vec<[f64; 3]>) {
+) -> (Vec<String>, Vec<[f64; 3]>, Vec<bool>) {
     let mut groups: Vec<String> = MODEL_OUTPUT_GROUPS.iter().map(|g| g.to_string()).collect();
     // TYPE_GROUPS pairs a list's parameter name with its type name (ANGLES, ANGLE, ...);
     // a list of markers, should a file name one there, is not an output.
@@ -243,36 +251,93 @@ fn drop_model_outputs(
     let keep: Vec<bool> = labels.iter().map(|l| !is_output(l)).collect();
     let dropped = keep.iter().filter(|k| !**k).count();
     if dropped == 0 {
-        return (labels, positions);
+        return (labels, positions, seen);
     }
     if dropped == labels.len() {
         warnings.push(format!(
             "every point is listed in {} as a model output: all read as markers",
             sources.join(", ")
         ));
-        return (labels, positions);
+        return (labels, positions, seen);
     }
-    let points = labels.len();
-    let positions = positions
-        .chunks(points)
-        .flat_map(|frame| {
-            frame
-                .iter()
-                .zip(&keep)
-                .filter(|(_, k)| **k)
-                .map(|(p, _)| *p)
-        })
-        .collect();
-    let labels: Vec<String> = labels
+    let seen = seen
         .into_iter()
         .zip(&keep)
         .filter(|(_, k)| **k)
-        .map(|(l, _)| l)
+        .map(|(s, _)| s)
         .collect();
+    let (labels, positions) = retain_points(labels, positions, &keep);
     warnings.push(format!(
         "{dropped} points listed in {} are model outputs, not markers: not read (--set mocap-io.keep_model_outputs=true keeps them)",
         sources.join(", ")
     ));
+    (labels, positions, seen)
+}
+
+/// Removes the points no camera ever saw from a file whose other points cameras did see:
+/// a present sample whose fourth word is 0 has no camera bit and no residual, which the
+/// C3D format reserves for points a program computed (bone-model and virtual points,
+/// hundreds of them in some Vicon exports), not tracked markers. A file that never fills
+/// that word (every point "unseen", as many writers do) keeps every point. Points with no
+/// present sample stay: they are missing markers, not computed ones.
+fn drop_computed_points(
+    labels: Vec<String>,
+    positions: Vec<[f64; 3]>,
+    seen: &[bool],
+    warnings: &mut Vec<String>,
+) -> (Vec<String>, Vec<[f64; 3]>) {
+    let points = labels.len();
+    if points == 0 || seen.len() != points || !seen.iter().any(|&s| s) {
+        return (labels, positions);
+    }
+    let mut present = vec![false; points];
+    for frame in positions.chunks_exact(points) {
+        for (p, sample) in present.iter_mut().zip(frame) {
+            *p |= crate::is_present(*sample);
+        }
+    }
+    let keep: Vec<bool> = seen.iter().zip(&present).map(|(&s, &p)| s || !p).collect();
+    let dropped: Vec<&str> = labels
+        .iter()
+        .zip(&keep)
+        .filter(|(_, k)| !**k)
+        .map(|(l, _)| l.as_str())
+        .collect();
+    if dropped.is_empty() {
+        return (labels, positions);
+    }
+    let tracked = seen.iter().filter(|&&s| s).count();
+    let examples = dropped
+        .iter()
+        .take(3)
+        .copied()
+        .collect::<Vec<_>>()
+        .join(", ");
+    let more = if dropped.len() > 3 { ", ..." } else { "" };
+    warnings.push(format!(
+        "{} points were never seen by a camera (every sample's residual word is 0: computed by a model, not tracked) while {tracked} were: not read as markers ({examples}{more}; --set mocap-io.keep_model_outputs=true keeps them)",
+        dropped.len()
+    ));
+    retain_points(labels, positions, &keep)
+}
+
+/// The labels and frame-major positions of the points whose `keep` entry is true.
+fn retain_points(
+    labels: Vec<String>,
+    positions: Vec<[f64; 3]>,
+    keep: &[bool],
+) -> (Vec<String>, Vec<[f64; 3]>) {
+    let points = labels.len();
+    let positions = positions
+        .chunks(points.max(1))
+        .flat_map(|frame| frame.iter().zip(keep).filter(|(_, k)| **k).map(|(p, _)| *p))
+        .collect();
+    let labels: Vec<String> = labels
+        .into_iter()
+        .zip(keep)
+        .filter(|(_, k)| **k)
+        .map(|(l, _)| l)
+        .collect();
     (labels, positions)
 }
 
@@ -614,14 +679,14 @@ fn decode(
     data: &[u8],
     factor: f64,
     keep_flagged: bool,
-    out: &mut Vec<[f64; 3]>,
+    out: &mut Decoded,
 ) -> Counts {
     fn run<C: SampleCodec>(
         l: &Layout,
         data: &[u8],
         factor: f64,
         keep: bool,
-        out: &mut Vec<[f64; 3]>,
+        out: &mut Decoded,
     ) -> Counts {
         data::decode::<C>(data, l.frame_bytes, l.frames, l.points, factor, keep, out)
     }
@@ -762,20 +827,67 @@ mod tests {
         let floats: Vec<f32> = ints.iter().map(|&v| f32::from(v)).collect();
         let vax: Vec<u8> = floats.iter().flat_map(|&v| header::to_vax(v)).collect();
         let fbe: Vec<u8> = floats.iter().flat_map(|v| v.to_be_bytes()).collect();
-        let mut out = Vec::new();
         let want = [[5.0, -10.0, 15.0], MISSING];
         for (bytes, codec) in [(&le, 0), (&be, 1), (&vax, 2), (&fbe, 3)] {
-            out.clear();
+            let mut out = Decoded::with_capacity(1, 2);
             let counts = match codec {
                 0 => data::decode::<IntLe>(bytes, 16, 1, 2, 0.5, false, &mut out),
                 1 => data::decode::<IntBe>(bytes, 16, 1, 2, 0.5, false, &mut out),
                 2 => data::decode::<FloatVax>(bytes, 32, 1, 2, 0.5, false, &mut out),
                 _ => data::decode::<FloatBe>(bytes, 32, 1, 2, 0.5, false, &mut out),
             };
-            assert_eq!(out[0], want[0], "codec {codec}");
-            assert!(!crate::is_present(out[1]), "codec {codec}");
+            assert_eq!(out.positions[0], want[0], "codec {codec}");
+            assert!(!crate::is_present(out.positions[1]), "codec {codec}");
             assert_eq!((counts.present, counts.flagged), (1, 1));
+            // Residual 5: a camera saw the first point; the flagged one counts as unseen.
+            assert_eq!(out.seen, [true, false], "codec {codec}");
         }
+    }
+
+    /// Points no camera saw, in a file whose other points cameras did see, are computed
+    /// (Vicon's bone-model points): dropped unless asked for. A file that never fills the
+    /// residual word (our writer's) keeps every point.
+    #[test]
+    fn points_no_camera_saw_are_dropped_where_others_were_seen() {
+        let t = make(4, 20, 1);
+        let mut bytes = write(&t).unwrap();
+        let unfilled = parse(&bytes, &ReadOptions::default()).unwrap();
+        assert_eq!(unfilled.trajectories.markers(), 4);
+        assert!(!unfilled.info.warnings.iter().any(|w| w.contains("camera")));
+
+        // Markers 0 and 2 get camera mask 1 and residual 3 (0x0103) where present.
+        let header = Header::read(&bytes, Processor::Intel).unwrap();
+        let data = usize::from(header.data_start - 1) * BLOCK;
+        for f in 0..t.frames() {
+            for m in [0, 2] {
+                let at = data + (f * 4 + m) * 16 + 12;
+                let word = f32::from_le_bytes(bytes[at..at + 4].try_into().unwrap());
+                if word == 0.0 {
+                    bytes[at..at + 4].copy_from_slice(&259.0f32.to_le_bytes());
+                }
+            }
+        }
+        let read = parse(&bytes, &ReadOptions::default()).unwrap();
+        assert_eq!(read.trajectories.labels(), ["M000", "M002"]);
+        for f in 0..t.frames() {
+            let before = unfilled.trajectories.get(f, 2);
+            assert_eq!(read.trajectories.get(f, 1), before, "frame {f}");
+        }
+        let warning = read
+            .info
+            .warnings
+            .iter()
+            .find(|w| w.contains("never seen by a camera"))
+            .expect("a warning naming the dropped points");
+        assert!(
+            warning.starts_with("2 points") && warning.contains("M001, M003"),
+            "{warning}"
+        );
+        let keep = ReadOptions {
+            keep_model_outputs: true,
+            ..ReadOptions::default()
+        };
+        assert_eq!(parse(&bytes, &keep).unwrap().trajectories.markers(), 4);
     }
 
     #[test]
