@@ -844,8 +844,8 @@ fn untangle_exchanges_the_swapped_frames_back() {
     assert_eq!(beyond.repaired(&empty).frames(), 0);
 }
 
-/// CMU 02_01 segmented with the defaults; `None` (the test says it skipped) without the
-/// shared data.
+/// A CMU capture segmented with the defaults; `None` (the test says it skipped) without
+/// the shared data.
 struct SegmentedCmu {
     traj: Trajectories,
     seg: Segmentation,
@@ -853,9 +853,14 @@ struct SegmentedCmu {
 
 impl SegmentedCmu {
     fn load(test: &str) -> Option<Self> {
+        Self::load_trial(test, "02_01")
+    }
+
+    fn load_trial(test: &str, trial: &str) -> Option<Self> {
         let dir = mocap_io::testdata::shared_data_dir(test)?;
-        let capture = mocap_io::read_capture(&dir.join("c3d/cmu/02_01.c3d"), &Default::default())
-            .expect("CMU 02_01 reads");
+        let path = dir.join(format!("c3d/cmu/{trial}.c3d"));
+        let capture = mocap_io::read_capture(&path, &Default::default())
+            .unwrap_or_else(|e| panic!("CMU {trial} reads: {e}"));
         let seg = run(&capture.trajectories, &Params::default()).expect("segments");
         Some(Self {
             traj: capture.trajectories,
@@ -871,8 +876,49 @@ impl SegmentedCmu {
             .labels()
             .iter()
             .position(|l| l.rsplit(':').next() == Some(name))
-            .unwrap_or_else(|| panic!("label {name} in 02_01"));
+            .unwrap_or_else(|| panic!("label {name} in the capture"));
         self.seg.markers[m].segment
+    }
+
+    /// Thighs are THI + KNE and shanks SHN + ANK, each its own two-marker segment, on both
+    /// sides (the CMU marker set gives those segments two markers each).
+    fn assert_two_marker_thighs_and_shanks(&self) {
+        let segment_of = |name: &str| self.segment_of(name);
+        for side in ["L", "R"] {
+            let thi = segment_of(&format!("{side}THI"));
+            assert!(thi.is_some(), "{side}THI unassigned");
+            assert_eq!(thi, segment_of(&format!("{side}KNE")), "{side} thigh split");
+            assert_ne!(
+                thi,
+                segment_of(&format!("{side}SHN")),
+                "{side} thigh with shank"
+            );
+            assert_ne!(
+                thi,
+                segment_of(&format!("{side}FWT")),
+                "{side} thigh with pelvis"
+            );
+            let size = self.size_of(thi);
+            assert_eq!(size, Some(2), "{side} thigh is {side}THI + {side}KNE only");
+        }
+        // The malleolus (ANK) sits near the ankle axis, rigid with shank and foot alike; it
+        // goes to the shank, whose only other marker would be alone, while the foot keeps 3.
+        for side in ["L", "R"] {
+            let shank = segment_of(&format!("{side}SHN"));
+            assert!(shank.is_some(), "{side}SHN unassigned");
+            assert_eq!(
+                shank,
+                segment_of(&format!("{side}ANK")),
+                "{side} shank split"
+            );
+            assert_ne!(
+                shank,
+                segment_of(&format!("{side}HEE")),
+                "{side} shank with foot"
+            );
+            let size = self.size_of(shank);
+            assert_eq!(size, Some(2), "{side} shank is {side}SHN + {side}ANK only");
+        }
     }
 
     /// How many markers segment `id` has.
@@ -920,41 +966,7 @@ fn cmu_02_01_keeps_two_marker_thighs_shanks_and_upper_arm() {
         return;
     };
     let segment_of = |name: &str| cmu.segment_of(name);
-    for side in ["L", "R"] {
-        let thi = segment_of(&format!("{side}THI"));
-        assert!(thi.is_some(), "{side}THI unassigned");
-        assert_eq!(thi, segment_of(&format!("{side}KNE")), "{side} thigh split");
-        assert_ne!(
-            thi,
-            segment_of(&format!("{side}SHN")),
-            "{side} thigh with shank"
-        );
-        assert_ne!(
-            thi,
-            segment_of(&format!("{side}FWT")),
-            "{side} thigh with pelvis"
-        );
-        let size = cmu.size_of(thi);
-        assert_eq!(size, Some(2), "{side} thigh is LTHI + LKNE only");
-    }
-    // The malleolus (ANK) sits near the ankle axis, rigid with shank and foot alike; it
-    // goes to the shank, whose only other marker would be alone, while the foot keeps 3.
-    for side in ["L", "R"] {
-        let shank = segment_of(&format!("{side}SHN"));
-        assert!(shank.is_some(), "{side}SHN unassigned");
-        assert_eq!(
-            shank,
-            segment_of(&format!("{side}ANK")),
-            "{side} shank split"
-        );
-        assert_ne!(
-            shank,
-            segment_of(&format!("{side}HEE")),
-            "{side} shank with foot"
-        );
-        let size = cmu.size_of(shank);
-        assert_eq!(size, Some(2), "{side} shank is {side}SHN + {side}ANK only");
-    }
+    cmu.assert_two_marker_thighs_and_shanks();
     assert!(
         cmu.seg.unassigned.is_empty(),
         "unassigned: {:?}",
@@ -966,4 +978,25 @@ fn cmu_02_01_keeps_two_marker_thighs_shanks_and_upper_arm() {
     assert_ne!(upa, segment_of("LFHD"), "upper arm with head");
     assert_ne!(upa, segment_of("LFRM"), "upper arm with forearm");
     assert_ne!(upa, segment_of("LSHO"), "upper arm with torso");
+}
+
+/// CMU 49_04, the same marker set on another subject (its 289 bone-model points are not
+/// read, see mocap-io): the shin marker keeps ρ 4.0 mm to the knee marker but 29.2 mm to
+/// the thigh marker, and must not ride the knee marker into the thigh.
+#[test]
+fn cmu_49_04_keeps_the_shin_marker_out_of_the_thigh() {
+    let Some(cmu) = SegmentedCmu::load_trial("segment cmu_49_04", "49_04") else {
+        return;
+    };
+    assert_eq!(cmu.traj.markers(), 41);
+    cmu.assert_two_marker_thighs_and_shanks();
+    let segment_of = |name: &str| cmu.segment_of(name);
+    for side in ["L", "R"] {
+        let foot: Vec<_> = ["HEE", "MT5", "TOE"]
+            .iter()
+            .map(|m| segment_of(&format!("{side}{m}")))
+            .collect();
+        assert!(foot[0].is_some(), "{side}HEE unassigned");
+        assert!(foot.iter().all(|s| *s == foot[0]), "{side} foot split");
+    }
 }
