@@ -210,20 +210,29 @@ pub(crate) fn rejoin_small(
         }
         let small = &groups[g];
         let limit = bound(small);
+        // RMS over the small group's markers of each one's RMS ρ to the other group, among
+        // the groups most of whose cross pairs are within the limit.
         let best = groups
             .iter()
             .enumerate()
             .filter(|(h, other)| *h != g && other.len() >= min_group)
-            .filter(|(_, other)| mostly_within(stats, small, other, limit, min_overlap))
             .filter_map(|(h, other)| {
                 let (mut sum, mut count) = (0.0, 0usize);
+                let (mut pairs, mut within) = (0usize, 0usize);
                 for &i in small {
-                    if let Some(r) = rms_rho(stats, i, other, min_overlap) {
-                        sum += r * r;
+                    let (mut squares, mut n) = (0.0, 0usize);
+                    for r in other.iter().filter_map(|&j| stats.rho(i, j, min_overlap)) {
+                        squares += r * r;
+                        n += 1;
+                        within += usize::from(r <= limit);
+                    }
+                    if n > 0 {
+                        sum += squares / n as f64;
                         count += 1;
+                        pairs += n;
                     }
                 }
-                (count > 0).then(|| ((sum / count as f64).sqrt(), h))
+                (count > 0 && 2 * within > pairs).then(|| ((sum / count as f64).sqrt(), h))
             })
             .min_by(|a, b| a.0.total_cmp(&b.0).then(a.1.cmp(&b.1)));
         match best {
@@ -236,26 +245,6 @@ pub(crate) fn rejoin_small(
             _ => g += 1,
         }
     }
-}
-
-/// Whether more than half of the measurable ρ between groups `a` and `b` are within `tol`.
-fn mostly_within(
-    stats: &PairStats,
-    a: &[usize],
-    b: &[usize],
-    tol: f64,
-    min_overlap: usize,
-) -> bool {
-    let (mut within, mut count) = (0usize, 0usize);
-    for &i in a {
-        for &j in b {
-            if let Some(r) = stats.rho(i, j, min_overlap) {
-                within += usize::from(r <= tol);
-                count += 1;
-            }
-        }
-    }
-    2 * within > count
 }
 
 /// Mean ρ over the measurable pairs between two groups, mm.

@@ -881,43 +881,31 @@ impl SegmentedCmu {
     }
 
     /// Thighs are THI + KNE and shanks SHN + ANK, each its own two-marker segment, on both
-    /// sides (the CMU marker set gives those segments two markers each).
+    /// sides (the CMU marker set gives those segments two markers each). The malleolus
+    /// (ANK) sits near the ankle axis, rigid with shank and foot alike; it goes to the
+    /// shank, whose only other marker would be alone, while the foot keeps 3.
     fn assert_two_marker_thighs_and_shanks(&self) {
-        let segment_of = |name: &str| self.segment_of(name);
+        let parts: [(&str, &str, &[&str]); 2] =
+            [("THI", "KNE", &["SHN", "FWT"]), ("SHN", "ANK", &["HEE"])];
         for side in ["L", "R"] {
-            let thi = segment_of(&format!("{side}THI"));
-            assert!(thi.is_some(), "{side}THI unassigned");
-            assert_eq!(thi, segment_of(&format!("{side}KNE")), "{side} thigh split");
-            assert_ne!(
-                thi,
-                segment_of(&format!("{side}SHN")),
-                "{side} thigh with shank"
-            );
-            assert_ne!(
-                thi,
-                segment_of(&format!("{side}FWT")),
-                "{side} thigh with pelvis"
-            );
-            let size = self.size_of(thi);
-            assert_eq!(size, Some(2), "{side} thigh is {side}THI + {side}KNE only");
-        }
-        // The malleolus (ANK) sits near the ankle axis, rigid with shank and foot alike; it
-        // goes to the shank, whose only other marker would be alone, while the foot keeps 3.
-        for side in ["L", "R"] {
-            let shank = segment_of(&format!("{side}SHN"));
-            assert!(shank.is_some(), "{side}SHN unassigned");
-            assert_eq!(
-                shank,
-                segment_of(&format!("{side}ANK")),
-                "{side} shank split"
-            );
-            assert_ne!(
-                shank,
-                segment_of(&format!("{side}HEE")),
-                "{side} shank with foot"
-            );
-            let size = self.size_of(shank);
-            assert_eq!(size, Some(2), "{side} shank is {side}SHN + {side}ANK only");
+            for (first, mate, elsewhere) in parts {
+                let segment = self.segment_of(&format!("{side}{first}"));
+                assert!(segment.is_some(), "{side}{first} unassigned");
+                assert_eq!(
+                    segment,
+                    self.segment_of(&format!("{side}{mate}")),
+                    "{side}{first} apart from {side}{mate}"
+                );
+                for other in elsewhere {
+                    assert_ne!(
+                        segment,
+                        self.segment_of(&format!("{side}{other}")),
+                        "{side}{first} with {side}{other}"
+                    );
+                }
+                let size = self.size_of(segment);
+                assert_eq!(size, Some(2), "{side}{first} + {side}{mate} only");
+            }
         }
     }
 

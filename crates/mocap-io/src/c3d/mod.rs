@@ -260,12 +260,7 @@ fn drop_model_outputs(
         ));
         return (labels, positions, seen);
     }
-    let seen = seen
-        .into_iter()
-        .zip(&keep)
-        .filter(|(_, k)| **k)
-        .map(|(s, _)| s)
-        .collect();
+    let seen = kept(seen, &keep);
     let (labels, positions) = retain_points(labels, positions, &keep);
     warnings.push(format!(
         "{dropped} points listed in {} are model outputs, not markers: not read (--set mocap-io.keep_model_outputs=true keeps them)",
@@ -332,13 +327,17 @@ fn retain_points(
         .chunks(points.max(1))
         .flat_map(|frame| frame.iter().zip(keep).filter(|(_, k)| **k).map(|(p, _)| *p))
         .collect();
-    let labels: Vec<String> = labels
+    (kept(labels, keep), positions)
+}
+
+/// The entries of a per-point list whose `keep` entry is true.
+fn kept<T>(items: Vec<T>, keep: &[bool]) -> Vec<T> {
+    items
         .into_iter()
         .zip(keep)
         .filter(|(_, k)| **k)
-        .map(|(l, _)| l)
-        .collect();
-    (labels, positions)
+        .map(|(item, _)| item)
+        .collect()
 }
 
 /// Where the frames are and how they are stored, after header and parameters are reconciled.
