@@ -966,6 +966,23 @@ fn anchored_poses(
     }
 }
 
+/// A centre N carries (`centre`, N-local) as S sees it: the mean over the frames where
+/// both are posed of its place in S's local frame; `None` without such frames.
+pub(crate) fn centre_in_segment(
+    s_track: &[Option<Pose>],
+    n_track: &[Option<Pose>],
+    centre: DVec3,
+) -> Option<DVec3> {
+    let (mut sum, mut count) = (DVec3::ZERO, 0usize);
+    for (s, nb) in s_track.iter().zip(n_track) {
+        if let (Some(s), Some(nb)) = (s, nb) {
+            sum += s.inverse_apply(nb.apply(centre));
+            count += 1;
+        }
+    }
+    (count > 0).then(|| sum / count as f64)
+}
+
 /// Fills frames where `poses` (S's own, ≥ 3 markers) is missing from S's visible markers
 /// plus the anchor's centre; returns which frames were filled.
 fn fill_gaps(
@@ -978,18 +995,17 @@ fn fill_gaps(
     params: &Params,
 ) -> Vec<bool> {
     let mut filled = vec![false; traj.frames()];
-    // The centre in S's local frame: the mean of where N carries it, seen from S.
-    let (mut sum, mut count) = (DVec3::ZERO, 0usize);
-    for (s, nb) in s_track.iter().zip(n_track) {
-        if let (Some(s), Some(nb)) = (s, nb) {
-            sum += s.inverse_apply(nb.apply(fit.centre));
-            count += 1;
-        }
-    }
-    if count < params.min_frames {
+    let both = s_track
+        .iter()
+        .zip(n_track)
+        .filter(|(s, nb)| s.is_some() && nb.is_some())
+        .count();
+    if both < params.min_frames {
         return filled;
     }
-    let centre_in_s = sum / count as f64;
+    let Some(centre_in_s) = centre_in_segment(s_track, n_track, fit.centre) else {
+        return filled;
+    };
     let reference: Vec<DVec3> = poses
         .reference
         .iter()

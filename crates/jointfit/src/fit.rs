@@ -23,9 +23,24 @@ pub(crate) struct SegmentView<'a> {
     /// For a segment with its own poses whose gaps were filled through an anchor: the
     /// anchor neighbour and, per frame, whether the pose there was filled through it.
     pub filled_through: Option<(usize, &'a [bool])>,
+    /// For a segment of two markers posed through a joint: that joint's centre in the
+    /// segment's local frame (mm), about which its markers turn it, and its markers'
+    /// scatter per coordinate (mm: the radial residual of their distances to the centre;
+    /// the pose fit's own residual, with 3 degrees of freedom, hides most of it).
+    pub pivot: Option<(DVec3, f64)>,
 }
 
 impl SegmentView<'_> {
+    /// Variance (rad²) of this segment's pose turn across `axis` (segment-local) that its
+    /// fit noise gives (see [`poses::tilt_variance`]); `None` when nothing bounds it.
+    fn tilt_variance(&self, axis: DVec3) -> Option<f64> {
+        poses::tilt_variance(self.poses, axis).or_else(|| {
+            self.pivot.and_then(|(pivot, sigma)| {
+                poses::pivot_tilt_variance(self.poses, pivot, sigma, axis)
+            })
+        })
+    }
+
     /// The poses a fit with `partner` may learn from: frames filled through a third
     /// segment's joint carry that joint by construction (its centre was one of the three
     /// points), so they would bias this pair's centre and cost towards the anchor's.
@@ -51,8 +66,8 @@ impl SegmentView<'_> {
 /// makes comparable to a ball joint's small swing about its least-used direction).
 fn noisy_hinge(
     motion: &RelativeMotion,
-    pa: &SegmentPoses,
-    pb: &SegmentPoses,
+    sa: &SegmentView<'_>,
+    sb: &SegmentView<'_>,
     params: &Params,
 ) -> Option<String> {
     if params.hinge_noise_factor <= 0.0 {
@@ -60,10 +75,9 @@ fn noisy_hinge(
     }
     let [w0, w1, _] = motion.wobble_deg;
     let ratio = if w1 > 0.0 { w0 / w1 } else { 1.0 };
-    let noise = (poses::tilt_variance(pa, motion.axis_in_a)?
-        + poses::tilt_variance(pb, motion.axis_in_b)?)
-    .sqrt()
-    .to_degrees();
+    let noise = (sa.tilt_variance(motion.axis_in_a)? + sb.tilt_variance(motion.axis_in_b)?)
+        .sqrt()
+        .to_degrees();
     (ratio < params.hinge_noise_ratio && w0 <= params.hinge_noise_factor * noise).then(|| {
         format!(
             "; hinge after all: ratio < hinge_noise_ratio {} and least wobble {w0:.2}° within \
@@ -142,7 +156,7 @@ pub(crate) fn fit_pair(
     let motion = relative_motion(pa, pb, &co);
     let (mut kind, mut evidence) = motion.classify(params, co.len());
     if kind == JointKind::Ball
-        && let Some(note) = noisy_hinge(&motion, sa.poses, sb.poses, params)
+        && let Some(note) = noisy_hinge(&motion, sa, sb, params)
     {
         kind = JointKind::Hinge;
         evidence.push_str(&note);

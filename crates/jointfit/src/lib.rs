@@ -15,7 +15,9 @@
 //! barely moves (`Params::hinge_ratio` against the next direction), or moves no more than
 //! the two segments' pose noise tilts it (`Params::hinge_noise_factor`, from each fit's
 //! scatter and its markers' inertia: skin on a compact marker set wobbles a hinge's axis as
-//! much as a ball joint's least-used direction).
+//! much as a ball joint's least-used direction; a two-marker segment posed through a joint
+//! turns about that joint's centre, so its markers' moments about the centre and their
+//! radial scatter give its noise).
 //!
 //! Segments carried by 1 or 2 markers (or collinear ones) are posed through the joint with
 //! a posed neighbour (greedy anchoring, `Params::anchor`, see `anchor.rs`): 2 markers plus
@@ -255,6 +257,13 @@ fn fit_all(
             markers,
             poses,
             track,
+            pivot: anchor
+                .as_ref()
+                .filter(|a| a.posed_by_anchor && markers.len() >= 2)
+                .and_then(|a| {
+                    anchor::centre_in_segment(track, &tracks[a.neighbour], a.fit.centre)
+                        .map(|c| (c, a.fit.rms_mm))
+                }),
             filled_through: anchor.as_ref().and_then(|a| {
                 if a.posed_by_anchor {
                     a.secondary.as_ref().map(|(nb, f)| (*nb, f.as_slice()))

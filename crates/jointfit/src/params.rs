@@ -182,7 +182,10 @@ pub const PARAM_DOCS: &[(&str, &str)] = &[
          compact or few markers. cargo xtask eval --presets clean,hard --seeds 8101..8124,8201..8230 \
          --compare jointfit.hinge_noise_factor=0,1.5: hard hinge-vs-not right 3180 of 3406 -> 3264 of \
          3405 joints with a kind, mean 1.99 -> 1.96 % of height, clean identical; ratio 0.5-0.99 within \
-         0.002 %; default 0.6",
+         0.002 %. A segment of two markers posed through a joint turns about that joint's centre: \
+         its noise is its markers' radial scatter about the centre over their moments about it \
+         (before, it had none and the test never applied: 2-3 markers per segment, S16 hard, \
+         hinge-vs-not right 641 -> 692 of 793); default 0.6",
     ),
     (
         "hinge_noise_factor",

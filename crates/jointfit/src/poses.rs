@@ -505,8 +505,14 @@ pub(crate) fn median_rms_mm(poses: &SegmentPoses) -> Option<f64> {
 /// on their spin).
 pub(crate) fn inverse_inertia(points: &[DVec3]) -> Option<DMat3> {
     let centroid = points.iter().copied().sum::<DVec3>() / points.len() as f64;
+    inverse_inertia_about(points, centroid)
+}
+
+/// The inverse of the inertia tensor of `points` about `pivot` (mm⁻²): how far their
+/// scatter turns a body that pivots there; `None` when they line up with the pivot.
+fn inverse_inertia_about(points: &[DVec3], pivot: DVec3) -> Option<DMat3> {
     let inertia = points.iter().fold(DMat3::ZERO, |j, &r| {
-        let d = r - centroid;
+        let d = r - pivot;
         j + DMat3::from_diagonal(DVec3::splat(d.length_squared()))
             - DMat3::from_cols(d * d.x, d * d.y, d * d.z)
     });
@@ -516,6 +522,24 @@ pub(crate) fn inverse_inertia(points: &[DVec3]) -> Option<DMat3> {
         return None;
     }
     Some(inertia.inverse())
+}
+
+/// [`tilt_variance`] of a segment of two markers posed through a joint at `pivot`
+/// (segment-local, mm), its markers scattering `sigma_mm` per coordinate: its markers turn
+/// it about the pivot, which its neighbour carries, so their moments about the pivot bound
+/// the turn.
+pub(crate) fn pivot_tilt_variance(
+    poses: &SegmentPoses,
+    pivot: DVec3,
+    sigma_mm: f64,
+    axis: DVec3,
+) -> Option<f64> {
+    let reference = reference_points(poses);
+    if reference.len() < 2 || !sigma_mm.is_finite() {
+        return None;
+    }
+    let inverse = inverse_inertia_about(&reference, pivot)?;
+    Some(sigma_mm * sigma_mm * (trace(inverse) - axis.dot(inverse * axis)).max(0.0))
 }
 
 /// The sum of a 3×3 matrix's diagonal.
