@@ -29,6 +29,11 @@ fn read(dir: &Path, path: &str) -> Result<Capture, mocap_io::FormatError> {
 }
 
 /// Millimetres per unit of the reference's own numbers.
+/// The first of `capture`'s warnings that contains `needle`.
+fn warning_with<'a>(capture: &'a Capture, needle: &str) -> Option<&'a String> {
+    capture.info.warnings.iter().find(|w| w.contains(needle))
+}
+
 fn unit_factor(units: Option<&str>) -> f64 {
     match units {
         Some("mm") | None => 1.0,
@@ -267,11 +272,7 @@ fn giant_keeps_flagged_samples_only_when_asked() {
     let t = &default.trajectories;
     assert_eq!(t.missing_samples(), t.frames() * t.markers());
     assert!(
-        default
-            .info
-            .warnings
-            .iter()
-            .any(|w| w.contains("keep_invalid_residuals")),
+        warning_with(&default, "keep_invalid_residuals").is_some(),
         "{:?}",
         default.info.warnings
     );
@@ -347,12 +348,8 @@ fn model_outputs_are_not_read_as_markers() {
         assert!(!t.labels().iter().any(|l| l == output), "{output} read");
     }
     assert!(t.labels().iter().any(|l| l == "Sacr"));
-    let warning = default
-        .info
-        .warnings
-        .iter()
-        .find(|w| w.contains("model outputs"))
-        .expect("a warning about the dropped points");
+    let warning =
+        warning_with(&default, "model outputs").expect("a warning about the dropped points");
     assert!(
         warning.contains("64 points") && warning.contains("POINT:ANGLES"),
         "{warning}"
@@ -390,11 +387,7 @@ fn computed_points_are_not_read_as_markers() {
     for computed in ["Cristine1:PEL0", "Cristine1:LFEM1", "Cristine1:RTB8"] {
         assert!(!t.labels().iter().any(|l| l == computed), "{computed} read");
     }
-    let warning = default
-        .info
-        .warnings
-        .iter()
-        .find(|w| w.contains("never seen by a camera"))
+    let warning = warning_with(&default, "never seen by a camera")
         .expect("a warning about the computed points");
     assert!(
         warning.starts_with("289 points") && warning.contains("while 41 were"),
@@ -409,11 +402,7 @@ fn computed_points_are_not_read_as_markers() {
         let bytes = std::fs::read(dir.join(path)).unwrap();
         let capture = c3d::parse(&bytes, &ReadOptions::default()).unwrap();
         assert!(
-            !capture
-                .info
-                .warnings
-                .iter()
-                .any(|w| w.contains("never seen by a camera")),
+            warning_with(&capture, "never seen by a camera").is_none(),
             "{path}: {:?}",
             capture.info.warnings
         );

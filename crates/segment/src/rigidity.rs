@@ -102,37 +102,36 @@ pub(crate) fn rms_rho(
     (count > 0).then(|| (sum / count as f64).sqrt())
 }
 
-/// Makes every cluster rigid, deterministically: splits within `small_tol` (mm), then
-/// [`repair`]s with `tol` and `small_tol`, as the linkage split and repair of the default
-/// path do.
+/// Makes every cluster rigid, deterministically: splits within `spread_tol` (mm), then
+/// [`repair`]s, as the linkage split and repair of the default path do.
 pub(crate) fn refine(
     clusters: Vec<Vec<usize>>,
     stats: &PairStats,
-    tol: f64,
-    small_tol: f64,
+    noise_tol: f64,
+    spread_tol: f64,
     min_overlap: usize,
     min_group: usize,
 ) -> Vec<Vec<usize>> {
     let clusters: Vec<Vec<usize>> = clusters
         .iter()
-        .flat_map(|c| split(c, stats, small_tol, min_overlap, min_group))
+        .flat_map(|c| split(c, stats, spread_tol, min_overlap, min_group))
         .collect();
-    repair(clusters, stats, tol, small_tol, min_overlap)
+    repair(clusters, stats, noise_tol, spread_tol, min_overlap)
 }
 
-/// Moves misplaced markers (within `tol`) and merges rigid neighbours (within `tol`, or
-/// `small_tol` where one has fewer than [`POSED_MARKERS`]) until nothing changes (at most
-/// [`MAX_SWEEPS`] sweeps), then normalises.
+/// Moves misplaced markers (within `noise_tol`, mm) and merges rigid neighbours (within
+/// `noise_tol`, or `spread_tol` where one has fewer than [`POSED_MARKERS`]) until nothing
+/// changes (at most [`MAX_SWEEPS`] sweeps), then normalises.
 pub(crate) fn repair(
     mut clusters: Vec<Vec<usize>>,
     stats: &PairStats,
-    tol: f64,
-    small_tol: f64,
+    noise_tol: f64,
+    spread_tol: f64,
     min_overlap: usize,
 ) -> Vec<Vec<usize>> {
     for _ in 0..MAX_SWEEPS {
-        let moved = move_markers(&mut clusters, stats, tol, min_overlap);
-        let merged = merge_rigid(&mut clusters, stats, small_tol, tol, min_overlap);
+        let moved = move_markers(&mut clusters, stats, noise_tol, min_overlap);
+        let merged = merge_rigid(&mut clusters, stats, noise_tol, spread_tol, min_overlap);
         if !moved && !merged {
             break;
         }
@@ -301,14 +300,14 @@ pub(crate) fn move_markers(
 /// Fewest markers that give a cluster a pose of its own.
 const POSED_MARKERS: usize = 3;
 
-/// Merges pairs of clusters whose every measurable cross pair has ρ ≤ `posed_tol`, or
-/// `small_tol` where one of them has fewer than [`POSED_MARKERS`] (they move as one body
+/// Merges pairs of clusters whose every measurable cross pair has ρ ≤ `noise_tol`, or
+/// `spread_tol` where one of them has fewer than [`POSED_MARKERS`] (they move as one body
 /// within the tolerance), most rigid pair first. Returns whether any merged.
 fn merge_rigid(
     clusters: &mut Vec<Vec<usize>>,
     stats: &PairStats,
-    small_tol: f64,
-    posed_tol: f64,
+    noise_tol: f64,
+    spread_tol: f64,
     min_overlap: usize,
 ) -> bool {
     let mut any = false;
@@ -326,7 +325,7 @@ fn merge_rigid(
                     }
                 }
                 let posed = clusters[a].len().min(clusters[b].len()) >= POSED_MARKERS;
-                let tol = if posed { posed_tol } else { small_tol };
+                let tol = if posed { noise_tol } else { spread_tol };
                 if let Some(w) = worst
                     && w <= tol
                     && best.is_none_or(|(bw, _, _)| w < bw)
