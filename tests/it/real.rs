@@ -202,12 +202,13 @@ fn body_parts_mismatch(
     failures
 }
 
-/// The OpenSim gait example's 41 markers and a Qualisys walk's 25 are named by body part:
-/// the segments must be those parts (legs, pelvis, trunk, head whole; arms never mixed with
-/// each other or the trunk), found with no label read.
-#[test]
-fn real_walks_segment_into_their_named_body_parts() {
-    let opensim: (&str, Vec<BodyPart>, Vec<BodyPart>) = (
+/// A walk whose labels name body parts: (file, parts that are one segment each, parts whose
+/// split between segments the labels do not decide).
+type NamedWalk = (&'static str, Vec<BodyPart<'static>>, Vec<BodyPart<'static>>);
+
+/// The OpenSim gait example (41 markers; its arms' elbow markers may go with either bone).
+fn opensim_walk() -> NamedWalk {
+    (
         "trc/opensim/subject01_walk1.trc",
         vec![
             ("pelvis", &["R.ASIS", "L.ASIS", "V.Sacral"]),
@@ -262,8 +263,12 @@ fn real_walks_segment_into_their_named_body_parts() {
                 &["L.Bicep", "L.Elbow", "L.Wrist.Med", "L.Wrist.Lat"],
             ),
         ],
-    );
-    let qualisys: (&str, Vec<BodyPart>, Vec<BodyPart>) = (
+    )
+}
+
+/// c3d.org sample 26, a Qualisys walk (25 markers; the arms and trunk are not checked).
+fn qualisys_walk() -> NamedWalk {
+    (
         "c3d/c3d.org/sample26/Walking_Hybrid_1_1.c3d",
         vec![
             ("pelvis", &["R_ASIS", "L_ASIS", "SACRUM"]),
@@ -287,9 +292,16 @@ fn real_walks_segment_into_their_named_body_parts() {
             ("left foot", &["L_HEEL", "L_MT_1", "L_MT_5"]),
         ],
         Vec::new(),
-    );
+    )
+}
+
+/// The OpenSim gait example's 41 markers and a Qualisys walk's 25 are named by body part:
+/// the segments must be those parts (legs, pelvis, trunk, head whole; arms never mixed with
+/// each other or the trunk), found with no label read.
+#[test]
+fn real_walks_segment_into_their_named_body_parts() {
     let mut failures = Vec::new();
-    for (file, whole, apart) in [opensim, qualisys] {
+    for (file, whole, apart) in [opensim_walk(), qualisys_walk()] {
         let Some((_, skeleton)) = real_skeleton("real_walks_body_parts", file) else {
             return;
         };
@@ -298,6 +310,57 @@ fn real_walks_segment_into_their_named_body_parts() {
                 .into_iter()
                 .map(|f| format!("{file}: {f}")),
         );
+    }
+    assert!(failures.is_empty(), "{}", failures.join("\n"));
+}
+
+/// Every joint of the two named walks joins body parts that meet in the body (pelvis and
+/// thigh, thigh and shank, shank and foot, pelvis and trunk, trunk and head, trunk and
+/// arm, or two segments of one arm), with no label read. In the OpenSim walk the arms
+/// barely move against the trunk and the right upper arm swings in phase with the left
+/// thigh; it used to hang from that thigh (`jointfit.anchor_exact_centre_mm`).
+#[test]
+fn real_walks_join_only_body_parts_that_meet() {
+    let meet = |x: &str, y: &str| {
+        let side = |p: &str| p.split(' ').next().unwrap_or("").to_owned();
+        let kind = |p: &str| p.rsplit(' ').next().unwrap_or("").to_owned();
+        let (kx, ky) = (kind(x), kind(y));
+        let pair = |a: &str, b: &str| (kx == a && ky == b) || (kx == b && ky == a);
+        pair("pelvis", "trunk")
+            || pair("trunk", "head")
+            || pair("trunk", "arm")
+            || (kx == "arm" && ky == "arm" && side(x) == side(y))
+            || (side(x) == side(y) && (pair("thigh", "shank") || pair("shank", "foot")))
+            || pair("pelvis", "thigh")
+    };
+    let mut failures = Vec::new();
+    for (file, whole, apart) in [opensim_walk(), qualisys_walk()] {
+        let Some((_, skeleton)) = real_skeleton("real_walks_joints_meet", file) else {
+            return;
+        };
+        let segment = segment_by_label(&skeleton);
+        // The body part of each segment, from any of its markers the lists name.
+        let mut part_of = std::collections::BTreeMap::new();
+        for (part, labels) in whole.iter().chain(&apart) {
+            for label in *labels {
+                if let Some(id) = segment.get(*label).copied().flatten() {
+                    part_of.insert(id, *part);
+                }
+            }
+        }
+        for joint in skeleton["joints"].as_array().expect("joints") {
+            let ends = [&joint["parent_segment"], &joint["child_segment"]]
+                .map(|s| s.as_u64().and_then(|id| part_of.get(&id).copied()));
+            let [Some(parent), Some(child)] = ends else {
+                continue;
+            };
+            if !meet(parent, child) {
+                failures.push(format!(
+                    "{file}: joint {} joins the {parent} to the {child}",
+                    joint["name"]
+                ));
+            }
+        }
     }
     assert!(failures.is_empty(), "{}", failures.join("\n"));
 }
