@@ -348,18 +348,27 @@ fn real_walks_join_only_body_parts_that_meet() {
                 }
             }
         }
+        let mut checked = 0;
         for joint in skeleton["joints"].as_array().expect("joints") {
             let ends = [&joint["parent_segment"], &joint["child_segment"]]
                 .map(|s| s.as_u64().and_then(|id| part_of.get(&id).copied()));
             let [Some(parent), Some(child)] = ends else {
                 continue;
             };
+            checked += 1;
             if !meet(parent, child) {
                 failures.push(format!(
                     "{file}: joint {} joins the {parent} to the {child}",
                     joint["name"]
                 ));
             }
+        }
+        // The parts that are one segment each are one tree: at least that many joints less one.
+        if checked + 1 < whole.len() {
+            failures.push(format!(
+                "{file}: only {checked} joints between named parts ({} parts)",
+                whole.len()
+            ));
         }
     }
     assert!(failures.is_empty(), "{}", failures.join("\n"));
