@@ -967,11 +967,13 @@ fn anchored_poses(
 }
 
 /// A centre N carries (`centre`, N-local) as S sees it: the mean over the frames where
-/// both are posed of its place in S's local frame; `None` without such frames.
+/// both are posed of its place in S's local frame; `None` with fewer than `min_frames`
+/// (at least 1) such frames.
 pub(crate) fn centre_in_segment(
     s_track: &[Option<Pose>],
     n_track: &[Option<Pose>],
     centre: DVec3,
+    min_frames: usize,
 ) -> Option<DVec3> {
     let (mut sum, mut count) = (DVec3::ZERO, 0usize);
     for (s, nb) in s_track.iter().zip(n_track) {
@@ -980,7 +982,7 @@ pub(crate) fn centre_in_segment(
             count += 1;
         }
     }
-    (count > 0).then(|| sum / count as f64)
+    (count >= min_frames.max(1)).then(|| sum / count as f64)
 }
 
 /// Fills frames where `poses` (S's own, ≥ 3 markers) is missing from S's visible markers
@@ -995,15 +997,8 @@ fn fill_gaps(
     params: &Params,
 ) -> Vec<bool> {
     let mut filled = vec![false; traj.frames()];
-    let both = s_track
-        .iter()
-        .zip(n_track)
-        .filter(|(s, nb)| s.is_some() && nb.is_some())
-        .count();
-    if both < params.min_frames {
-        return filled;
-    }
-    let Some(centre_in_s) = centre_in_segment(s_track, n_track, fit.centre) else {
+    let Some(centre_in_s) = centre_in_segment(s_track, n_track, fit.centre, params.min_frames)
+    else {
         return filled;
     };
     let reference: Vec<DVec3> = poses

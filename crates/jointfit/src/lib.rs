@@ -261,7 +261,8 @@ fn fit_all(
                 .as_ref()
                 .filter(|a| a.posed_by_anchor && markers.len() >= 2)
                 .and_then(|a| {
-                    anchor::centre_in_segment(track, &tracks[a.neighbour], a.fit.centre)
+                    let n_track = &tracks[a.neighbour];
+                    anchor::centre_in_segment(track, n_track, a.fit.centre, params.min_frames)
                         .map(|c| (c, a.fit.rms_mm))
                 }),
             filled_through: anchor.as_ref().and_then(|a| {

@@ -18,22 +18,32 @@ fn is_c3d(entry: &Value) -> bool {
     path.to_ascii_lowercase().ends_with(".c3d")
 }
 
+/// A shared file read as the reference readers give it: every point, model outputs and
+/// computed points included.
 fn read(dir: &Path, path: &str) -> Result<Capture, mocap_io::FormatError> {
-    let bytes = std::fs::read(dir.join(path)).expect("shared file readable");
-    // Every point, as the reference readers give them (model outputs included).
     let options = ReadOptions {
         keep_model_outputs: true,
         ..ReadOptions::default()
     };
-    c3d::parse(&bytes, &options)
+    read_with(dir, path, &options)
 }
 
-/// Millimetres per unit of the reference's own numbers.
+/// A shared file read with `options`.
+fn read_with(
+    dir: &Path,
+    path: &str,
+    options: &ReadOptions,
+) -> Result<Capture, mocap_io::FormatError> {
+    let bytes = std::fs::read(dir.join(path)).expect("shared file readable");
+    c3d::parse(&bytes, options)
+}
+
 /// The first of `capture`'s warnings that contains `needle`.
 fn warning_with<'a>(capture: &'a Capture, needle: &str) -> Option<&'a String> {
     capture.info.warnings.iter().find(|w| w.contains(needle))
 }
 
+/// Millimetres per unit of the reference's own numbers.
 fn unit_factor(units: Option<&str>) -> f64 {
     match units {
         Some("mm") | None => 1.0,
@@ -267,8 +277,8 @@ fn giant_keeps_flagged_samples_only_when_asked() {
     let Some((dir, _)) = reference() else {
         return;
     };
-    let bytes = std::fs::read(dir.join("c3d/c3d.org/sample16/giant.c3d")).unwrap();
-    let default = c3d::parse(&bytes, &ReadOptions::default()).unwrap();
+    let giant = "c3d/c3d.org/sample16/giant.c3d";
+    let default = read_with(&dir, giant, &ReadOptions::default()).unwrap();
     let t = &default.trajectories;
     assert_eq!(t.missing_samples(), t.frames() * t.markers());
     assert!(
@@ -280,7 +290,7 @@ fn giant_keeps_flagged_samples_only_when_asked() {
         keep_invalid_residuals: true,
         ..ReadOptions::default()
     };
-    let kept = c3d::parse(&bytes, &keep).unwrap();
+    let kept = read_with(&dir, giant, &keep).unwrap();
     let t = &kept.trajectories;
     // 1806 of its samples are SIMI's (-1e9, -1e9, -1e9) gap fill: missing even when kept.
     assert_eq!(t.missing_samples(), 1806);
@@ -340,8 +350,8 @@ fn model_outputs_are_not_read_as_markers() {
     let Some((dir, _)) = reference() else {
         return;
     };
-    let bytes = std::fs::read(dir.join("c3d/c3d.org/sample33/bigparlove.c3d")).unwrap();
-    let default = c3d::parse(&bytes, &ReadOptions::default()).unwrap();
+    let bigparlove = "c3d/c3d.org/sample33/bigparlove.c3d";
+    let default = read_with(&dir, bigparlove, &ReadOptions::default()).unwrap();
     let t = &default.trajectories;
     assert_eq!(t.markers(), 205 - 64);
     for output in ["RHipAngles", "RKneeForce", "RKneeMoment", "RHipPower"] {
@@ -358,7 +368,7 @@ fn model_outputs_are_not_read_as_markers() {
         keep_model_outputs: true,
         ..ReadOptions::default()
     };
-    let all = c3d::parse(&bytes, &keep).unwrap();
+    let all = read_with(&dir, bigparlove, &keep).unwrap();
     assert_eq!(all.trajectories.markers(), 205);
     // The markers kept are the same samples either way.
     let sacr = |t: &mocap_io::Trajectories| {
@@ -370,15 +380,14 @@ fn model_outputs_are_not_read_as_markers() {
 
 /// CMU 49_04 holds 41 tracked markers and 289 bone-model points (PEL0, LFEM1, ...) that no
 /// camera saw (every residual word 0): those are not read as markers unless asked, and
-/// the warning says how many and which. Every other shared capture keeps all its points
-/// (the check above reads each with the default options too).
+/// the warning says how many and which. Every other readable shared C3D, read with the
+/// default options, keeps all its points.
 #[test]
 fn computed_points_are_not_read_as_markers() {
     let Some((dir, files)) = reference() else {
         return;
     };
-    let bytes = std::fs::read(dir.join("c3d/cmu/49_04.c3d")).unwrap();
-    let default = c3d::parse(&bytes, &ReadOptions::default()).unwrap();
+    let default = read_with(&dir, "c3d/cmu/49_04.c3d", &ReadOptions::default()).unwrap();
     let t = &default.trajectories;
     assert_eq!(t.markers(), 41);
     for marker in ["Cristine1:LBWT", "Cristine1:RTOE", "Cristine1:LKNE"] {
@@ -399,8 +408,7 @@ fn computed_points_are_not_read_as_markers() {
         if path.ends_with("49_04.c3d") {
             continue;
         }
-        let bytes = std::fs::read(dir.join(path)).unwrap();
-        let capture = c3d::parse(&bytes, &ReadOptions::default()).unwrap();
+        let capture = read_with(&dir, path, &ReadOptions::default()).unwrap();
         assert!(
             warning_with(&capture, "never seen by a camera").is_none(),
             "{path}: {:?}",
