@@ -105,6 +105,7 @@ pub fn run_on_segments(
     params: &Params,
 ) -> Result<PairFits, Error> {
     params.validate()?;
+    let params = &params.with_floors_scaled(traj.floor_scale());
     for (segment, markers) in segments.iter().enumerate() {
         if let Some(&marker) = markers.iter().find(|&&m| m >= traj.markers()) {
             return Err(Error::MarkerOutOfRange {

@@ -196,7 +196,7 @@ pub const PARAM_DOCS: &[(&str, &str)] = &[
     (
         "min_spread_mm",
         "a pose needs visible markers spread at least this RMS distance across their second \
-         principal direction (collinear markers fix no spin); mm; default 2.0",
+         principal direction (collinear markers fix no spin); mm × the capture's floor scale (median nearest-marker distance / 30 mm, at most 1); default 2.0",
     ),
     (
         "max_spin_deg",
@@ -235,7 +235,7 @@ pub const PARAM_DOCS: &[(&str, &str)] = &[
         "pose_outlier_floor_mm",
         "the smallest distance from its fitted place at which pose_outlier_factor leaves a \
          marker out: skin moves markers by up to a few cm, and at 10 mm the rejection already \
-         reshuffled skin-only frames of the hard preset (±0.01 % of height); mm; default 20.0",
+         reshuffled skin-only frames of the hard preset (±0.01 % of height); mm × the capture's floor scale (median nearest-marker distance / 30 mm, at most 1); default 20.0",
     ),
     (
         "max_iters",
@@ -274,12 +274,12 @@ pub const PARAM_DOCS: &[(&str, &str)] = &[
          (hexapods 0.599 -> 0.633); --markers 2:3 on S16 clean 93 -> 93, 0.184 -> 0.185 %, \
          skin 33 -> 34, 2.936 -> 2.965 %, hard 33 -> 33, 3.083 -> 3.078 %; --sweep 0.2:0.4 \
          unchanged. 3 (noise-free hexapod coxae turning 9 deg about the body, which must \
-         not go to a leg) was its first value; 0 = off; mm; default 10",
+         not go to a leg) was its first value; 0 = off; mm × the capture's floor scale (median nearest-marker distance / 30 mm, at most 1); default 10",
     ),
     (
         "anchor_max_rms_mm",
         "anchoring: a neighbour qualifies only if the markers' distances to the common \
-         centre vary by at most this RMS; mm; default 25",
+         centre vary by at most this RMS; mm × the capture's floor scale (median nearest-marker distance / 30 mm, at most 1); default 25",
     ),
     (
         "anchor_line_prior",
@@ -323,6 +323,20 @@ pub const PARAM_DOCS: &[(&str, &str)] = &[
 ];
 
 impl Params {
+    /// These parameters with their millimetre floors and bounds (`min_spread_mm`,
+    /// `pose_outlier_floor_mm`, `anchor_max_rms_mm`, `anchor_exact_centre_mm`) times
+    /// `scale` (≤ 1, [`mocap_io::Trajectories::floor_scale`]): they were set for markers a
+    /// few centimetres apart, and a small subject's segments are smaller than them.
+    pub fn with_floors_scaled(&self, scale: f64) -> Self {
+        Self {
+            min_spread_mm: self.min_spread_mm * scale,
+            pose_outlier_floor_mm: self.pose_outlier_floor_mm * scale,
+            anchor_max_rms_mm: self.anchor_max_rms_mm * scale,
+            anchor_exact_centre_mm: self.anchor_exact_centre_mm * scale,
+            ..self.clone()
+        }
+    }
+
     /// Checks ranges; called by `run`.
     pub fn validate(&self) -> Result<(), Error> {
         let bad = |name, value: f64, reason| Error::InvalidParam {

@@ -24,7 +24,9 @@ use std::path::Path;
 use serde::{Deserialize, Serialize};
 
 pub use error::{FormatError, IoError};
-pub use trajectories::{ABSURD_MM, MISSING, Trajectories, is_present};
+pub use trajectories::{
+    ABSURD_MM, FLOOR_SPACING_MM, MISSING, SPACING_FRAMES, Trajectories, is_present,
+};
 
 /// Stage name of capture artifacts.
 pub const STAGE: &str = "mocap-io";

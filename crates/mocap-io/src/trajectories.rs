@@ -117,6 +117,75 @@ impl Trajectories {
             0.0
         }
     }
+
+    /// How far apart the markers sit (mm): the median over markers of the median over up
+    /// to [`SPACING_FRAMES`] evenly spread frames of the distance to the nearest other
+    /// visible marker (coincident ones skipped); `None` when no frame shows two apart.
+    pub fn marker_spacing_mm(&self) -> Option<f64> {
+        let m = self.labels.len();
+        if self.frames == 0 || m < 2 {
+            return None;
+        }
+        let step = self.frames.div_ceil(SPACING_FRAMES).max(1);
+        let mut nearest: Vec<Vec<f64>> = vec![Vec::new(); m];
+        for f in (0..self.frames).step_by(step) {
+            let row = self.frame(f);
+            for (i, p) in row.iter().enumerate() {
+                if !is_present(*p) {
+                    continue;
+                }
+                let d = row
+                    .iter()
+                    .enumerate()
+                    .filter(|&(j, q)| j != i && is_present(*q))
+                    .map(|(_, q)| distance(*p, *q))
+                    .filter(|&d| d > 0.0)
+                    .fold(f64::INFINITY, f64::min);
+                if d.is_finite() {
+                    nearest[i].push(d);
+                }
+            }
+        }
+        let mut per_marker: Vec<f64> = nearest
+            .iter_mut()
+            .filter(|d| !d.is_empty())
+            .map(|d| median(d))
+            .collect();
+        (!per_marker.is_empty()).then(|| median(&mut per_marker))
+    }
+
+    /// The factor (≤ 1) by which the stages shrink their millimetre floors and bounds for
+    /// this capture: [`marker_spacing_mm`](Self::marker_spacing_mm) over
+    /// [`FLOOR_SPACING_MM`], capped at 1 (and at least 1e-3): the floors were set for
+    /// markers a few centimetres apart, and a mouse or a hand moves within them.
+    pub fn floor_scale(&self) -> f64 {
+        self.marker_spacing_mm()
+            .map_or(1.0, |s| (s / FLOOR_SPACING_MM).clamp(1e-3, 1.0))
+    }
+}
+
+/// Frames [`Trajectories::marker_spacing_mm`] looks at, at most.
+pub const SPACING_FRAMES: usize = 64;
+
+/// The marker spacing (mm) at and above which the stages' millimetre floors apply as
+/// set; below it they shrink in proportion (see [`Trajectories::floor_scale`]). Every
+/// subject of the synthetic generator sits above it (median nearest-marker distance
+/// 33-66 mm), and so do the real captures in the shared data.
+pub const FLOOR_SPACING_MM: f64 = 30.0;
+
+fn distance(a: [f64; 3], b: [f64; 3]) -> f64 {
+    ((a[0] - b[0]).powi(2) + (a[1] - b[1]).powi(2) + (a[2] - b[2]).powi(2)).sqrt()
+}
+
+/// Median of a non-empty slice (sorts it).
+fn median(v: &mut [f64]) -> f64 {
+    v.sort_by(f64::total_cmp);
+    let n = v.len();
+    if n % 2 == 1 {
+        v[n / 2]
+    } else {
+        0.5 * (v[n / 2 - 1] + v[n / 2])
+    }
 }
 
 /// True when a sample holds a position (not the missing marker).
@@ -128,6 +197,39 @@ pub fn is_present(p: [f64; 3]) -> bool {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    /// Markers on a line at 0, 10 and 40 mm, the middle one hidden in the second frame, a
+    /// fourth on top of the last: nearest distances 10/40, 10, 30/40 (the coincident
+    /// marker skipped), so the spacing is the median of 25, 10, 35 and 35 (the fourth's).
+    #[test]
+    fn marker_spacing_is_the_median_nearest_distance_over_frames() {
+        let labels: Vec<String> = ["A", "B", "C", "D"].map(String::from).to_vec();
+        let frame = |b: [f64; 3]| [[0.0, 0.0, 0.0], b, [40.0, 0.0, 0.0], [40.0, 0.0, 0.0]];
+        let positions: Vec<[f64; 3]> = frame([10.0, 0.0, 0.0])
+            .into_iter()
+            .chain(frame(MISSING))
+            .collect();
+        let traj = Trajectories::new(labels, 100.0, 1, 2, positions).unwrap();
+        assert_eq!(traj.marker_spacing_mm(), Some(30.0));
+        assert_eq!(traj.floor_scale(), 1.0);
+        // Ten times smaller: the floors shrink to a tenth.
+        let small = Trajectories::new(
+            traj.labels().to_vec(),
+            100.0,
+            1,
+            2,
+            traj.positions()
+                .iter()
+                .map(|p| p.map(|c| 0.1 * c))
+                .collect(),
+        )
+        .unwrap();
+        assert!((small.floor_scale() - 0.1).abs() < 1e-12);
+        // One marker: no spacing, floors as set.
+        let one = Trajectories::new(vec!["A".into()], 100.0, 1, 1, vec![[1.0, 2.0, 3.0]]).unwrap();
+        assert_eq!(one.marker_spacing_mm(), None);
+        assert_eq!(one.floor_scale(), 1.0);
+    }
 
     #[test]
     fn absurd_and_partial_samples_are_missing() {

@@ -75,8 +75,12 @@ use crate::rigidity::rms_rho;
 /// Stage name of segmentation artifacts.
 pub const STAGE: &str = "segment";
 
-/// Groups the capture's markers into rigid segments (see the crate docs).
+/// Groups the capture's markers into rigid segments (see the crate docs), with the
+/// parameters' millimetre floors scaled to the capture's marker spacing
+/// ([`Params::with_floors_scaled`]).
 pub fn run(traj: &Trajectories, params: &Params) -> Result<Segmentation, Error> {
+    params.validate()?;
+    let params = &params.with_floors_scaled(traj.floor_scale());
     segment_capture(traj, params, params.repair_swaps)
 }
 

@@ -204,7 +204,7 @@ pub const PARAM_DOCS: &[(&str, &str)] = &[
     ),
     (
         "min_scale_mm",
-        "local affinity: floor on each marker's scale so noiseless rigid data does not collapse, mm; default 1.0",
+        "local affinity: floor on each marker's scale so noiseless rigid data does not collapse, mm × the capture's floor scale (median nearest-marker distance / 30 mm, at most 1); default 1.0",
     ),
     ("scale_mm", "absolute affinity: the scale, mm; default 5.0"),
     (
@@ -254,7 +254,7 @@ pub const PARAM_DOCS: &[(&str, &str)] = &[
     ),
     (
         "tolerance_min_mm",
-        "smallest automatic tolerance, mm; default 2.0",
+        "smallest automatic tolerance, mm × the capture's floor scale (median nearest-marker distance / 30 mm, at most 1); default 2.0",
     ),
     (
         "slide_ratio",
@@ -262,7 +262,7 @@ pub const PARAM_DOCS: &[(&str, &str)] = &[
     ),
     (
         "slide_min_mm",
-        "... and also exceeds slide_min_mm (mm) so noise alone never counts as sliding; default 1.0",
+        "... and also exceeds slide_min_mm (mm) so noise alone never counts as sliding × the capture's floor scale (median nearest-marker distance / 30 mm, at most 1); default 1.0",
     ),
     (
         "pair_orphans",
@@ -319,6 +319,18 @@ pub const PARAM_DOCS: &[(&str, &str)] = &[
 ];
 
 impl Params {
+    /// These parameters with their millimetre floors (`tolerance_min_mm`, `min_scale_mm`,
+    /// `slide_min_mm`) times `scale` (≤ 1, [`mocap_io::Trajectories::floor_scale`]): floors
+    /// set for markers a few centimetres apart would swallow a small subject's motion.
+    pub fn with_floors_scaled(&self, scale: f64) -> Self {
+        Self {
+            tolerance_min_mm: self.tolerance_min_mm * scale,
+            min_scale_mm: self.min_scale_mm * scale,
+            slide_min_mm: self.slide_min_mm * scale,
+            ..self.clone()
+        }
+    }
+
     /// Checks ranges; a bad value is an error naming the parameter.
     pub fn validate(&self) -> Result<(), Error> {
         fn bad(name: &'static str, value: impl ToString, why: &'static str) -> Error {
