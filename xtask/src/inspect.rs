@@ -94,6 +94,8 @@ pub fn capture_report(capture: &Capture) -> Report {
         "storage": capture.info.storage,
         "point_scale": capture.info.point_scale,
         "missing_samples": t.missing_samples(),
+        "marker_spacing_mm": t.marker_spacing_mm(),
+        "floor_scale": t.floor_scale(),
         "middle_frame": middle_frame,
         "warnings": capture.info.warnings,
     });
@@ -127,6 +129,18 @@ pub fn capture_report(capture: &Capture) -> Report {
         t.missing_samples(),
         percent(t.missing_samples(), total)
     );
+    if let Some(spacing) = t.marker_spacing_mm() {
+        let scale = t.floor_scale();
+        let _ = writeln!(
+            text,
+            "spacing       {spacing:.1} mm between nearest markers (median){}",
+            if scale < 1.0 {
+                format!("; mm floors of the parameters × {scale:.3}")
+            } else {
+                String::new()
+            }
+        );
+    }
     if frames > 0 {
         let _ = writeln!(text, "frame index {middle} (middle):");
         for (m, label) in t.labels().iter().enumerate() {

@@ -170,7 +170,8 @@ pub const SPACING_FRAMES: usize = 64;
 /// The marker spacing (mm) at and above which the stages' millimetre floors apply as
 /// set; below it they shrink in proportion (see [`Trajectories::floor_scale`]). Every
 /// subject of the synthetic generator sits above it (median nearest-marker distance
-/// 33-66 mm), and so do the real captures in the shared data.
+/// 33-66 mm), and so do the shared real captures (36-321 mm) but c3d.org's
+/// arthuman-sample (20 mm, labelled noise-free bodies).
 pub const FLOOR_SPACING_MM: f64 = 30.0;
 
 fn distance(a: [f64; 3], b: [f64; 3]) -> f64 {

@@ -262,7 +262,7 @@ pub const PARAM_DOCS: &[(&str, &str)] = &[
     ),
     (
         "slide_min_mm",
-        "... and also exceeds slide_min_mm (mm) so noise alone never counts as sliding × the capture's floor scale (median nearest-marker distance / 30 mm, at most 1); default 1.0",
+        "... and also exceeds slide_min_mm (mm × the capture's floor scale: median nearest-marker distance / 30 mm, at most 1) so noise alone never counts as sliding; default 1.0",
     ),
     (
         "pair_orphans",
