@@ -80,6 +80,7 @@ pub fn capture_report(capture: &Capture) -> Report {
                 .collect(),
         )
     };
+    let spacing = t.marker_spacing_mm();
     let json = json!({
         "kind": "capture",
         "format": capture.format.name(),
@@ -94,8 +95,8 @@ pub fn capture_report(capture: &Capture) -> Report {
         "storage": capture.info.storage,
         "point_scale": capture.info.point_scale,
         "missing_samples": t.missing_samples(),
-        "marker_spacing_mm": t.marker_spacing_mm(),
-        "floor_scale": t.floor_scale(),
+        "marker_spacing_mm": spacing,
+        "floor_scale": mocap_io::floor_scale_of(spacing),
         "middle_frame": middle_frame,
         "warnings": capture.info.warnings,
     });
@@ -129,8 +130,8 @@ pub fn capture_report(capture: &Capture) -> Report {
         t.missing_samples(),
         percent(t.missing_samples(), total)
     );
-    if let Some(spacing) = t.marker_spacing_mm() {
-        let scale = t.floor_scale();
+    if let Some(spacing) = spacing {
+        let scale = mocap_io::floor_scale_of(Some(spacing));
         let _ = writeln!(
             text,
             "spacing       {spacing:.1} mm between nearest markers (median){}",

@@ -25,7 +25,7 @@ use serde::{Deserialize, Serialize};
 
 pub use error::{FormatError, IoError};
 pub use trajectories::{
-    ABSURD_MM, FLOOR_SPACING_MM, MISSING, SPACING_FRAMES, Trajectories, is_present,
+    ABSURD_MM, FLOOR_SPACING_MM, MISSING, SPACING_FRAMES, Trajectories, floor_scale_of, is_present,
 };
 
 /// Stage name of capture artifacts.

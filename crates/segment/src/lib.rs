@@ -84,14 +84,14 @@ pub fn run(traj: &Trajectories, params: &Params) -> Result<Segmentation, Error> 
     segment_capture(traj, params, params.repair_swaps)
 }
 
-/// [`run`], looking for label swaps when `find_swaps`: when there are any, the capture is
-/// segmented again with them undone (and not looked for again).
+/// [`run`] on parameters it has validated and scaled, looking for label swaps when
+/// `find_swaps`: when there are any, the capture is segmented again with them undone (and
+/// not looked for again).
 fn segment_capture(
     traj: &Trajectories,
     params: &Params,
     find_swaps: bool,
 ) -> Result<Segmentation, Error> {
-    params.validate()?;
     let (frames, markers) = (traj.frames(), traj.markers());
     if frames == 0 || markers == 0 {
         return Err(Error::EmptyCapture { frames, markers });
