@@ -42,6 +42,16 @@ fn main() {
         .map(|v| format!("{v:.3}"))
         .collect();
     println!("eigenvalues {}", ev.join(" "));
+    let found: Vec<Vec<usize>> = seg.segments.iter().map(|s| s.markers.clone()).collect();
+    let typical = segment::typical_fit_sigma(traj, &found);
+    for (i, c) in found.iter().enumerate() {
+        if let Some((a, b, e)) = segment::joint_split_candidate(traj, c, typical, &params) {
+            println!(
+                "found {i} best cut {a:?} | {b:?}: {}",
+                common::evidence_line(&e, typical)
+            );
+        }
+    }
     for (s, tseg) in trial.truth.segments.iter().enumerate() {
         let ms: Vec<usize> = (0..n).filter(|&m| truth[m] == s).collect();
         let found: Vec<String> = ms

@@ -21,7 +21,7 @@ fn main() {
                 sigma: f64,
                 tag: &str| {
         println!(
-            "{kind:5} {trial:22} {name:28} n={n:2} rot {:6.2} noise {:5.2} ratio {:6.2} centre {:6.2} transl {:6.2} frac {:5.2} pooled {:5.2} gain {:6.4} z {:6.2} part {:5.2} typ {sigma:5.2} {tag}",
+            "{kind:5} {trial:22} {name:28} n={n:2} rot {:6.2} noise {:5.2} ratio {:6.2} centre {:6.2} transl {:6.2} frac {:5.2} pooled {:5.2} gain {:6.4} z {:6.2} tz {:6.2} part {:5.2} typ {sigma:5.2} {tag}",
             e.rotation_deg,
             e.noise_deg,
             e.rotation_deg / e.noise_deg,
@@ -31,6 +31,7 @@ fn main() {
             e.pooled_sigma_mm,
             e.gain_deg_per_mm,
             e.rotation_z,
+            e.translation_z,
             e.part_sigma_mm
         );
     };

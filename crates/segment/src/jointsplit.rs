@@ -17,12 +17,17 @@
 //! capture's typical segment fit σ, J the part's inertia tensor: a near-collinear part's
 //! spin about its own line counts for little), has a robust Mahalanobis length above
 //! `joint_split_z`, and a centre of rotation fixed in both parts explains the parts'
-//! relative translation (its residual is at most `joint_centre_fraction` of it). The bipartition tried is the one two free rigid bodies fit best
+//! relative translation (its residual is at most `joint_centre_fraction` of it). A part of
+//! three markers nearly in line with a hinge's axis poses the hinge's rotation badly (its
+//! J⁻¹ is large about that line), so the test also weighs where a part goes: the worse
+//! posed part's centroid in the better posed part's frame, against the covariance both
+//! centroids' errors and the frame's rotation error give it on one body (`joint_travel_z`).
+//! The bipartition tried is the one two free rigid bodies fit best
 //! (smallest pooled σ): every bipartition into parts of ≥ 3 markers up to
 //! [`MAX_ENUMERATED`] markers; above that, the cuts of the spectral bisection of the
 //! cluster's ρ affinity, refined by single-marker moves. Each part is split again.
 
-use std::collections::BTreeMap;
+use std::collections::{BTreeMap, BTreeSet};
 
 use mocap_io::Trajectories;
 use rayon::prelude::*;
@@ -67,15 +72,28 @@ pub struct JointEvidence {
     /// parts' rotation covariances (σ² J⁻¹ each, σ the typical segment's), dimensionless:
     /// about 2 on one rigid body (√ of χ²₃'s 75th percentile), more across a joint.
     pub rotation_z: f64,
+    /// Robust Mahalanobis length of the travel of one part's centroid in the frame of the
+    /// other (the better posed: smaller trace of J⁻¹), under the covariance the parts' fit errors give it on one rigid
+    /// body, dimensionless: about 2 on one body. It sees a joint whose rotation one part
+    /// cannot pose (three markers in a line along the axis) by where that part goes.
+    pub translation_z: f64,
 }
 
 impl JointEvidence {
     /// Whether the evidence says articulation: two rigid parts (each fit σ within
-    /// `max_part_sigma_mm`) whose relative rotation has a Mahalanobis length above `min_z`,
+    /// `max_part_sigma_mm`) whose relative rotation has a Mahalanobis length above `min_z`
+    /// or one's centroid travels in the other's frame by one above `min_travel_z`,
     /// about a point fixed in both (residual within `centre_fraction` of the relative
     /// translation).
-    pub fn is_joint(&self, min_z: f64, centre_fraction: f64, max_part_sigma_mm: f64) -> bool {
-        self.rotation_z > min_z
+    /// A `min_travel_z` of 0 leaves the centroid's travel out.
+    pub fn is_joint(
+        &self,
+        min_z: f64,
+        min_travel_z: f64,
+        centre_fraction: f64,
+        max_part_sigma_mm: f64,
+    ) -> bool {
+        (self.rotation_z > min_z || (min_travel_z > 0.0 && self.translation_z > min_travel_z))
             && self.centre_mm <= centre_fraction * self.translation_mm
             && self.part_sigma_mm <= max_part_sigma_mm
     }
@@ -94,6 +112,8 @@ struct PartFit {
     rot_gain: f64,
     /// Inverse inertia tensor of the part's shape (segment-local), 1/mm².
     inv_inertia: [[f64; 3]; 3],
+    /// Markers in the part.
+    markers: usize,
 }
 
 /// Trace of the inverse of the inertia tensor of `shape` about its centroid, 1/mm²;
@@ -175,6 +195,7 @@ fn part_fit(
         var: quantile(&mut v, QUANTILE),
         rot_gain: inverse_inertia_trace(&shape),
         inv_inertia: inverse_inertia(&shape).unwrap_or([[f64::INFINITY; 3]; 3]),
+        markers: positions.len(),
     })
 }
 
@@ -413,6 +434,21 @@ fn evidence(a: &PartFit, b: &PartFit, typical_var: f64) -> Option<JointEvidence>
         .map(|l| (0..3).map(|i| (l[i] - mid[i]).powi(2)).sum())
         .collect();
     let translation = quantile(&mut t2, QUANTILE).sqrt();
+    let local_a: Vec<[f64; 3]> = both
+        .iter()
+        .map(|(pa, pb)| {
+            let d: [f64; 3] = std::array::from_fn(|i| pa.t[i] - pb.t[i]);
+            apply(&pb.r, d, true)
+        })
+        .collect();
+    let centroid_var = var_a / a.markers as f64 + var_b / b.markers as f64;
+    // In the frame of the better posed part: a near-collinear part spins about its own line
+    // by more than the linearised covariance allows, and would swing the other's centroid.
+    let translation_z = if a.rot_gain <= b.rot_gain {
+        centroid_travel_z(&local_b, centroid_var, var_a, &a.inv_inertia)
+    } else {
+        centroid_travel_z(&local_a, centroid_var, var_b, &b.inv_inertia)
+    };
     let mut pooled: Vec<f64> = a
         .residuals
         .iter()
@@ -429,7 +465,57 @@ fn evidence(a: &PartFit, b: &PartFit, typical_var: f64) -> Option<JointEvidence>
         part_sigma_mm: a.var.max(b.var).sqrt(),
         gain_deg_per_mm: (a.rot_gain + b.rot_gain).sqrt().to_degrees(),
         rotation_z,
+        translation_z,
     })
+}
+
+/// Robust Mahalanobis length of the travel of one part's centroid in the other's frame
+/// (`local`, per frame) about its median, under the covariance of one rigid body: both
+/// centroids' errors (`centroid_var`, mm²) and the frame's rotation error (`var` J⁻¹)
+/// swinging the median lever arm. 0 when the covariance is singular.
+fn centroid_travel_z(
+    local: &[[f64; 3]],
+    centroid_var: f64,
+    var: f64,
+    inv_inertia: &[[f64; 3]; 3],
+) -> f64 {
+    let mut column = Vec::with_capacity(local.len());
+    let mid: [f64; 3] = std::array::from_fn(|i| {
+        column.clear();
+        column.extend(local.iter().map(|l| l[i]));
+        crate::fitsplit::median(&mut column)
+    });
+    // δ(R_Aᵀ d) = [m]× ε for a rotation error ε of the frame: covariance [m]× Σ [m]×ᵀ.
+    let cross = [
+        [0.0, -mid[2], mid[1]],
+        [mid[2], 0.0, -mid[0]],
+        [-mid[1], mid[0], 0.0],
+    ];
+    let cov: [[f64; 3]; 3] = std::array::from_fn(|i| {
+        std::array::from_fn(|j| {
+            let mut s = if i == j { centroid_var } else { 0.0 };
+            for k in 0..3 {
+                for l in 0..3 {
+                    s += cross[i][k] * var * inv_inertia[k][l] * cross[j][l];
+                }
+            }
+            s
+        })
+    });
+    if !cov.iter().flatten().all(|x| x.is_finite()) {
+        return 0.0;
+    }
+    let Some(w) = invert3(&cov) else { return 0.0 };
+    let mut d2: Vec<f64> = local
+        .iter()
+        .map(|l| {
+            let v: [f64; 3] = std::array::from_fn(|i| l[i] - mid[i]);
+            (0..3)
+                .map(|i| (0..3).map(|j| v[i] * w[i][j] * v[j]).sum::<f64>())
+                .sum::<f64>()
+        })
+        .collect();
+    quantile(&mut d2, QUANTILE).max(0.0).sqrt()
 }
 
 /// Frames used: every `stride`-th.
@@ -595,6 +681,8 @@ fn best_bipartition(
 pub(crate) struct JointTest {
     /// Mahalanobis length of the relative rotation that means articulation.
     pub min_z: f64,
+    /// Mahalanobis length of a part's centroid travel that means articulation (0: unused).
+    pub min_travel_z: f64,
     /// Largest SCoRE residual as a fraction of the parts' relative translation.
     pub centre_fraction: f64,
     /// The capture's typical segment fit σ, mm per coordinate (skin and noise).
@@ -617,8 +705,16 @@ pub(crate) fn split_by_joint(
         return vec![cluster.to_vec()];
     }
     let mut cache = PartCache::new(traj, cluster, test.typical_sigma_mm);
-    match best_bipartition(&mut cache, stats, min_overlap) {
-        Some((mask, e)) if e.is_joint(test.min_z, test.centre_fraction, test.max_part_sigma_mm) => {
+    let found = best_bipartition(&mut cache, stats, min_overlap);
+    match found {
+        Some((mask, e))
+            if e.is_joint(
+                test.min_z,
+                test.min_travel_z,
+                test.centre_fraction,
+                test.max_part_sigma_mm,
+            ) =>
+        {
             let a: Vec<usize> = (0..cluster.len())
                 .filter(|&i| (mask >> i) & 1 == 1)
                 .map(|i| cluster[i])
@@ -635,17 +731,25 @@ pub(crate) fn split_by_joint(
     }
 }
 
-/// Splits every cluster by [`split_by_joint`], in parallel, keeping the cluster order.
+/// Splits every cluster not in `tested` (markers ascending) by [`split_by_joint`], in
+/// parallel, keeping the cluster order.
 pub(crate) fn split_all(
     traj: &Trajectories,
     stats: &PairStats,
     min_overlap: usize,
     clusters: Vec<Vec<usize>>,
     test: JointTest,
+    tested: &BTreeSet<Vec<usize>>,
 ) -> Vec<Vec<usize>> {
     clusters
         .par_iter()
-        .map(|c| split_by_joint(traj, stats, min_overlap, c, test))
+        .map(|c| {
+            if tested.contains(c) {
+                vec![c.clone()]
+            } else {
+                split_by_joint(traj, stats, min_overlap, c, test)
+            }
+        })
         .collect::<Vec<_>>()
         .into_iter()
         .flatten()
@@ -659,6 +763,8 @@ pub(crate) struct RigidMerge {
     pub near_mm: f64,
     /// Joint test rotation score below which they are one body.
     pub max_z: f64,
+    /// ... and centroid travel score (0: unused).
+    pub max_travel_z: f64,
     /// Largest robust spread of the second's centroid in the first's frame, mm.
     pub max_translation_mm: f64,
     /// The capture's typical segment fit σ, mm per coordinate.
@@ -699,7 +805,9 @@ pub(crate) fn merge_rigid(
             .par_iter()
             .filter_map(|&(i, j)| {
                 let e = evidence_of(traj, &clusters[i], &clusters[j], merge.typical_sigma_mm)?;
-                (e.rotation_z < merge.max_z && e.translation_mm <= merge.max_translation_mm)
+                (e.rotation_z < merge.max_z
+                    && (merge.max_travel_z <= 0.0 || e.translation_z < merge.max_travel_z)
+                    && e.translation_mm <= merge.max_translation_mm)
                     .then_some((e.rotation_z, i, j))
             })
             .min_by(|x, y| x.0.total_cmp(&y.0).then(x.1.cmp(&y.1)).then(x.2.cmp(&y.2)));
@@ -762,18 +870,29 @@ mod tests {
     /// up to `skin_mm` (half its body's direction, half its own, swept by the joint angle as
     /// the generator's skin is).
     fn capture(swing_deg: f64, skin_mm: f64, seed: u64) -> Trajectories {
-        let parent = [
-            [40.0, 0.0, 150.0],
-            [-35.0, 30.0, 220.0],
-            [10.0, -40.0, 290.0],
-            [-30.0, -25.0, 360.0],
-        ];
         let child = [
             [30.0, 35.0, -150.0],
             [-40.0, 5.0, -220.0],
             [25.0, -35.0, -290.0],
             [-15.0, 40.0, -360.0],
         ];
+        capture_with_child(&child, swing_deg, skin_mm, seed)
+    }
+
+    /// As [`capture`], with the child's markers at `child` (hinge-local, mm).
+    fn capture_with_child(
+        child: &[[f64; 3]],
+        swing_deg: f64,
+        skin_mm: f64,
+        seed: u64,
+    ) -> Trajectories {
+        let parent = [
+            [40.0, 0.0, 150.0],
+            [-35.0, 30.0, 220.0],
+            [10.0, -40.0, 290.0],
+            [-30.0, -25.0, 360.0],
+        ];
+        let n = parent.len() + child.len();
         let mut rng = ChaCha8Rng::seed_from_u64(seed);
         let mut unit = || {
             let v: [f64; 3] = std::array::from_fn(|_| rng.random_range(-1.0..1.0));
@@ -782,10 +901,10 @@ mod tests {
         };
         // As the generator's skin: half a direction shared by the body, half the marker's own.
         let shared = [unit(), unit()];
-        let dirs: Vec<[f64; 3]> = (0..8)
+        let dirs: Vec<[f64; 3]> = (0..n)
             .map(|k| {
                 let own = unit();
-                std::array::from_fn(|i| 0.5 * shared[k / 4][i] + 0.5 * own[i])
+                std::array::from_fn(|i| 0.5 * shared[usize::from(k >= 4)][i] + 0.5 * own[i])
             })
             .collect();
         let frames = 400;
@@ -807,7 +926,7 @@ mod tests {
                 }));
             }
         }
-        let labels: Vec<String> = (0..8).map(|m| format!("M{m}")).collect();
+        let labels: Vec<String> = (0..n).map(|m| format!("M{m}")).collect();
         Trajectories::new(labels, 100.0, 1, frames, positions).expect("capture")
     }
 
@@ -816,6 +935,7 @@ mod tests {
         let truth = vec![vec![0, 1, 2, 3], vec![4, 5, 6, 7]];
         let test = JointTest {
             min_z: 4.5,
+            min_travel_z: 0.0,
             centre_fraction: 1.0,
             typical_sigma_mm: typical_sigma(traj, &truth),
             max_part_sigma_mm: 2.0 * typical_sigma(traj, &truth),
@@ -860,12 +980,50 @@ mod tests {
                 let merge = RigidMerge {
                     near_mm: 1e9,
                     max_z: 3.0,
+                    max_travel_z: 0.0,
                     max_translation_mm: 4.0 * typical.max(1.0),
                     typical_sigma_mm: typical,
                 };
                 let n = merge_rigid(&traj, &stats, 10, &mut clusters, merge);
                 assert_eq!(n == 1, merged, "seed {seed}, swing {swing}: {clusters:?}");
             }
+        }
+    }
+
+    /// A three-marker child nearly in line with the hinge's axis (x), 40 mm off it, swinging
+    /// ±20°: it poses that rotation badly, so the rotation score alone leaves parent + child
+    /// whole, while its centroid swinging in the parent's frame splits them; the same markers
+    /// on one rigid body stay whole with the travel score too (several noise draws).
+    #[test]
+    fn a_child_in_line_with_its_axis_splits_by_where_it_goes() {
+        let child = [[-30.0, 40.0, -2.0], [0.0, 41.5, 1.0], [30.0, 39.0, 0.5]];
+        for seed in 1..=3 {
+            let parts = |swing: f64, min_travel_z: f64| {
+                let traj = capture_with_child(&child, swing, 0.0, seed);
+                let stats = pair_stats(&traj);
+                let truth = vec![vec![0, 1, 2, 3], vec![4, 5, 6]];
+                let typical = typical_sigma(&traj, &truth);
+                let test = JointTest {
+                    min_z: 4.0,
+                    min_travel_z,
+                    centre_fraction: 1.0,
+                    typical_sigma_mm: typical,
+                    max_part_sigma_mm: 2.0 * typical.max(0.5),
+                };
+                let mut parts =
+                    split_by_joint(&traj, &stats, 10, &(0..7).collect::<Vec<_>>(), test);
+                parts.iter_mut().for_each(|p| p.sort_unstable());
+                parts.sort();
+                parts
+            };
+            let whole = vec![(0..7).collect::<Vec<_>>()];
+            assert_eq!(parts(20.0, 0.0), whole, "seed {seed}: rotation alone");
+            assert_eq!(
+                parts(20.0, 5.0),
+                vec![vec![0, 1, 2, 3], vec![4, 5, 6]],
+                "seed {seed}: with the travel"
+            );
+            assert_eq!(parts(0.0, 5.0), whole, "seed {seed}: rigid");
         }
     }
 }

@@ -107,6 +107,8 @@ pub struct Params {
     pub reassign_ratio: f64,
     /// Joint test: a cluster splits where its parts' relative rotation has a robust Mahalanobis length above this; 0 = off.
     pub joint_split_z: f64,
+    /// ... or where one part's centroid travels in the other's frame with a robust Mahalanobis length above this; 0 = rotation only.
+    pub joint_travel_z: f64,
     /// ... and a centre of rotation fixed in both parts leaves at most this fraction of their relative translation.
     pub joint_centre_fraction: f64,
     /// A marker its own cluster (≥ 5) holds this many times worse than the median of its cluster-mates becomes a group of its own; 0 = off.
@@ -157,6 +159,7 @@ impl Default for Params {
             fit_split_floor: 2.0,
             reassign_ratio: 2.0,
             joint_split_z: 4.0,
+            joint_travel_z: 5.0,
             joint_centre_fraction: 1.0,
             eject_ratio: 8.0,
             joint_merge_z: 4.0,
@@ -313,6 +316,10 @@ pub const PARAM_DOCS: &[(&str, &str)] = &[
         "after the fit split, each cluster of ≥ 6 markers is cut in the two parts of ≥ 3 that two free rigid bodies fit best (all bipartitions up to 12 markers, else spectral cuts of the ρ affinity refined by single moves); each part is posed per frame (Horn) and the deviation of their relative rotation from its mean is weighed by the covariance the parts' pose errors give on one body (σ² J⁻¹ per part, σ = the median fit σ of the clusters of ≥ 3, J = the part's inertia tensor). It splits when that robust Mahalanobis length (75th-percentile frame; ≈ 2 on one rigid body) exceeds this and a centre of rotation fixed in both parts (SCoRE) explains their relative motion (joint_centre_fraction); recursively. Skin moves markers one by one, a joint turns a whole group about one point. 4.5 -> 4 (with joint_merge_z): true single segments' weighed cuts score up to 3.97 on hard S16 (4.17 on skin S16, a quadruped's tail tip; 4.15 on V's human-skin-s10009, a clavicle), while 7 of the 32 quadruped carpi of hard S16 score 4.07-4.48 (joint_table example); cargo xtask eval (S16 = seeds 4001-4006, 6001-6006, 7001, 9001, 1001, 5001; V = 10001-10032): hard trees S16 71 -> 75/96 (quadruped 9 -> 12, robot arm 14 -> 15), V 137 -> 139/192; messy S16 67 -> 72, V 123 -> 124; skin S16 52 -> 53, V 94 -> 93; clean, noise, gaps, swap unchanged; 26 of 28 real captures segmented as before, btk Res16bits (a 100-frame standing trial, C3D and TRC) cuts its trunk-and-legs group in two (0.5-1 deg of sway); 0 = off; default 4.0",
     ),
     (
+        "joint_travel_z",
+        "the joint test also cuts where the centroid of one part (the worse posed: larger trace of J⁻¹) travels in the other's frame with a robust Mahalanobis length (75th-percentile frame) above this, under the covariance one rigid body gives it: both centroids' errors (σ²/n) and the frame part's rotation error σ² J⁻¹ swinging the lever arm (≈ 2 on one body); the same centre test applies, and neighbours scoring above it do not merge (joint_merge_z). A part of three markers nearly in line with a hinge's axis poses that rotation badly, so its rotation score stays low while its centroid visibly swings (hexapod-noise-s10019: body + left front coxa, 4 + 3 markers at a 31° hinge, rotation z 3.83, travel z 5.20). joint_table example, S16 seeds, true segments' weighed cuts (the false splits it could make) score travel z above 4 / 4.5 / 5 in 3 / 1 / 0 of 279 on hard and 4 / 1 / 0 on skin (rigid bodies ≈ 1.7-1.8), while 48 / 38 / 32 of the 97 true joints the rotation score leaves below 4 on hard score above it. cargo xtask eval against 0 (S16 = seeds 4001-4006, 6001-6006, 7001, 9001, 1001, 5001; V = 10001-10032): hard trees V 143 -> 145/192 (human 26 -> 27, quadruped 21 -> 22), S16 76 -> 76/96; noise V 185 -> 188 (hexapod 26 -> 29, with the joint test run again after the settling); skin S16 65 -> 64 (human-skin-s4006 cuts a foot's two markers off); clean, gaps, swap, --markers 2:3 and ten real captures' trees unchanged; 0 = off; default 5.0",
+    ),
+    (
         "joint_centre_fraction",
         "joint test: the best centre of rotation fixed in both parts must leave a residual (75th-percentile frame, mm) of at most this fraction of the parts' relative translation (B's centroid about its median in A's frame); default 1.0",
     ),
@@ -401,6 +408,7 @@ impl Params {
         non_negative("fit_split_floor", self.fit_split_floor)?;
         non_negative("reassign_ratio", self.reassign_ratio)?;
         non_negative("joint_split_z", self.joint_split_z)?;
+        non_negative("joint_travel_z", self.joint_travel_z)?;
         positive("joint_centre_fraction", self.joint_centre_fraction)?;
         non_negative("eject_ratio", self.eject_ratio)?;
         non_negative("joint_merge_z", self.joint_merge_z)?;

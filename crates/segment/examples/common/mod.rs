@@ -110,7 +110,13 @@ pub fn capture_from_args(args: &[String], usage: &str) -> Option<(String, mocap_
 /// The joint test's evidence on one line, with the typical segment σ it was weighed by.
 pub fn evidence_line(e: &segment::JointEvidence, typical_sigma_mm: f64) -> String {
     format!(
-        "z {:.2} rot {:.2} noise {:.2} centre {:.2} transl {:.2} part {:.2} typ {typical_sigma_mm:.2}",
-        e.rotation_z, e.rotation_deg, e.noise_deg, e.centre_mm, e.translation_mm, e.part_sigma_mm
+        "z {:.2} tz {:.2} rot {:.2} noise {:.2} centre {:.2} transl {:.2} part {:.2} typ {typical_sigma_mm:.2}",
+        e.rotation_z,
+        e.translation_z,
+        e.rotation_deg,
+        e.noise_deg,
+        e.centre_mm,
+        e.translation_mm,
+        e.part_sigma_mm
     )
 }
