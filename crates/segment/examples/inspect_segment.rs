@@ -42,6 +42,9 @@ fn main() {
         .map(|v| format!("{v:.3}"))
         .collect();
     println!("eigenvalues {}", ev.join(" "));
+    for swap in &seg.swaps {
+        println!("swap {swap:?}");
+    }
     let found: Vec<Vec<usize>> = seg.segments.iter().map(|s| s.markers.clone()).collect();
     let typical = segment::typical_fit_sigma(traj, &found);
     for (i, c) in found.iter().enumerate() {
@@ -50,6 +53,27 @@ fn main() {
                 "found {i} best cut {a:?} | {b:?}: {}",
                 common::evidence_line(&e, typical)
             );
+        }
+        if c.len() <= 2 {
+            // Which bodies hold a small cluster's markers, and how tightly (mm).
+            for &m in c {
+                let mut holds: Vec<(f64, usize)> = found
+                    .iter()
+                    .enumerate()
+                    .filter(|(_, o)| o.len() >= 3)
+                    .filter_map(|(j, o)| Some((segment::marker_fit_sigma(traj, o, m)?, j)))
+                    .collect();
+                holds.sort_by(|x, y| x.0.total_cmp(&y.0));
+                let best: Vec<String> = holds
+                    .iter()
+                    .take(2)
+                    .map(|(s, j)| format!("{j}{:?}:{s:.2}", found[*j]))
+                    .collect();
+                println!(
+                    "found {i} marker {m} held by {} (typical {typical:.2})",
+                    best.join(" ")
+                );
+            }
         }
     }
     for (s, tseg) in trial.truth.segments.iter().enumerate() {
