@@ -73,9 +73,10 @@ pub struct JointEvidence {
     /// about 2 on one rigid body (√ of χ²₃'s 75th percentile), more across a joint.
     pub rotation_z: f64,
     /// Robust Mahalanobis length of the travel of one part's centroid in the frame of the
-    /// other (the better posed: smaller trace of J⁻¹), under the covariance the parts' fit errors give it on one rigid
-    /// body, dimensionless: about 2 on one body. It sees a joint whose rotation one part
-    /// cannot pose (three markers in a line along the axis) by where that part goes.
+    /// other (the better posed: smaller trace of J⁻¹), under the covariance the parts' fit
+    /// errors give it on one rigid body, dimensionless: about 2 on one body. It sees a joint
+    /// whose rotation one part cannot pose (three markers in a line along the axis) by
+    /// where that part goes.
     pub translation_z: f64,
 }
 
@@ -423,30 +424,25 @@ fn evidence(a: &PartFit, b: &PartFit, typical_var: f64) -> Option<JointEvidence>
         .collect();
     let centre = quantile(&mut r2, QUANTILE).sqrt();
     // Part B's centroid in A's frame: how far it travels relative to A.
-    let mut column = Vec::with_capacity(local_b.len());
-    let mid: [f64; 3] = std::array::from_fn(|i| {
-        column.clear();
-        column.extend(local_b.iter().map(|l| l[i]));
-        crate::fitsplit::median(&mut column)
-    });
+    let mid = median_point(&local_b);
     let mut t2: Vec<f64> = local_b
         .iter()
         .map(|l| (0..3).map(|i| (l[i] - mid[i]).powi(2)).sum())
         .collect();
     let translation = quantile(&mut t2, QUANTILE).sqrt();
-    let local_a: Vec<[f64; 3]> = both
-        .iter()
-        .map(|(pa, pb)| {
-            let d: [f64; 3] = std::array::from_fn(|i| pa.t[i] - pb.t[i]);
-            apply(&pb.r, d, true)
-        })
-        .collect();
     let centroid_var = var_a / a.markers as f64 + var_b / b.markers as f64;
     // In the frame of the better posed part: a near-collinear part spins about its own line
     // by more than the linearised covariance allows, and would swing the other's centroid.
     let translation_z = if a.rot_gain <= b.rot_gain {
         centroid_travel_z(&local_b, centroid_var, var_a, &a.inv_inertia)
     } else {
+        let local_a: Vec<[f64; 3]> = both
+            .iter()
+            .map(|(pa, pb)| {
+                let d: [f64; 3] = std::array::from_fn(|i| pa.t[i] - pb.t[i]);
+                apply(&pb.r, d, true)
+            })
+            .collect();
         centroid_travel_z(&local_a, centroid_var, var_b, &b.inv_inertia)
     };
     let mut pooled: Vec<f64> = a
@@ -469,6 +465,16 @@ fn evidence(a: &PartFit, b: &PartFit, typical_var: f64) -> Option<JointEvidence>
     })
 }
 
+/// Per-coordinate median of `points`.
+fn median_point(points: &[[f64; 3]]) -> [f64; 3] {
+    let mut column = Vec::with_capacity(points.len());
+    std::array::from_fn(|i| {
+        column.clear();
+        column.extend(points.iter().map(|p| p[i]));
+        crate::fitsplit::median(&mut column)
+    })
+}
+
 /// Robust Mahalanobis length of the travel of one part's centroid in the other's frame
 /// (`local`, per frame) about its median, under the covariance of one rigid body: both
 /// centroids' errors (`centroid_var`, mm²) and the frame's rotation error (`var` J⁻¹)
@@ -479,12 +485,7 @@ fn centroid_travel_z(
     var: f64,
     inv_inertia: &[[f64; 3]; 3],
 ) -> f64 {
-    let mut column = Vec::with_capacity(local.len());
-    let mid: [f64; 3] = std::array::from_fn(|i| {
-        column.clear();
-        column.extend(local.iter().map(|l| l[i]));
-        crate::fitsplit::median(&mut column)
-    });
+    let mid = median_point(local);
     // δ(R_Aᵀ d) = [m]× ε for a rotation error ε of the frame: covariance [m]× Σ [m]×ᵀ.
     let cross = [
         [0.0, -mid[2], mid[1]],

@@ -29,12 +29,13 @@
 //! beyond their own fits' rotation noise, or where one part's centroid swings in the
 //! other's frame beyond what their fits allow (`joint_travel_z`: a part of three markers in
 //! line with the axis poses its rotation badly), about a common point (`joint_split_z`, see
-//! `jointsplit`), again on the clusters the settling after a cut changed; neighbours that move as one rigid body merge (`joint_merge_z`); a marker
-//! no body holds leaves its cluster (`eject_ratio`); a two-marker cluster whose markers
-//! two different bodies hold dissolves into them, a lone marker a body holds joins it
-//! (`pair_hold`), and a pair one body holds rejoins it when the rigidity check had cut it
-//! from that body's spectral cluster and it sits there as still as the body's own markers
-//! (`pair_rejoin_ratio`: skin alike on two markers). Last, label swaps (two markers'
+//! `jointsplit`), again on the clusters the settling after a cut changed; neighbours that
+//! move as one rigid body merge (`joint_merge_z`); a marker no body holds leaves its
+//! cluster (`eject_ratio`); a two-marker cluster whose markers two different bodies hold
+//! dissolves into them, a lone marker a body holds joins it (`pair_hold`), and a pair one
+//! body holds rejoins it when the rigidity check had cut it from that body's spectral
+//! cluster and it sits there as still as the body's own markers (`pair_rejoin_ratio`: skin
+//! alike on two markers). Last, label swaps (two markers'
 //! trajectories exchanged for a while; see `swaps`) are looked for on the result; any found
 //! are undone and the capture segmented again, and listed in [`Segmentation::swaps`]
 //! (`repair_swaps`).
