@@ -195,8 +195,12 @@ pub const PARAM_DOCS: &[(&str, &str)] = &[
     ),
     (
         "min_spread_mm",
-        "a pose needs visible markers spread at least this RMS distance across their second \
-         principal direction (collinear markers fix no spin); mm × the capture's floor scale (median nearest-marker distance / 30 mm, at most 1); default 2.0",
+        concat!(
+            "a pose needs visible markers spread at least this RMS distance across their second \
+             principal direction (collinear markers fix no spin); ",
+            mocap_io::floor_scaled_mm!(),
+            "; default 2.0"
+        ),
     ),
     (
         "max_spin_deg",
@@ -233,9 +237,13 @@ pub const PARAM_DOCS: &[(&str, &str)] = &[
     ),
     (
         "pose_outlier_floor_mm",
-        "the smallest distance from its fitted place at which pose_outlier_factor leaves a \
-         marker out: skin moves markers by up to a few cm, and at 10 mm the rejection already \
-         reshuffled skin-only frames of the hard preset (±0.01 % of height); mm × the capture's floor scale (median nearest-marker distance / 30 mm, at most 1); default 20.0",
+        concat!(
+            "the smallest distance from its fitted place at which pose_outlier_factor leaves a \
+             marker out: skin moves markers by up to a few cm, and at 10 mm the rejection already \
+             reshuffled skin-only frames of the hard preset (±0.01 % of height); ",
+            mocap_io::floor_scaled_mm!(),
+            "; default 20.0"
+        ),
     ),
     (
         "max_iters",
@@ -255,31 +263,39 @@ pub const PARAM_DOCS: &[(&str, &str)] = &[
     ),
     (
         "anchor_exact_centre_mm",
-        "anchoring: a neighbour whose markers turn less than anchor_min_excursion_deg (or \
-         anchor_refit_min_excursion_deg) about the common centre still qualifies when the \
-         radial residual divided by that excursion in radians, the distance the centre could \
-         stray for it, is at most this: such a centre is pinned better than that of a \
-         neighbour turning 10 deg with a residual of 1.75 mm. A segment that barely moves \
-         against its true neighbour must not go to one that moves more and fits worse: the \
-         OpenSim walk's right upper arm (2 markers) turns 7.1 deg about the trunk with a \
-         residual of 1.05 mm (8.5 mm of stray) and went to the left thigh (14.4 deg, 5.14 mm, \
-         20 mm), which swings in phase with it; with 10 its tree is the body's (pelvis to \
-         thighs and trunk, trunk to arms and head, upper arms to wrists; left thigh, hip to \
-         knee, 369 -> 462 mm against the right's 449), the nine other shared captures \
-         unchanged. Synthetic trials (joints sweep 70-95 % of their range) rarely have such \
-         a neighbour: cargo xtask eval, 3 -> 10, S16 = seeds 4001-4006, \
-         6001-6006, 7001, 9001, 1001, 5001: hard 76 -> 76/96 trees, 1.784 -> \
-         1.786 %; skin 65 -> 65, 1.821 -> 1.818 %; noise 0.344 -> 0.345 %; seeds \
-         10001-10032 hard 143 -> 143/192, 1.848 -> 1.848 %, noise 0.374 -> 0.380 % \
-         (hexapods 0.599 -> 0.633); --markers 2:3 on S16 clean 93 -> 93, 0.184 -> 0.185 %, \
-         skin 33 -> 34, 2.936 -> 2.965 %, hard 33 -> 33, 3.083 -> 3.078 %; --sweep 0.2:0.4 \
-         unchanged. 3 (noise-free hexapod coxae turning 9 deg about the body, which must \
-         not go to a leg) was its first value; 0 = off; mm × the capture's floor scale (median nearest-marker distance / 30 mm, at most 1); default 10",
+        concat!(
+            "anchoring: a neighbour whose markers turn less than anchor_min_excursion_deg (or \
+             anchor_refit_min_excursion_deg) about the common centre still qualifies when the \
+             radial residual divided by that excursion in radians, the distance the centre could \
+             stray for it, is at most this: such a centre is pinned better than that of a \
+             neighbour turning 10 deg with a residual of 1.75 mm. A segment that barely moves \
+             against its true neighbour must not go to one that moves more and fits worse: the \
+             OpenSim walk's right upper arm (2 markers) turns 7.1 deg about the trunk with a \
+             residual of 1.05 mm (8.5 mm of stray) and went to the left thigh (14.4 deg, 5.14 mm, \
+             20 mm), which swings in phase with it; with 10 its tree is the body's (pelvis to \
+             thighs and trunk, trunk to arms and head, upper arms to wrists; left thigh, hip to \
+             knee, 369 -> 462 mm against the right's 449), the nine other shared captures \
+             unchanged. Synthetic trials (joints sweep 70-95 % of their range) rarely have such \
+             a neighbour: cargo xtask eval, 3 -> 10, S16 = seeds 4001-4006, \
+             6001-6006, 7001, 9001, 1001, 5001: hard 76 -> 76/96 trees, 1.784 -> \
+             1.786 %; skin 65 -> 65, 1.821 -> 1.818 %; noise 0.344 -> 0.345 %; seeds \
+             10001-10032 hard 143 -> 143/192, 1.848 -> 1.848 %, noise 0.374 -> 0.380 % \
+             (hexapods 0.599 -> 0.633); --markers 2:3 on S16 clean 93 -> 93, 0.184 -> 0.185 %, \
+             skin 33 -> 34, 2.936 -> 2.965 %, hard 33 -> 33, 3.083 -> 3.078 %; --sweep 0.2:0.4 \
+             unchanged. 3 (noise-free hexapod coxae turning 9 deg about the body, which must \
+             not go to a leg) was its first value; 0 = off; ",
+            mocap_io::floor_scaled_mm!(),
+            "; default 10"
+        ),
     ),
     (
         "anchor_max_rms_mm",
-        "anchoring: a neighbour qualifies only if the markers' distances to the common \
-         centre vary by at most this RMS; mm × the capture's floor scale (median nearest-marker distance / 30 mm, at most 1); default 25",
+        concat!(
+            "anchoring: a neighbour qualifies only if the markers' distances to the common \
+             centre vary by at most this RMS; ",
+            mocap_io::floor_scaled_mm!(),
+            "; default 25"
+        ),
     ),
     (
         "anchor_line_prior",

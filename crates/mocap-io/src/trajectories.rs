@@ -168,6 +168,15 @@ pub fn floor_scale_of(spacing_mm: Option<f64>) -> f64 {
     spacing_mm.map_or(1.0, |s| (s / FLOOR_SPACING_MM).clamp(1e-3, 1.0))
 }
 
+/// The unit of a stage parameter that [`Trajectories::floor_scale`] scales, as the
+/// stages' parameter docs print it (one text, so the docs agree with [`FLOOR_SPACING_MM`]).
+#[macro_export]
+macro_rules! floor_scaled_mm {
+    () => {
+        "mm × the capture's floor scale (median nearest-marker distance / 30 mm, at most 1)"
+    };
+}
+
 /// Frames [`Trajectories::marker_spacing_mm`] looks at, at most.
 pub const SPACING_FRAMES: usize = 64;
 
@@ -234,6 +243,12 @@ mod tests {
         let one = Trajectories::new(vec!["A".into()], 100.0, 1, 1, vec![[1.0, 2.0, 3.0]]).unwrap();
         assert_eq!(one.marker_spacing_mm(), None);
         assert_eq!(one.floor_scale(), 1.0);
+    }
+
+    /// The parameter docs' unit names the spacing the floors are set for.
+    #[test]
+    fn the_floor_scale_unit_names_the_floor_spacing() {
+        assert!(floor_scaled_mm!().contains(&format!("/ {FLOOR_SPACING_MM} mm")));
     }
 
     #[test]

@@ -207,7 +207,11 @@ pub const PARAM_DOCS: &[(&str, &str)] = &[
     ),
     (
         "min_scale_mm",
-        "local affinity: floor on each marker's scale so noiseless rigid data does not collapse, mm × the capture's floor scale (median nearest-marker distance / 30 mm, at most 1); default 1.0",
+        concat!(
+            "local affinity: floor on each marker's scale so noiseless rigid data does not collapse, ",
+            mocap_io::floor_scaled_mm!(),
+            "; default 1.0"
+        ),
     ),
     ("scale_mm", "absolute affinity: the scale, mm; default 5.0"),
     (
@@ -257,7 +261,11 @@ pub const PARAM_DOCS: &[(&str, &str)] = &[
     ),
     (
         "tolerance_min_mm",
-        "smallest automatic tolerance, mm × the capture's floor scale (median nearest-marker distance / 30 mm, at most 1); default 2.0",
+        concat!(
+            "smallest automatic tolerance, ",
+            mocap_io::floor_scaled_mm!(),
+            "; default 2.0"
+        ),
     ),
     (
         "slide_ratio",
@@ -265,7 +273,11 @@ pub const PARAM_DOCS: &[(&str, &str)] = &[
     ),
     (
         "slide_min_mm",
-        "... and also exceeds slide_min_mm (mm × the capture's floor scale: median nearest-marker distance / 30 mm, at most 1) so noise alone never counts as sliding; default 1.0",
+        concat!(
+            "... and also exceeds slide_min_mm so noise alone never counts as sliding; ",
+            mocap_io::floor_scaled_mm!(),
+            "; default 1.0"
+        ),
     ),
     (
         "pair_orphans",

@@ -634,27 +634,34 @@ fn a_carpus_scoring_just_above_the_joint_threshold_is_cut() {
     assert!(together(&merged), "{:?}", partition(&merged));
 }
 
-/// Whether the segmentation's segments are exactly the trial's true marker sets.
-fn is_true_partition(trial: &synth::Trial, seg: &Segmentation) -> bool {
+/// The trial's true segments as marker indices, each ascending, in ascending order.
+fn true_partition(trial: &synth::Trial) -> Vec<Vec<usize>> {
     let labels = trial.trajectories.labels();
-    let mut truth: Vec<Vec<usize>> = trial
+    let index = |label: &str| {
+        labels
+            .iter()
+            .position(|l| l == label)
+            .expect("truth label in capture")
+    };
+    let mut parts: Vec<Vec<usize>> = trial
         .truth
         .segments
         .iter()
         .map(|s| {
-            let mut v: Vec<usize> = s
-                .markers
-                .iter()
-                .filter_map(|l| labels.iter().position(|x| x == l))
-                .collect();
+            let mut v: Vec<usize> = s.markers.iter().map(|l| index(l)).collect();
             v.sort_unstable();
             v
         })
         .collect();
-    truth.sort();
+    parts.sort();
+    parts
+}
+
+/// Whether the segmentation's segments are exactly the trial's true marker sets.
+fn is_true_partition(trial: &synth::Trial, seg: &Segmentation) -> bool {
     let mut found = partition(seg);
     found.sort();
-    found == truth
+    found == true_partition(trial)
 }
 
 /// Hexapod coxae under noise alone (eval's 480 frames), whose hinge the three- or
@@ -688,23 +695,7 @@ fn a_coxa_the_rotation_score_misses_is_cut_by_its_travel() {
 fn score_on_synth(subject: synth::Subject, preset: synth::Preset, seed: u64) -> (f64, bool) {
     let trial = synth_trial(subject, preset, seed);
     let traj = &trial.trajectories;
-    let index = |label: &str| {
-        traj.labels()
-            .iter()
-            .position(|l| l == label)
-            .expect("truth label in capture")
-    };
-    let mut truth_parts: Vec<Vec<usize>> = trial
-        .truth
-        .segments
-        .iter()
-        .map(|s| {
-            let mut v: Vec<usize> = s.markers.iter().map(|l| index(l)).collect();
-            v.sort_unstable();
-            v
-        })
-        .collect();
-    truth_parts.sort();
+    let truth_parts = true_partition(&trial);
     let seg = run(traj, &Params::default()).expect("segments");
     if trial.truth.swaps.is_empty() {
         assert!(
