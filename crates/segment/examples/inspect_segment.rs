@@ -74,6 +74,33 @@ fn main() {
                     best.join(" ")
                 );
             }
+            // How rigid the cluster is with each body, and with each other small cluster.
+            let mut unions: Vec<(f64, f64, usize)> = found
+                .iter()
+                .enumerate()
+                .filter(|&(j, _)| j != i)
+                .filter_map(|(j, o)| {
+                    let mut u = o.clone();
+                    u.extend(c);
+                    let (su, _) = segment::fit_split_sigmas(traj, &u)?;
+                    let so = segment::fit_split_sigmas(traj, o).map_or(f64::NAN, |x| x.0);
+                    Some((su, so, j))
+                })
+                .collect();
+            unions.sort_by(|x, y| x.0.total_cmp(&y.0));
+            let u: Vec<String> = unions
+                .iter()
+                .take(3)
+                .map(|(su, so, j)| {
+                    format!(
+                        "{j}(n{}): {:.2} (own {:.2})",
+                        found[*j].len(),
+                        su / typical,
+                        so / typical
+                    )
+                })
+                .collect();
+            println!("found {i} union σ/typ with {}", u.join(", "));
         }
     }
     for (s, tseg) in trial.truth.segments.iter().enumerate() {
@@ -89,6 +116,25 @@ fn main() {
             }
         }
         let wmax = within.iter().copied().fold(0.0, f64::max);
+        // A true segment split in two: what the rigid merge saw of its halves.
+        let mut halves: Vec<Vec<usize>> = Vec::new();
+        for &m in &ms {
+            let f = seg.markers[m].segment;
+            match halves.iter_mut().find(|h| seg.markers[h[0]].segment == f) {
+                Some(h) => h.push(m),
+                None => halves.push(vec![m]),
+            }
+        }
+        if halves.len() == 2 && halves.iter().all(|h| h.len() >= 3) {
+            if let Some(e) = segment::joint_evidence(traj, &halves[0], &halves[1], typical) {
+                println!(
+                    "  truth {s} halves {:?} | {:?}: {}",
+                    halves[0],
+                    halves[1],
+                    common::evidence_line(&e, typical)
+                );
+            }
+        }
         let consistent = found.iter().all(|f| *f == found[0]);
         println!(
             "{} truth {:>2} {:<12} max within ρ {:6.2} found {:?}",

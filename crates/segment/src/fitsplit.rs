@@ -298,19 +298,15 @@ pub(crate) fn split_sigmas(traj: &Trajectories, cluster: &[usize]) -> Option<(f6
     Some((whole, best.map_or(f64::NAN, |b| b.0)))
 }
 
-/// Robust fit σ of `a` ∪ `b` as one body and pooled over the two as separate bodies, mm.
-fn union_and_pooled(traj: &Trajectories, a: &[usize], b: &[usize]) -> Option<(f64, f64)> {
+/// Robust fit σ of `a` ∪ `b` as one body, mm.
+fn union_sigma(traj: &Trajectories, a: &[usize], b: &[usize]) -> Option<f64> {
     let mut union = a.to_vec();
     union.extend(b);
     let dist = median_distances(traj, &union);
     let all: Vec<usize> = (0..union.len()).collect();
-    let whole = robust_sigma(fit_residual(traj, &union, &dist, &all)?.into_iter());
-    let pa: Vec<usize> = (0..a.len()).collect();
-    let pb: Vec<usize> = (a.len()..union.len()).collect();
-    let fa = fit_residual(traj, &union, &dist, &pa)?;
-    let fb = fit_residual(traj, &union, &dist, &pb)?;
-    let pooled = robust_sigma(fa.into_iter().zip(fb).map(|(x, y)| x.add(y)));
-    Some((whole, pooled))
+    Some(robust_sigma(
+        fit_residual(traj, &union, &dist, &all)?.into_iter(),
+    ))
 }
 
 /// The typical rigid-fit σ of a segment in this capture, mm: the median robust σ of the
@@ -382,7 +378,7 @@ pub(crate) fn split_and_rejoin(
             .iter()
             .take(REJOIN_CANDIDATES)
             .filter_map(|&(_, q)| {
-                let (whole, _) = union_and_pooled(traj, &out[p], &out[q])?;
+                let whole = union_sigma(traj, &out[p], &out[q])?;
                 (whole <= floor_mm).then_some((whole, q))
             })
             .min_by(|a, b| a.0.total_cmp(&b.0).then(a.1.cmp(&b.1)));
