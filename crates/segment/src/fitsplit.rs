@@ -394,10 +394,91 @@ pub(crate) fn split_and_rejoin(
 /// Clusters a split piece may rejoin: the few it keeps its distances to best.
 const REJOIN_CANDIDATES: usize = 3;
 
+/// Joins clusters of one or two markers to each other where spectral clustering had them
+/// in one cluster (`spectral_of`, per marker) and their union (≥ 3 markers) fits as one
+/// rigid body within `floor_mm`, like an ordinary segment; the smallest union σ first,
+/// repeatedly. Skin cuts a segment into pairs whose own distances stay steady and that no
+/// body of ≥ 3 is left to hold. The spectral condition keeps two true two-marker segments
+/// apart across a joint that turns too little to lift their union's σ (a pair's motion
+/// alone cannot show a joint). Returns how many joins were made.
+pub(crate) fn join_small_clusters(
+    traj: &Trajectories,
+    clusters: &mut Vec<Vec<usize>>,
+    floor_mm: f64,
+    spectral_of: &[Option<usize>],
+) -> usize {
+    let origin = |c: &[usize]| {
+        let first = spectral_of.get(c[0]).copied().flatten()?;
+        c.iter()
+            .all(|&m| spectral_of.get(m).copied().flatten() == Some(first))
+            .then_some(first)
+    };
+    let mut joined = 0;
+    loop {
+        let small: Vec<usize> = (0..clusters.len())
+            .filter(|&c| clusters[c].len() <= 2)
+            .collect();
+        let candidates: Vec<(usize, usize)> = small
+            .iter()
+            .enumerate()
+            .flat_map(|(k, &a)| small[k + 1..].iter().map(move |&b| (a, b)))
+            .filter(|&(a, b)| clusters[a].len() + clusters[b].len() >= 3)
+            .filter(|&(a, b)| origin(&clusters[a]).is_some_and(|o| origin(&clusters[b]) == Some(o)))
+            .collect();
+        let best = candidates
+            .par_iter()
+            .filter_map(|&(a, b)| {
+                let whole = union_sigma(traj, &clusters[a], &clusters[b])?;
+                (whole <= floor_mm).then_some((whole, a, b))
+            })
+            .min_by(|x, y| x.0.total_cmp(&y.0).then(x.1.cmp(&y.1)).then(x.2.cmp(&y.2)));
+        let Some((_, a, b)) = best else { break };
+        let moved = std::mem::take(&mut clusters[b]);
+        clusters[a].extend(moved);
+        clusters.remove(b);
+        joined += 1;
+    }
+    joined
+}
+
 #[cfg(test)]
 mod tests {
-    use super::split_by_fit;
+    use super::{join_small_clusters, split_by_fit};
     use crate::testscene::{CHILD, PARENT, hinged_capture};
+
+    /// Two pairs of one rigid body, one cluster to spectral clustering, join; the same pairs
+    /// seen apart by spectral clustering, or hinged ±15° (their union's σ above the floor),
+    /// stay apart, as does a pair with a body of three.
+    #[test]
+    fn small_clusters_join_where_they_fit_as_one_body() {
+        let (parent, child) = (&PARENT[..2], &CHILD[..2]);
+        let rigid = hinged_capture(parent, child, 200, 0.0, 0.2);
+        let pairs = || vec![vec![0, 1], vec![2, 3]];
+        let together = [Some(0); 4];
+        let mut clusters = pairs();
+        assert_eq!(
+            join_small_clusters(&rigid, &mut clusters, 1.0, &together),
+            1
+        );
+        clusters[0].sort_unstable();
+        assert_eq!(clusters, vec![vec![0, 1, 2, 3]]);
+        let apart = [Some(0), Some(0), Some(1), Some(1)];
+        let mut clusters = pairs();
+        assert_eq!(join_small_clusters(&rigid, &mut clusters, 1.0, &apart), 0);
+        assert_eq!(clusters, pairs());
+        let hinged = hinged_capture(parent, child, 200, 15.0, 0.2);
+        let mut clusters = pairs();
+        assert_eq!(
+            join_small_clusters(&hinged, &mut clusters, 1.0, &together),
+            0
+        );
+        let body = hinged_capture(&PARENT[..3], child, 200, 0.0, 0.2);
+        let mut clusters = vec![vec![0, 1, 2], vec![3, 4]];
+        assert_eq!(
+            join_small_clusters(&body, &mut clusters, 1.0, &[Some(0); 5]),
+            0
+        );
+    }
 
     /// Two 3-marker bodies joined by a hinge near a straight limb, the child swinging ±12°
     /// about it while both translate: the cluster of all six splits into the two bodies,

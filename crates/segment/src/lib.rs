@@ -35,7 +35,8 @@
 //! dissolves into them, a lone marker a body holds joins it (`pair_hold`), and a pair one
 //! body holds rejoins it when the rigidity check had cut it from that body's spectral
 //! cluster and it sits there as still as the body's own markers (`pair_rejoin_ratio`: skin
-//! alike on two markers). Last, label swaps (two markers'
+//! alike on two markers); pieces of one or two markers from one spectral cluster join where
+//! together they fit like one segment (`join_small`). Last, label swaps (two markers'
 //! trajectories exchanged for a while; see `swaps`) are looked for on the result; any found
 //! are undone and the capture segmented again, and listed in [`Segmentation::swaps`]
 //! (`repair_swaps`).
@@ -334,6 +335,13 @@ fn segment_capture(
             }),
         ) > 0
         {
+            rigidity::normalise(&mut clusters);
+        }
+    }
+    if params.join_small && clusters.iter().filter(|c| c.len() <= 2).nth(1).is_some() {
+        // Skin can cut a segment into pairs no body of ≥ 3 is left to hold (see `join_small`).
+        let floor_mm = segment_sigma_mm(typical_sigma(traj, &clusters, &mut sigma_memo));
+        if fitsplit::join_small_clusters(traj, &mut clusters, floor_mm, &spectral_of) > 0 {
             rigidity::normalise(&mut clusters);
         }
     }

@@ -119,6 +119,8 @@ pub struct Params {
     pub pair_hold: f64,
     /// A two-marker cluster one body holds within pair_hold rejoins it when spectral clustering had them together and its scatter there is within this × the body's fit σ; 0 = off.
     pub pair_rejoin_ratio: f64,
+    /// Clusters of one or two markers that spectral clustering had together join where their union fits within the fit split's floor.
+    pub join_small: bool,
     /// Find label swaps (two markers' trajectories exchanged for a while), undo them and segment again.
     pub repair_swaps: bool,
     /// A sample is a glitch (a gap to segmentation) when most of its marker's steadiest partners are off by more than this × their robust scatter; 0 = off.
@@ -165,6 +167,7 @@ impl Default for Params {
             joint_merge_z: 4.0,
             pair_hold: 3.0,
             pair_rejoin_ratio: 8.0,
+            join_small: true,
             repair_swaps: true,
             glitch_factor: 8.0,
         }
@@ -310,6 +313,10 @@ pub const PARAM_DOCS: &[(&str, &str)] = &[
     (
         "pair_rejoin_ratio",
         "with pair_hold: a two-marker cluster whose markers one body (≥ 3 markers) holds both of, within pair_hold's bound, rejoins that body when spectral clustering had put the pair and some of the body's markers in one cluster (the rigidity check's linkage cut them apart) and the pair's larger scatter in the body is within this × the body's own rigid-fit σ. Skin (5-15 mm, with two markers' skin alike) cuts a true segment into k + 2 this way when noise is low; exact data (σ near zero: arthuman's labelled bodies, whose pairs move 1.5-2 mm against a body of σ about 3e-5 mm) keeps its pairs. cargo xtask eval --compare segment.pair_rejoin_ratio=0,8: skin on seeds 10001-10032 82 -> 94/192 exact trees (4: 91, 16 and 100: 95), on 4001-4006,6001-6006,7001,9001,1001,5001 47 -> 52/96, hard --noise 0.5 there 56 -> 60/96; hard (there 71/96, on 10001-10032 137/192), clean, noise, gaps, swap, --sweep 0.4:0.6 and --markers 2:3 unchanged; messy on 10001-10032 124 -> 123/192 (quadruped-messy-s10010: a pair joined a cluster that already mixed two segments); every real capture's segmentation unchanged; 0 = off; default 8.0",
+    ),
+    (
+        "join_small",
+        "after pair_hold, clusters of one or two markers join each other where spectral clustering had put all their markers in one cluster (the rigidity check's linkage cut them apart) and their union (≥ 3 markers) fits as one rigid body within the fit split's floor (fit_split_floor × the typical segment's fit σ, and tolerance_min_mm), smallest union σ first: skin cuts a segment into pairs whose own distances stay steady, and no body of ≥ 3 is left to hold them (human-skin-s10012: a foot as two pairs, union σ 1.21 × typical). Without the spectral condition two true two-marker segments across a joint that turns little joined too (--markers 2:3 --presets clean 93 -> 89/96 exact trees). cargo xtask eval with and without it: skin on seeds 10001-10032 130 -> 132/192 exact trees, messy on 4001-4006,6001-6006,7001,9001,1001,5001 73 -> 74/96; every other suite there and on 10001-10032 (noise, hard), --markers 2:3 (clean, skin, hard) and --sweep 0.2:0.4 the same trees; every real capture's segmentation unchanged; default true",
     ),
     (
         "glitch_factor",

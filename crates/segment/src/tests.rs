@@ -549,7 +549,9 @@ fn a_pair_skin_cut_from_its_segment_rejoins_it() {
 /// Skin without noise (eval's 480 frames): the smallest ρ says 1.30 mm, but the head's four
 /// markers keep their distances only within 8.96 mm, the left forearm's and foot's beyond
 /// 7 mm. A tolerance on the noise (5 × 1.30) leaves each cut in two, one piece of two
-/// markers; on the spectral clusters' spread of ρ (11.4 mm) those pieces rejoin.
+/// markers; on the spectral clusters' spread of ρ (11.4 mm) those pieces rejoin. (With the
+/// noise's tolerance `join_small` puts the head's pairs back together too; it is off there
+/// so that the tolerance alone is what is tested.)
 #[test]
 fn noiseless_skin_sets_the_merge_tolerance_not_the_noise() {
     let trial = eval_trial(synth::Subject::Human, synth::Preset::Skin, 6002);
@@ -563,6 +565,7 @@ fn noiseless_skin_sets_the_merge_tolerance_not_the_noise() {
     );
     let on_noise = Params {
         tolerance_mm: Params::default().tolerance_factor * seg.noise_mm,
+        join_small: false,
         ..Params::default()
     };
     let cut = run(traj, &on_noise).expect("segments");
