@@ -408,7 +408,7 @@ pub(crate) fn join_small_clusters(
     spectral_of: &[Option<usize>],
 ) -> usize {
     let origin = |c: &[usize]| {
-        let first = spectral_of.get(c[0]).copied().flatten()?;
+        let first = spectral_of.get(*c.first()?).copied().flatten()?;
         c.iter()
             .all(|&m| spectral_of.get(m).copied().flatten() == Some(first))
             .then_some(first)
