@@ -14,7 +14,7 @@ use rayon::prelude::*;
 use crate::eigen::symmetric_eigen;
 use crate::eigen4::{horn_matrix, largest_eigenvalue4};
 use crate::pairstats::PairStats;
-use crate::rigidity::rms_rho;
+use crate::rigidity::{merge_best_pairs, rms_rho};
 
 /// Largest cluster whose bipartitions are all tried (2^(n−1) candidates).
 const MAX_ENUMERATED: usize = 10;
@@ -413,32 +413,16 @@ pub(crate) fn join_small_clusters(
             .all(|&m| spectral_of.get(m).copied().flatten() == Some(first))
             .then_some(first)
     };
-    let mut joined = 0;
-    loop {
-        let small: Vec<usize> = (0..clusters.len())
-            .filter(|&c| clusters[c].len() <= 2)
-            .collect();
-        let candidates: Vec<(usize, usize)> = small
-            .iter()
-            .enumerate()
-            .flat_map(|(k, &a)| small[k + 1..].iter().map(move |&b| (a, b)))
-            .filter(|&(a, b)| clusters[a].len() + clusters[b].len() >= 3)
-            .filter(|&(a, b)| origin(&clusters[a]).is_some_and(|o| origin(&clusters[b]) == Some(o)))
-            .collect();
-        let best = candidates
-            .par_iter()
-            .filter_map(|&(a, b)| {
-                let whole = union_sigma(traj, &clusters[a], &clusters[b])?;
-                (whole <= floor_mm).then_some((whole, a, b))
-            })
-            .min_by(|x, y| x.0.total_cmp(&y.0).then(x.1.cmp(&y.1)).then(x.2.cmp(&y.2)));
-        let Some((_, a, b)) = best else { break };
-        let moved = std::mem::take(&mut clusters[b]);
-        clusters[a].extend(moved);
-        clusters.remove(b);
-        joined += 1;
-    }
-    joined
+    merge_best_pairs(
+        clusters,
+        |a, b| {
+            a.len() <= 2
+                && b.len() <= 2
+                && a.len() + b.len() >= 3
+                && origin(a).is_some_and(|o| origin(b) == Some(o))
+        },
+        |a, b| union_sigma(traj, a, b).filter(|&whole| whole <= floor_mm),
+    )
 }
 
 #[cfg(test)]

@@ -37,6 +37,7 @@ use crate::eigen4::largest_eigenpair4;
 use crate::fitsplit::{QUANTILE, median_distances, quantile, reference_shape};
 use crate::pairstats::PairStats;
 use crate::reassign::{Pose, horn, inertia_det, inertia_tensor, invert3, rotation_matrix};
+use crate::rigidity::merge_best_pairs;
 
 /// Fewest markers in a part: three pose a body's rotation fully.
 pub(crate) const MIN_PART: usize = 3;
@@ -784,41 +785,26 @@ pub(crate) fn merge_rigid(
     clusters: &mut Vec<Vec<usize>>,
     merge: RigidMerge,
 ) -> usize {
-    let mut merged = 0;
-    loop {
-        let candidates: Vec<(usize, usize)> = (0..clusters.len())
-            .flat_map(|i| ((i + 1)..clusters.len()).map(move |j| (i, j)))
-            .filter(|&(i, j)| {
-                let (a, b) = (&clusters[i], &clusters[j]);
-                a.len() >= MIN_PART
-                    && b.len() >= MIN_PART
-                    && a.len() + b.len() <= 63
-                    && a.iter().any(|&x| {
-                        b.iter().any(|&y| {
-                            stats
-                                .rho(x, y, min_overlap)
-                                .is_some_and(|r| r <= merge.near_mm)
-                        })
-                    })
+    let near = |a: &[usize], b: &[usize]| {
+        a.iter().any(|&x| {
+            b.iter().any(|&y| {
+                stats
+                    .rho(x, y, min_overlap)
+                    .is_some_and(|r| r <= merge.near_mm)
             })
-            .collect();
-        let best = candidates
-            .par_iter()
-            .filter_map(|&(i, j)| {
-                let e = evidence_of(traj, &clusters[i], &clusters[j], merge.typical_sigma_mm)?;
-                (e.rotation_z < merge.max_z
-                    && (merge.max_travel_z <= 0.0 || e.translation_z < merge.max_travel_z)
-                    && e.translation_mm <= merge.max_translation_mm)
-                    .then_some((e.rotation_z, i, j))
-            })
-            .min_by(|x, y| x.0.total_cmp(&y.0).then(x.1.cmp(&y.1)).then(x.2.cmp(&y.2)));
-        let Some((_, i, j)) = best else { break };
-        let moved = std::mem::take(&mut clusters[j]);
-        clusters[i].extend(moved);
-        clusters.remove(j);
-        merged += 1;
-    }
-    merged
+        })
+    };
+    merge_best_pairs(
+        clusters,
+        |a, b| a.len() >= MIN_PART && b.len() >= MIN_PART && a.len() + b.len() <= 63 && near(a, b),
+        |a, b| {
+            let e = evidence_of(traj, a, b, merge.typical_sigma_mm)?;
+            (e.rotation_z < merge.max_z
+                && (merge.max_travel_z <= 0.0 || e.translation_z < merge.max_travel_z)
+                && e.translation_mm <= merge.max_translation_mm)
+                .then_some(e.rotation_z)
+        },
+    )
 }
 
 /// Diagnostic: the joint evidence of parts `a` and `b` (marker indices, ≥ 3 each), rotation

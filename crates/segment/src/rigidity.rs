@@ -1,6 +1,8 @@
 //! Rigidity of marker groups under a tolerance on ρ: the noise level, and the repair of
 //! clusters that are not rigid (split), misplaced markers (move) and rigid neighbours (merge).
 
+use rayon::prelude::*;
+
 use crate::pairstats::PairStats;
 
 /// A marker split off alone rejoins the group it is most rigid with when its RMS ρ to it is
@@ -138,6 +140,33 @@ pub(crate) fn repair(
     }
     normalise(&mut clusters);
     clusters
+}
+
+/// Merges, repeatedly, the pair of clusters (`i < j`) that `eligible` admits and `score`
+/// rates lowest (`None`: not to be merged), `j` into `i`, ties to the lower ids; scores in
+/// parallel. Returns how many merges were made.
+pub(crate) fn merge_best_pairs(
+    clusters: &mut Vec<Vec<usize>>,
+    eligible: impl Fn(&[usize], &[usize]) -> bool,
+    score: impl Fn(&[usize], &[usize]) -> Option<f64> + Sync,
+) -> usize {
+    let mut merged = 0;
+    loop {
+        let candidates: Vec<(usize, usize)> = (0..clusters.len())
+            .flat_map(|i| ((i + 1)..clusters.len()).map(move |j| (i, j)))
+            .filter(|&(i, j)| eligible(&clusters[i], &clusters[j]))
+            .collect();
+        let best = candidates
+            .par_iter()
+            .filter_map(|&(i, j)| Some((score(&clusters[i], &clusters[j])?, i, j)))
+            .min_by(|x, y| x.0.total_cmp(&y.0).then(x.1.cmp(&y.1)).then(x.2.cmp(&y.2)));
+        let Some((_, i, j)) = best else { break };
+        let moved = std::mem::take(&mut clusters[j]);
+        clusters[i].extend(moved);
+        clusters.remove(j);
+        merged += 1;
+    }
+    merged
 }
 
 /// Sorts markers inside clusters and clusters by their smallest marker; drops empty ones.

@@ -550,7 +550,7 @@ fn a_pair_skin_cut_from_its_segment_rejoins_it() {
 /// markers keep their distances only within 8.96 mm, the left forearm's and foot's beyond
 /// 7 mm. A tolerance on the noise (5 × 1.30) leaves each cut in two, one piece of two
 /// markers; on the spectral clusters' spread of ρ (11.4 mm) those pieces rejoin. (With the
-/// noise's tolerance `join_small` puts the head's pairs back together too; it is off there
+/// noise's tolerance `join_small` puts the head back together too; it is off there
 /// so that the tolerance alone is what is tested.)
 #[test]
 fn noiseless_skin_sets_the_merge_tolerance_not_the_noise() {
