@@ -128,10 +128,11 @@ fn main() {
         if halves.len() == 2 && halves.iter().all(|h| h.len() >= 3) {
             if let Some(e) = segment::joint_evidence(traj, &halves[0], &halves[1], typical) {
                 println!(
-                    "  truth {s} halves {:?} | {:?}: {}",
+                    "  truth {s} halves {:?} | {:?}: {} union σ/typ {:.2}",
                     halves[0],
                     halves[1],
-                    common::evidence_line(&e, typical)
+                    common::evidence_line(&e, typical),
+                    common::union_ratio(traj, &halves[0], &halves[1], typical)
                 );
             }
         }

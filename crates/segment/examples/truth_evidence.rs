@@ -30,7 +30,11 @@ fn main() {
             .then(|| segment::joint_evidence(traj, a, b, sigma))
             .flatten();
         match evidence {
-            Some(e) => println!("{head}: {}", common::evidence_line(&e, sigma)),
+            Some(e) => println!(
+                "{head}: {} union σ/typ {:.2}",
+                common::evidence_line(&e, sigma),
+                common::union_ratio(traj, a, b, sigma)
+            ),
             None => println!("{head}: not testable (a side with < 3 markers or < 3 posed frames)"),
         }
     }

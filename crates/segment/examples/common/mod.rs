@@ -120,3 +120,15 @@ pub fn evidence_line(e: &segment::JointEvidence, typical_sigma_mm: f64) -> Strin
         e.part_sigma_mm
     )
 }
+
+/// Rigid-fit σ of `a` ∪ `b` as one body over the capture's typical σ: how well two parts fit
+/// as one (the fit split rejoins pieces up to its floor, 2).
+pub fn union_ratio(
+    traj: &mocap_io::Trajectories,
+    a: &[usize],
+    b: &[usize],
+    typical_sigma_mm: f64,
+) -> f64 {
+    segment::fit_split_sigmas(traj, &[a, b].concat())
+        .map_or(f64::NAN, |(sigma, _)| sigma / typical_sigma_mm)
+}
