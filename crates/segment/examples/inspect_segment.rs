@@ -80,24 +80,17 @@ fn main() {
                 .enumerate()
                 .filter(|&(j, _)| j != i)
                 .filter_map(|(j, o)| {
-                    let mut u = o.clone();
-                    u.extend(c);
-                    let (su, _) = segment::fit_split_sigmas(traj, &u)?;
-                    let so = segment::fit_split_sigmas(traj, o).map_or(f64::NAN, |x| x.0);
-                    Some((su, so, j))
+                    let union = common::union_ratio(traj, o, c, typical);
+                    let own = segment::fit_split_sigmas(traj, o).map_or(f64::NAN, |x| x.0);
+                    (!union.is_nan()).then_some((union, own / typical, j))
                 })
                 .collect();
             unions.sort_by(|x, y| x.0.total_cmp(&y.0));
             let u: Vec<String> = unions
                 .iter()
                 .take(3)
-                .map(|(su, so, j)| {
-                    format!(
-                        "{j}(n{}): {:.2} (own {:.2})",
-                        found[*j].len(),
-                        su / typical,
-                        so / typical
-                    )
+                .map(|(union, own, j)| {
+                    format!("{j}(n{}): {union:.2} (own {own:.2})", found[*j].len())
                 })
                 .collect();
             println!("found {i} union σ/typ with {}", u.join(", "));

@@ -435,7 +435,7 @@ fn evidence(a: &PartFit, b: &PartFit, typical_var: f64) -> Option<JointEvidence>
     // In the frame of the better posed part: a near-collinear part spins about its own line
     // by more than the linearised covariance allows, and would swing the other's centroid.
     let translation_z = if a.rot_gain <= b.rot_gain {
-        centroid_travel_z(&local_b, centroid_var, var_a, &a.inv_inertia)
+        centroid_travel_z(&local_b, mid, centroid_var, var_a, &a.inv_inertia)
     } else {
         let local_a: Vec<[f64; 3]> = both
             .iter()
@@ -444,7 +444,13 @@ fn evidence(a: &PartFit, b: &PartFit, typical_var: f64) -> Option<JointEvidence>
                 apply(&pb.r, d, true)
             })
             .collect();
-        centroid_travel_z(&local_a, centroid_var, var_b, &b.inv_inertia)
+        centroid_travel_z(
+            &local_a,
+            median_point(&local_a),
+            centroid_var,
+            var_b,
+            &b.inv_inertia,
+        )
     };
     let mut pooled: Vec<f64> = a
         .residuals
@@ -477,16 +483,17 @@ fn median_point(points: &[[f64; 3]]) -> [f64; 3] {
 }
 
 /// Robust Mahalanobis length of the travel of one part's centroid in the other's frame
-/// (`local`, per frame) about its median, under the covariance of one rigid body: both
-/// centroids' errors (`centroid_var`, mm²) and the frame's rotation error (`var` J⁻¹)
-/// swinging the median lever arm. 0 when the covariance is singular.
+/// (`local`, per frame) about its median `mid` ([`median_point`] of `local`), under the
+/// covariance of one rigid body: both centroids' errors (`centroid_var`, mm²) and the
+/// frame's rotation error (`var` J⁻¹) swinging the median lever arm. 0 when the covariance
+/// is singular.
 fn centroid_travel_z(
     local: &[[f64; 3]],
+    mid: [f64; 3],
     centroid_var: f64,
     var: f64,
     inv_inertia: &[[f64; 3]; 3],
 ) -> f64 {
-    let mid = median_point(local);
     // δ(R_Aᵀ d) = [m]× ε for a rotation error ε of the frame: covariance [m]× Σ [m]×ᵀ.
     let cross = [
         [0.0, -mid[2], mid[1]],
@@ -707,8 +714,7 @@ pub(crate) fn split_by_joint(
         return vec![cluster.to_vec()];
     }
     let mut cache = PartCache::new(traj, cluster, test.typical_sigma_mm);
-    let found = best_bipartition(&mut cache, stats, min_overlap);
-    match found {
+    match best_bipartition(&mut cache, stats, min_overlap) {
         Some((mask, e))
             if e.is_joint(
                 test.min_z,

@@ -339,35 +339,17 @@ fn merge_rigid(
     spread_tol: f64,
     min_overlap: usize,
 ) -> bool {
-    let mut any = false;
-    loop {
-        clusters.retain(|c| !c.is_empty());
-        let mut best: Option<(f64, usize, usize)> = None;
-        for a in 0..clusters.len() {
-            for b in a + 1..clusters.len() {
-                let mut worst: Option<f64> = None;
-                for &i in &clusters[a] {
-                    for &j in &clusters[b] {
-                        if let Some(r) = stats.rho(i, j, min_overlap) {
-                            worst = Some(worst.map_or(r, |w: f64| w.max(r)));
-                        }
-                    }
-                }
-                let posed = clusters[a].len().min(clusters[b].len()) >= POSED_MARKERS;
-                let tol = if posed { noise_tol } else { spread_tol };
-                if let Some(w) = worst
-                    && w <= tol
-                    && best.is_none_or(|(bw, _, _)| w < bw)
-                {
-                    best = Some((w, a, b));
-                }
-            }
-        }
-        let Some((_, a, b)) = best else { return any };
-        let taken = clusters.remove(b);
-        clusters[a].extend(taken);
-        any = true;
-    }
+    // The move step may have emptied a cluster; merges never empty one.
+    clusters.retain(|c| !c.is_empty());
+    let worst_cross_rho = |a: &[usize], b: &[usize]| {
+        let posed = a.len().min(b.len()) >= POSED_MARKERS;
+        let tol = if posed { noise_tol } else { spread_tol };
+        a.iter()
+            .flat_map(|&i| b.iter().filter_map(move |&j| stats.rho(i, j, min_overlap)))
+            .reduce(f64::max)
+            .filter(|&w| w <= tol)
+    };
+    merge_best_pairs(clusters, |_, _| true, worst_cross_rho) > 0
 }
 
 /// Fewest markers a donor keeps when it gives a marker to an orphan: three non-collinear
