@@ -31,6 +31,12 @@
 //! sits at distance r along the reference direction, and the translation puts the centre
 //! exactly where N carries it.
 //!
+//! When no posed neighbour is left for any unposed segment and two two-marker segments
+//! are among them, the pair whose markers' common centre fits best starts again
+//! (`seed.rs`): one of the two is posed from its markers plus that centre's track, and the
+//! greedy search goes on from it. A marker set with two markers on every segment starts
+//! this way; so does a group of such segments no posed segment reaches.
+//!
 //! Segments with their own poses (≥ 3 markers) get the same anchor search, and frames
 //! where only 2 of their markers are visible are filled from those 2 plus the anchor's
 //! centre (issue 5, item 4).
@@ -45,6 +51,7 @@ use rayon::prelude::*;
 use crate::pairfits::SegmentPoses;
 use crate::params::Params;
 use crate::poses::{FitRules, Pose, Spread, fit_pairs, fit_shape, pose_track};
+use crate::seed;
 use crate::small::sym_eigen;
 
 /// How a segment was tied to a neighbour.
@@ -64,6 +71,9 @@ pub(crate) struct Anchor {
     /// Posed by this anchor but missing where N has no pose: a second neighbour through
     /// whose joint those frames were filled, and per frame whether they were.
     pub secondary: Option<(usize, Vec<bool>)>,
+    /// Posed first of all, from S's and N's markers' common centre (`seed.rs`), before N
+    /// had a pose.
+    pub seed: bool,
 }
 
 /// A common centre of S's markers in N's local frame.
@@ -131,6 +141,10 @@ pub(crate) fn anchor_segments(
     // Off-tree neighbours are tried only once no tree neighbour is left to try.
     let on_tree = |s: usize, nb: usize| tree.is_none_or(|t| t[s][nb]);
     let mut tree_only = tree.is_some();
+    // Pairs of two-marker segments a seed was tried on, and the seeds posed (segment, partner).
+    let mut seed_refused = vec![vec![false; n]; n];
+    let mut seeded: Vec<(usize, usize)> = Vec::new();
+    let mut seed_memo = seed::SeedMemo::default();
     loop {
         let open = |s: usize, nb: usize| !failed[s][nb] && (!tree_only || on_tree(s, nb));
         let wanted: Vec<(usize, usize)> = (0..n)
@@ -160,7 +174,65 @@ pub(crate) fn anchor_segments(
                 tree_only = false;
                 continue;
             }
-            break;
+            // Nothing posed is left to anchor to: start from two two-marker segments'
+            // common centre, if any pair has one (`seed.rs`).
+            let Some((s, partner, common)) = params
+                .anchor_seed
+                .then(|| {
+                    seed::best_seed(
+                        traj,
+                        segments,
+                        &posed,
+                        &seed_refused,
+                        params,
+                        &mut seed_memo,
+                    )
+                })
+                .flatten()
+            else {
+                break;
+            };
+            seed_refused[s][partner] = true;
+            seed_refused[partner][s] = true;
+            // The centre's track as a neighbour's pose that carries the point 0.
+            let centre_track: Vec<Option<Pose>> = common
+                .centre
+                .iter()
+                .map(|c| {
+                    c.map(|trans| Pose {
+                        rot: DMat3::IDENTITY,
+                        trans,
+                    })
+                })
+                .collect();
+            let fit = CentreFit {
+                centre: DVec3::ZERO,
+                rms_mm: common.rms_mm,
+                excursion_deg: common.excursion_deg,
+                samples: 4 * common.centre.iter().flatten().count(),
+                hinge: false,
+                radii: Vec::new(),
+            };
+            let new = anchored_poses(
+                traj,
+                s,
+                &segments[s],
+                &poses[partner],
+                &centre_track,
+                &fit,
+                params,
+            );
+            let track = pose_track(&new);
+            if posed_count(&track) < params.min_frames {
+                continue;
+            }
+            poses[s] = new;
+            tracks[s] = track;
+            posed[s] = true;
+            seeded.push((s, partner));
+            // Anchoring goes on from the seed, along the tree first again.
+            tree_only = tree.is_some();
+            continue;
         };
         let Some(Some(fit)) = memo[s][nb].clone() else {
             break;
@@ -183,7 +255,28 @@ pub(crate) fn anchor_segments(
             frames_posed: count,
             filled: Vec::new(),
             secondary: None,
+            seed: false,
         });
+    }
+    // A seed is posed through its partner's joint: once the partner is posed, that joint's
+    // common centre in the partner's frame is its anchor, as for any anchored segment.
+    for (s, partner) in seeded {
+        if !posed[partner] {
+            continue;
+        }
+        let wanted = [(s, partner)];
+        fit_candidates(traj, segments, &tracks, params, &mut memo, &wanted);
+        if let Some(Some(fit)) = memo[s][partner].clone() {
+            anchors[s] = Some(Anchor {
+                neighbour: partner,
+                posed_by_anchor: true,
+                fit,
+                frames_posed: posed_count(&tracks[s]),
+                filled: Vec::new(),
+                secondary: None,
+                seed: true,
+            });
+        }
     }
     // Fills S's frames without a pose where 2 of its markers are visible through the
     // posed neighbour (not `skip`, not anchored through S) whose centre fits best; returns
@@ -261,6 +354,7 @@ pub(crate) fn anchor_segments(
                 frames_posed: filled.iter().filter(|&&x| x).count(),
                 filled,
                 secondary: None,
+                seed: false,
             });
         }
     }

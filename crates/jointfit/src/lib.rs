@@ -25,8 +25,11 @@
 //! twist about the centre→marker line is unobservable and set to the neighbour's). Frames
 //! where only 2 markers of a larger segment are visible are filled the same way, and so
 //! are frames whose visible markers nearly line up when the whole set does not (their spin
-//! beyond `Params::max_spin_deg`: a marker hidden from a well-spread set). At least
-//! one segment must have ≥ 3 non-collinear markers to start from. A segment posed through
+//! beyond `Params::max_spin_deg`: a marker hidden from a well-spread set). Where no
+//! segment has ≥ 3 non-collinear markers to start from (two markers on every segment),
+//! two two-marker segments' common centre starts it (`Params::anchor_seed`, see
+//! `seed.rs`): their four markers keep constant distances from it, which fixes it in every
+//! frame, and one of them is posed from its markers plus that centre. A segment posed through
 //! a joint has a twist about its marker line that is derived, not seen, so its joints are
 //! centred by its markers' distances (`Params::anchor_centres_by_distance`) wherever those
 //! fix the centre.
@@ -56,6 +59,7 @@ mod pairfits;
 mod params;
 mod poses;
 mod score;
+mod seed;
 mod small;
 
 pub use error::Error;
@@ -294,7 +298,10 @@ fn fit_all(
         let Some(anchor) = anchor else { continue };
         let (a, b) = (s.min(anchor.neighbour), s.max(anchor.neighbour));
         if let Some(fit) = fits.iter_mut().find(|p| p.a == a && p.b == b) {
-            let how = if anchor.posed_by_anchor {
+            let how = if anchor.seed {
+                "posed first, from the two segments' markers' common centre (no segment had a \
+                 pose of its own),"
+            } else if anchor.posed_by_anchor {
                 "posed through this joint"
             } else {
                 "2-marker frames filled through this joint"
