@@ -32,12 +32,21 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
     let mut pairs: Vec<&jointfit::PairFit> = fits.pairs.iter().collect();
     pairs.sort_by(|x, y| x.cost.total_cmp(&y.cost));
     println!(
-        "{:>3} {:>3} {:>10} {:>8} {:>6} {:>7} {:>7} {:>8}  evidence",
-        "a", "b", "cost", "kind", "chosen", "rot-rms", "resid", "frames"
+        "{:>3} {:>3} {:>10} {:>8} {:>6} {:>7} {:>7} {:>8} {:>7} {:>7}  evidence",
+        "a", "b", "cost", "kind", "chosen", "rot-rms", "resid", "frames", "near-a", "near-b"
     );
+    // Distance (mm) from a centre in a segment's frame to that segment's nearest marker.
+    let nearest = |s: usize, c: [f64; 3]| {
+        fits.poses[s]
+            .reference
+            .iter()
+            .map(|r| ((r[0] - c[0]).powi(2) + (r[1] - c[1]).powi(2) + (r[2] - c[2]).powi(2)).sqrt())
+            .filter(|d| d.is_finite())
+            .fold(f64::INFINITY, f64::min)
+    };
     for p in pairs.iter().take(per_segment * seg.segments.len()) {
         println!(
-            "{:>3} {:>3} {:>10.4} {:>8} {:>6} {:>7.1} {:>7.2} {:>8}  {}",
+            "{:>3} {:>3} {:>10.4} {:>8} {:>6} {:>7.1} {:>7.2} {:>8} {:>7.0} {:>7.0}  {}",
             p.a,
             p.b,
             p.cost,
@@ -46,7 +55,9 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
             p.rotation_rms_deg,
             p.residual_rms_mm,
             p.frames_used,
-            p.evidence
+            nearest(p.a, p.centre_in_a),
+            nearest(p.b, p.centre_in_b),
+            p.evidence.chars().take(60).collect::<String>()
         );
     }
     for n in &topology.notes {
