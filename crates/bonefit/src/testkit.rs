@@ -128,6 +128,7 @@ pub fn scene(frames: usize, rate: f64) -> Scene {
                 wobble_deg: [0.0, 5.0, 5.0],
                 evidence: "exact".into(),
                 centre_from_distances: false,
+                seeded: false,
             });
         }
     }

@@ -290,6 +290,13 @@ pub(crate) fn document(input: &Inputs<'_>) -> Result<SkeletonJson, Error> {
         if j.frames_known == 0 {
             warnings.push("position never known".to_owned());
         }
+        if pair.seeded {
+            warnings.push(
+                "every pose starts here: no segment has three markers of its own, so one of \
+                 these two was posed from both segments' markers' common centre"
+                    .to_owned(),
+            );
+        }
         // The hinge axis is stored in the lower segment's frame; give it in the parent's.
         let hinge_axis_in_parent = if pair.a == j.parent_segment {
             pair.axis_in_a

@@ -398,6 +398,22 @@ fn low_range_of_motion_warns() {
     assert!(warnings.contains("below 20"), "{warnings}");
 }
 
+/// A joint every pose started from (no segment with three markers of its own) says so, and
+/// only that one.
+#[test]
+fn the_seeded_joint_warns() {
+    let mut s = scene(60, 60.0);
+    let seeded = s.fits.pairs.iter().position(|p| (p.a, p.b) == (0, 3));
+    let seeded = seeded.expect("torso-head pair");
+    s.fits.pairs[seeded].seeded = true;
+    let doc = json(&files(&s, &Params::default()));
+    for joint in doc["joints"].as_array().into_iter().flatten() {
+        let warnings = joint["warnings"].to_string();
+        let head = joint["child_segment"] == 3;
+        assert_eq!(warnings.contains("every pose starts here"), head, "{joint}");
+    }
+}
+
 #[test]
 fn csv_rows_only_where_known() {
     let s = gappy_scene();

@@ -151,6 +151,7 @@ pub(crate) fn fit_pair(
                 params.min_frames
             ),
             centre_from_distances: false,
+            seeded: false,
         };
     }
     let motion = relative_motion(pa, pb, &co);
@@ -286,6 +287,7 @@ pub(crate) fn fit_pair(
         wobble_deg: motion.wobble_deg,
         evidence,
         centre_from_distances: false,
+        seeded: false,
     }
 }
 

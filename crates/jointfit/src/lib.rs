@@ -307,6 +307,7 @@ fn fit_all(
             } else {
                 "2-marker frames filled through this joint"
             };
+            fit.seeded |= anchor.seed;
             fit.evidence.push_str(&format!(
                 "; segment {s} {how} in {} frames (common centre in segment {}: {})",
                 anchor.frames_posed,

@@ -3,7 +3,7 @@
 use serde::{Deserialize, Serialize};
 
 /// Schema version of [`PairFits`]; bump when its fields or the algorithm's output change.
-pub const SCHEMA_VERSION: u32 = 13;
+pub const SCHEMA_VERSION: u32 = 14;
 
 /// Per-frame rigid poses of every segment and the joint fitted to every segment pair.
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
@@ -97,6 +97,10 @@ pub struct PairFit {
     /// in every direction: hinge placement must not slide it along the axis.
     #[serde(default)]
     pub centre_from_distances: bool,
+    /// Every pose started from this joint: no segment had a pose of its own, and one of
+    /// its two-marker segments was posed from both segments' markers' common centre.
+    #[serde(default)]
+    pub seeded: bool,
 }
 
 impl PairFit {

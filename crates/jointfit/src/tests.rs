@@ -1204,10 +1204,13 @@ fn two_markers_on_every_segment_start_from_a_common_centre() {
             anchor_seed: false,
             ..Params::default()
         };
+        let seeded = |fits: &crate::PairFits| fits.pairs.iter().filter(|p| p.seeded).count();
         let fits = run_on_segments(&trial.trajectories, &segments, &without).unwrap();
-        assert_eq!(posed(&fits), 0, "{}", trial.name);
+        assert_eq!((posed(&fits), seeded(&fits)), (0, 0), "{}", trial.name);
         let fits = run_on_segments(&trial.trajectories, &segments, &Params::default()).unwrap();
         assert_eq!(posed(&fits), segments.len(), "{}", trial.name);
+        // One seed started it all, and its pair says so.
+        assert_eq!(seeded(&fits), 1, "{}", trial.name);
         for j in trial.truth.joints.iter().filter(|j| j.kind == "ball") {
             let (a, b) = (
                 j.parent_segment.min(j.child_segment),

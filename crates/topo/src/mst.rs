@@ -482,6 +482,7 @@ mod tests {
                     wobble_deg: [10.0; 3],
                     evidence: String::new(),
                     centre_from_distances: false,
+                    seeded: false,
                 });
             }
         }
