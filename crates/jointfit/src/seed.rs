@@ -498,6 +498,40 @@ mod tests {
         }
     }
 
+    /// Degenerate pairs (two markers a micrometre apart, the other two in line with the
+    /// joint, one of them missing in most frames) give no centre or a finite one, never a
+    /// panic or NaN.
+    #[test]
+    fn degenerate_pairs_are_refused_or_finite() {
+        let frames = 120;
+        let mut positions = Vec::new();
+        for f in 0..frames {
+            let t = f as f64 * 0.05;
+            let swing = DQuat::from_rotation_y(0.6 * t.sin());
+            let gap = f % 3 != 0;
+            let points = [
+                DVec3::ZERO,
+                DVec3::new(1e-6, 0.0, 0.0),
+                swing * DVec3::new(0.0, 0.0, -100.0),
+                swing * DVec3::new(0.0, 0.0, -200.0),
+            ];
+            for (k, p) in points.iter().enumerate() {
+                positions.push(if gap && k == 3 {
+                    [f64::NAN; 3]
+                } else {
+                    p.to_array()
+                });
+            }
+        }
+        let labels = ["A", "B", "C", "D"].map(String::from).to_vec();
+        let traj = Trajectories::new(labels, 100.0, 1, frames, positions).unwrap();
+        let fit = common_centre(&traj, [0, 1], [2, 3], 30, 0.0);
+        if let Some(fit) = fit {
+            assert!(fit.rms_mm.is_finite());
+            assert!(fit.centre.iter().flatten().all(|c| c.is_finite()));
+        }
+    }
+
     /// Two pairs that never turn relative to each other fix no centre.
     #[test]
     fn still_pairs_give_no_centre() {
