@@ -207,24 +207,20 @@ pub(crate) fn best_seed(
         })
         .collect();
     memo.centres.extend(missing.into_iter().zip(fitted));
-    candidates
+    let (a, b, fit) = candidates
         .into_iter()
-        .filter_map(|(a, b)| {
-            let fit = memo.centres.get(&(a, b))?.as_ref()?;
-            Some((a, b, fit.clone()))
-        })
+        .filter_map(|(a, b)| Some((a, b, memo.centres.get(&(a, b))?.as_ref()?)))
         .min_by(|x, y| {
             x.2.rms_mm
                 .total_cmp(&y.2.rms_mm)
                 .then((x.0, x.1).cmp(&(y.0, y.1)))
-        })
-        .map(|(a, b, fit)| {
-            if fit.lever_mm[1] > fit.lever_mm[0] {
-                (b, a, fit)
-            } else {
-                (a, b, fit)
-            }
-        })
+        })?;
+    let fit = fit.clone();
+    Some(if fit.lever_mm[1] > fit.lever_mm[0] {
+        (b, a, fit)
+    } else {
+        (a, b, fit)
+    })
 }
 
 /// Smallest median distance over the frames between a marker of `a` and one of `b`, mm.
