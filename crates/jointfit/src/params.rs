@@ -308,8 +308,9 @@ pub const PARAM_DOCS: &[(&str, &str)] = &[
          each of two such segments (four constant distances meeting at one point in every \
          frame), pose one of them from its markers plus that centre and anchor on from it. \
          cargo xtask eval --markers 2:2 --seeds 10001..10032: clean 0 -> 180 exact trees of \
-         192 (0.40 % of height; joints known in 2.6 -> 100 % of frames), noise 0 -> 99; \
-         bool; default true",
+         192 (0.40 % of height; joints known in 2.6 -> 100 % of frames), noise 0 -> 99 \
+         (181 and 114 since the segment stage's typical sigma counts pairs where most \
+         markers sit in them); bool; default true",
     ),
     (
         "anchor_line_prior",
