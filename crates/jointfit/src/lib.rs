@@ -30,8 +30,8 @@
 //! two two-marker segments' common centre starts it (`Params::anchor_seed`, see
 //! `seed.rs`): their four markers keep constant distances from it, four spheres meeting
 //! in one point per frame, and one of them is posed from its markers plus that point. A
-//! segment posed through
-//! a joint has a twist about its marker line that is derived, not seen, so its joints are
+//! segment posed through a joint has a twist about its marker line that is derived, not
+//! seen, so its joints are
 //! centred by its markers' distances (`Params::anchor_centres_by_distance`) wherever those
 //! fix the centre.
 //!

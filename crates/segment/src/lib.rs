@@ -446,7 +446,8 @@ pub fn joint_evidence(
 }
 
 /// The capture's typical segment fit σ for `clusters` (marker indices), mm: the median
-/// robust rigid-fit σ of those of ≥ 3 markers. A diagnostic.
+/// robust rigid-fit σ of those of ≥ 3 markers (of ≥ 2 where two-marker clusters hold most
+/// markers). A diagnostic.
 pub fn typical_fit_sigma(traj: &Trajectories, clusters: &[Vec<usize>]) -> f64 {
     fitsplit::typical_sigma(traj, clusters)
 }
