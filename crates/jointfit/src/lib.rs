@@ -31,9 +31,8 @@
 //! `seed.rs`): their four markers keep constant distances from it, four spheres meeting
 //! in one point per frame, and one of them is posed from its markers plus that point. A
 //! segment posed through a joint has a twist about its marker line that is derived, not
-//! seen, so its joints are
-//! centred by its markers' distances (`Params::anchor_centres_by_distance`) wherever those
-//! fix the centre.
+//! seen, so its joints are centred by its markers' distances
+//! (`Params::anchor_centres_by_distance`) wherever those fix the centre.
 //!
 //! Greedy anchoring does not know the tree, and a segment whose own markers nearly line
 //! up even when all are seen is posed with a spin error that throws its joints' images
