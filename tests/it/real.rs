@@ -295,13 +295,44 @@ fn qualisys_walk() -> NamedWalk {
     )
 }
 
-/// The OpenSim gait example's 41 markers and a Qualisys walk's 25 are named by body part:
-/// the segments must be those parts (legs, pelvis, trunk, head whole; arms never mixed with
-/// each other or the trunk), found with no label read.
+/// BTK's Gait.trc, a walk with 33 markers, two on each thigh and shank (the knee markers
+/// may go with either bone). In a walk the pelvis barely turns against the trunk and the
+/// ankle and knee little at a time; clusters merged across those joints set the yardstick
+/// of an ordinary segment's fit until pairs counted in it too.
+fn btk_walk() -> NamedWalk {
+    (
+        "trc/btk/Gait.trc",
+        vec![
+            ("pelvis", &["R.ASIS", "L.ASIS", "V.Sacral"]),
+            ("trunk", &["C7", "IJ", "PX"]),
+            (
+                "right foot",
+                &["R.Heel", "R.Toe", "R.Foot.Medial", "R.Foot.Lateral"],
+            ),
+            (
+                "left foot",
+                &["L.Heel", "L.Toe", "L.Foot.Medial", "L.Foot.Lateral"],
+            ),
+        ],
+        vec![
+            ("right thigh", &["R.Thigh"]),
+            ("left thigh", &["L.Thigh"]),
+            ("right shank", &["R.Shank"]),
+            ("left shank", &["L.Shank"]),
+            ("right arm", &["R.Elbow", "R.Wrist"]),
+            ("left arm", &["L.Elbow", "L.Wrist"]),
+        ],
+    )
+}
+
+/// The OpenSim gait example's 41 markers, a Qualisys walk's 25 and BTK's 33 are named by
+/// body part: the segments must be those parts (legs, pelvis, trunk, head whole; arms never
+/// mixed with each other or the trunk; thigh, shank and foot apart), found with no label
+/// read.
 #[test]
 fn real_walks_segment_into_their_named_body_parts() {
     let mut failures = Vec::new();
-    for (file, whole, apart) in [opensim_walk(), qualisys_walk()] {
+    for (file, whole, apart) in [opensim_walk(), qualisys_walk(), btk_walk()] {
         let Some((_, skeleton)) = real_skeleton("real_walks_body_parts", file) else {
             return;
         };
@@ -314,7 +345,7 @@ fn real_walks_segment_into_their_named_body_parts() {
     assert!(failures.is_empty(), "{}", failures.join("\n"));
 }
 
-/// Every joint of the two named walks joins body parts that meet in the body (pelvis and
+/// Every joint of the three named walks joins body parts that meet in the body (pelvis and
 /// thigh, thigh and shank, shank and foot, pelvis and trunk, trunk and head, trunk and
 /// arm, or two segments of one arm), with no label read. In the OpenSim walk the arms
 /// barely move against the trunk and the right upper arm swings in phase with the left
@@ -334,7 +365,7 @@ fn real_walks_join_only_body_parts_that_meet() {
             || pair("pelvis", "thigh")
     };
     let mut failures = Vec::new();
-    for (file, whole, apart) in [opensim_walk(), qualisys_walk()] {
+    for (file, whole, apart) in [opensim_walk(), qualisys_walk(), btk_walk()] {
         let Some((_, skeleton)) = real_skeleton("real_walks_joints_meet", file) else {
             return;
         };

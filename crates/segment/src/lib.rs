@@ -32,14 +32,15 @@
 //! `jointsplit`), again on the clusters the settling after a cut changed; neighbours that
 //! move as one rigid body merge (`joint_merge_z`); a marker no body holds leaves its
 //! cluster (`eject_ratio`); a two-marker cluster whose markers two different bodies hold
-//! dissolves into them, a lone marker a body holds joins it (`pair_hold`), and a pair one
+//! dissolves into them, a lone marker a body holds joins it (`pair_hold`), a pair one
 //! body holds rejoins it when the rigidity check had cut it from that body's spectral
 //! cluster and it sits there as still as the body's own markers (`pair_rejoin_ratio`: skin
-//! alike on two markers); pieces of one or two markers from one spectral cluster join where
-//! together they fit like one segment (`join_small`). Last, label swaps (two markers'
-//! trajectories exchanged for a while; see `swaps`) are looked for on the result; any found
-//! are undone and the capture segmented again, and listed in [`Segmentation::swaps`]
-//! (`repair_swaps`).
+//! alike on two markers), and a pair only one of whose markers a body holds re-pairs when
+//! the other has a steadier partner next door (`pair_repartner`); pieces of one or two
+//! markers from one spectral cluster join where together they fit like one segment
+//! (`join_small`). Last, label swaps (two markers' trajectories exchanged for a while; see
+//! `swaps`) are looked for on the result; any found are undone and the capture segmented
+//! again, and listed in [`Segmentation::swaps`] (`repair_swaps`).
 //! Or agglomeration alone (`method = "linkage"`) or rigid cliques (`method = "cliques"`).
 //!
 //! It does not estimate poses, joints or topology (jointfit, topo) and does no I/O.
@@ -333,6 +334,10 @@ fn segment_capture(
                 spectral_of: &spectral_of,
                 ratio: params.pair_rejoin_ratio,
             }),
+            params.pair_repartner.then_some(reassign::LoosePairs {
+                stats: &stats,
+                tol_mm: tolerance_mm,
+            }),
         ) > 0
         {
             rigidity::normalise(&mut clusters);
@@ -446,8 +451,7 @@ pub fn joint_evidence(
 }
 
 /// The capture's typical segment fit σ for `clusters` (marker indices), mm: the median
-/// robust rigid-fit σ of those of ≥ 3 markers (of ≥ 2 where two-marker clusters hold most
-/// markers). A diagnostic.
+/// robust rigid-fit σ of those of ≥ 2 markers. A diagnostic.
 pub fn typical_fit_sigma(traj: &Trajectories, clusters: &[Vec<usize>]) -> f64 {
     fitsplit::typical_sigma(traj, clusters)
 }

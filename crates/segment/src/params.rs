@@ -101,7 +101,7 @@ pub struct Params {
     pub singleton_steady_factor: f64,
     /// A cluster of 4–10 markers splits in two when its rigid-fit σ exceeds this × the best bipartition's pooled σ; 0 = off.
     pub fit_split_ratio: f64,
-    /// ... and exceeds this × the median fit σ of the clusters of ≥ 3 markers.
+    /// ... and exceeds this × the typical segment's fit σ (the median over the clusters of ≥ 2 markers).
     pub fit_split_floor: f64,
     /// A marker moves to another cluster of ≥ 3 when that body holds it this many times stiller than its own does; 0 = off.
     pub reassign_ratio: f64,
@@ -119,6 +119,8 @@ pub struct Params {
     pub pair_hold: f64,
     /// A two-marker cluster one body holds within pair_hold rejoins it when spectral clustering had them together and its scatter there is within this × the body's fit σ; 0 = off.
     pub pair_rejoin_ratio: f64,
+    /// A pair only one of whose markers a body holds re-pairs: the free marker takes a steadier partner, the held one joins its holder.
+    pub pair_repartner: bool,
     /// Clusters of one or two markers that spectral clustering had together join where their union fits within the fit split's floor.
     pub join_small: bool,
     /// Find label swaps (two markers' trajectories exchanged for a while), undo them and segment again.
@@ -167,6 +169,7 @@ impl Default for Params {
             joint_merge_z: 4.0,
             pair_hold: 3.0,
             pair_rejoin_ratio: 8.0,
+            pair_repartner: true,
             join_small: true,
             repair_swaps: true,
             glitch_factor: 8.0,
@@ -296,7 +299,7 @@ pub const PARAM_DOCS: &[(&str, &str)] = &[
     ),
     (
         "fit_split_floor",
-        "fit split: the cluster's fit σ must also exceed this × the typical segment's (the median fit σ of the clusters of ≥ 3 markers: skin artefact sets it, not the noise), and tolerance_min_mm; a split piece rejoins the cluster (of the three it keeps its distances to best) whose union with it stays within this floor, smallest union σ first; default 2.0",
+        "fit split: the cluster's fit σ must also exceed this × the typical segment's (the median fit σ of the clusters of ≥ 2 markers: skin artefact sets it, not the noise), and tolerance_min_mm; a split piece rejoins the cluster (of the three it keeps its distances to best) whose union with it stays within this floor, smallest union σ first; default 2.0",
     ),
     (
         "reassign_ratio",
@@ -313,6 +316,10 @@ pub const PARAM_DOCS: &[(&str, &str)] = &[
     (
         "pair_rejoin_ratio",
         "with pair_hold: a two-marker cluster whose markers one body (≥ 3 markers) holds both of, within pair_hold's bound, rejoins that body when spectral clustering had put the pair and some of the body's markers in one cluster (the rigidity check's linkage cut them apart) and the pair's larger scatter in the body is within this × the body's own rigid-fit σ. Skin (5-15 mm, with two markers' skin alike) cuts a true segment into k + 2 this way when noise is low; exact data (σ near zero: arthuman's labelled bodies, whose pairs move 1.5-2 mm against a body of σ about 3e-5 mm) keeps its pairs. cargo xtask eval --compare segment.pair_rejoin_ratio=0,8: skin on seeds 10001-10032 82 -> 94/192 exact trees (4: 91, 16 and 100: 95), on 4001-4006,6001-6006,7001,9001,1001,5001 47 -> 52/96, hard --noise 0.5 there 56 -> 60/96; hard (there 71/96, on 10001-10032 137/192), clean, noise, gaps, swap, --sweep 0.4:0.6 and --markers 2:3 unchanged; messy on 10001-10032 124 -> 123/192 (quadruped-messy-s10010: a pair joined a cluster that already mixed two segments); every real capture's segmentation unchanged; 0 = off; default 8.0",
+    ),
+    (
+        "pair_repartner",
+        "with pair_hold: a two-marker cluster only one of whose markers a body holds within pair_hold's bound re-pairs when both markers are steadier elsewhere: the free marker takes the partner pair_orphans would give it were it alone (ρ within the tolerance and no looser than that partner's RMS ρ to its own group, which keeps 3 markers) if its ρ to it is below the pair's own, and the held marker, whose RMS ρ to the holder's markers is below the pair's ρ too, joins the holder. Two markers of different segments can keep a steady distance through a capture: CMU 02_01's right upper-arm marker left the head cluster with a forehead marker (the fit split's parts have ≥ 2 markers) while its true partner RSHO stayed in the torso; a knee or elbow marker a neighbour holds loosely stays with its thigh or upper-arm marker (its RMS ρ to the holder is not below the pair's). With pairs counted in the typical segment σ, CMU 02_01 needs it (without: RUPA pairs with LFHD and the right humerus comes out 399 mm against Vicon's 284; with: 275 mm, the left 277 against 275); cargo xtask eval --compare segment.pair_repartner=false,true changes no tree and no mean beyond 0.01 % on seeds 4001-4006,6001-6006,7001,9001,1001,5001 (every preset; --markers 2:3 clean, skin, hard; --markers 2:2 clean, noise, hard) or 10001-10032 (noise, skin, hard); default true",
     ),
     (
         "join_small",

@@ -16,6 +16,8 @@ use rayon::prelude::*;
 
 use crate::eigen4::{det3, horn_matrix, largest_eigenpair4};
 use crate::fitsplit::{QUANTILE, median, median_distances, quantile, reference_shape};
+use crate::pairstats::PairStats;
+use crate::rigidity::{DONOR_KEEPS, rms_rho};
 
 /// Most reassignment sweeps (pose every body, then move); moves only ever follow a clear
 /// improvement, so a few do.
@@ -425,14 +427,16 @@ pub(crate) fn reassign(
 /// cluster a body holds within `hold_mm` joins it: the robust scatter ignores the minority
 /// of frames where a swapped or glitching trajectory was elsewhere, which ρ (over every
 /// frame) does not. With `rejoin`, a pair one body holds both of rejoins that body when the
-/// rigidity check cut it from it (see [`PairRejoin`]). Returns how many clusters were
-/// dissolved.
+/// rigidity check cut it from it (see [`PairRejoin`]); with `repair`, a pair only one of
+/// whose markers a body holds re-pairs (see [`LoosePairs`]). Returns how many clusters were
+/// dissolved or re-paired.
 pub(crate) fn dissolve_small_clusters(
     traj: &Trajectories,
     clusters: &mut Vec<Vec<usize>>,
     hold_mm: f64,
     min_overlap: usize,
     rejoin: Option<PairRejoin>,
+    repair: Option<LoosePairs>,
 ) -> usize {
     let stride = stride_of(traj);
     let min_frames = min_overlap.div_ceil(stride);
@@ -485,26 +489,29 @@ pub(crate) fn dissolve_small_clusters(
             })
             .min_by(|x, y| x.0.total_cmp(&y.0).then(x.1.cmp(&y.1)))
     };
-    let moves: Vec<Vec<(usize, usize)>> = clusters
+    let outcomes: Vec<SmallClusterFate> = clusters
         .par_iter()
         .enumerate()
         .map(|(c, ms)| {
+            let moves = |mv: Vec<(usize, usize)>| (mv, None);
             // A lone marker a body holds is that body's, its outlying frames a swap or a
             // glitch (a real one-marker segment moves against every body).
             if let &[a] = &ms[..] {
                 return match best_home(a, c) {
-                    Some((sa, da)) if sa <= hold_mm => vec![(a, da)],
-                    _ => Vec::new(),
+                    Some((sa, da)) if sa <= hold_mm => moves(vec![(a, da)]),
+                    _ => moves(Vec::new()),
                 };
             }
-            let &[a, b] = &ms[..] else { return Vec::new() };
+            let &[a, b] = &ms[..] else {
+                return moves(Vec::new());
+            };
             match (best_home(a, c), best_home(b, c)) {
                 // Held by one body, the pair may be a segment of its own that moved little
                 // against it (a foot on its shank, a pelvis on the trunk in a walk):
                 // merging would lose a segment. Only a pair split across two bodies is a
                 // cross-joint artefact.
                 (Some((sa, da)), Some((sb, db))) if sa <= hold_mm && sb <= hold_mm && da != db => {
-                    vec![(a, da), (b, db)]
+                    moves(vec![(a, da), (b, db)])
                 }
                 (Some((sa, da)), Some((sb, db)))
                     if sa <= hold_mm
@@ -519,14 +526,23 @@ pub(crate) fn dissolve_small_clusters(
                     // apart: as still in the body as its own markers are, the pair is
                     // part of it. Exact data (a body's σ near zero) keeps a pair whose
                     // millimetres of motion are real.
-                    vec![(a, da), (b, da)]
+                    moves(vec![(a, da), (b, da)])
                 }
-                _ => Vec::new(),
+                // One marker held, the other by no body: a candidate for a steadier
+                // partner (below).
+                (ha, hb) => {
+                    let held = |h: Option<(f64, usize)>| h.filter(|&(s, _)| s <= hold_mm);
+                    match (held(ha), held(hb)) {
+                        (Some((_, da)), None) => (Vec::new(), Some([a, da, b])),
+                        (None, Some((_, db))) => (Vec::new(), Some([b, db, a])),
+                        _ => moves(Vec::new()),
+                    }
+                }
             }
         })
         .collect();
     let mut dissolved = 0;
-    for (c, mv) in moves.iter().enumerate() {
+    for (c, (mv, _)) in outcomes.iter().enumerate() {
         if mv.is_empty() {
             continue;
         }
@@ -536,8 +552,98 @@ pub(crate) fn dissolve_small_clusters(
         clusters[c].clear();
         dissolved += 1;
     }
+    if let Some(repair) = repair {
+        let loose = outcomes
+            .iter()
+            .enumerate()
+            .filter_map(|(c, (_, l))| l.map(|l| (c, l)));
+        for (c, [held, holder, free]) in loose {
+            // The held marker keeps its distances to the holder's markers better than to
+            // its partner (an elbow marker the forearm holds loosely stays with the arm).
+            let to_holder = rms_rho(repair.stats, held, &clusters[holder], min_overlap);
+            let bond = repair.stats.rho(held, free, min_overlap);
+            if !to_holder.zip(bond).is_some_and(|(h, b)| h < b) {
+                continue;
+            }
+            if repair.take_partner(clusters, c, held, free, min_overlap) {
+                clusters[holder].push(held);
+                dissolved += 1;
+            }
+        }
+    }
     clusters.retain(|c| !c.is_empty());
     dissolved
+}
+
+/// What [`dissolve_small_clusters`] does with one cluster: its markers' moves (marker,
+/// cluster), or, for a pair only one of whose markers a body holds, that marker, its holder
+/// and the other marker.
+type SmallClusterFate = (Vec<(usize, usize)>, Option<[usize; 3]>);
+
+/// When a pair only one of whose markers a body holds re-pairs ([`dissolve_small_clusters`]).
+///
+/// Two markers of different segments can keep a steady distance for a whole capture (a
+/// forehead and an upper-arm marker in a walk, 4.9 mm robust ρ in CMU 02_01); when the
+/// fit split cuts an intruder from a body it takes a partner with it (its parts have ≥ 2
+/// markers), and the true partner of the intruder is left in the body next door. The free
+/// marker takes the partner [`crate::rigidity::pair_orphans`] would give it were it alone
+/// (ρ within the tolerance, no looser than the partner's RMS ρ to its own group, which
+/// keeps [`DONOR_KEEPS`]) if that partner is steadier with it than the marker it is paired
+/// with, and the held marker joins its holder if its RMS ρ to the holder's markers is
+/// below the pair's ρ too. A true two-marker segment with one marker near a joint keeps
+/// it: a knee marker the shank holds, whose thigh marker has no steadier partner; an elbow
+/// marker the forearm holds more loosely than the upper-arm marker does.
+#[derive(Clone, Copy, Debug)]
+pub(crate) struct LoosePairs<'a> {
+    /// Every pair's distance statistics.
+    pub stats: &'a PairStats,
+    /// Largest ρ of a new pair, mm (the rigidity tolerance).
+    pub tol_mm: f64,
+}
+
+impl LoosePairs<'_> {
+    /// Gives `free` (paired with `held` in cluster `c`) its steadiest partner from a
+    /// cluster that keeps [`DONOR_KEEPS`] markers without it, when steadier than `held`;
+    /// `held` leaves cluster `c`. Whether it did.
+    fn take_partner(
+        &self,
+        clusters: &mut [Vec<usize>],
+        c: usize,
+        held: usize,
+        free: usize,
+        min_overlap: usize,
+    ) -> bool {
+        if clusters[c] != [held, free] && clusters[c] != [free, held] {
+            return false;
+        }
+        let Some(bond) = self.stats.rho(held, free, min_overlap) else {
+            return false;
+        };
+        let mut best: Option<(f64, usize, usize)> = None;
+        for (d, donor) in clusters.iter().enumerate() {
+            if d == c || donor.len() <= DONOR_KEEPS {
+                continue;
+            }
+            for &x in donor {
+                let Some(r) = self.stats.rho(free, x, min_overlap) else {
+                    continue;
+                };
+                if r > self.tol_mm || r >= bond || best.is_some_and(|(b, _, _)| r >= b) {
+                    continue;
+                }
+                let mates: Vec<usize> = donor.iter().copied().filter(|&y| y != x).collect();
+                if rms_rho(self.stats, x, &mates, min_overlap).is_some_and(|own| r <= own) {
+                    best = Some((r, d, x));
+                }
+            }
+        }
+        let Some((_, d, x)) = best else {
+            return false;
+        };
+        clusters[d].retain(|&y| y != x);
+        clusters[c] = vec![free, x];
+        true
+    }
 }
 
 /// When a held pair rejoins the body it was cut from ([`dissolve_small_clusters`]).
@@ -680,7 +786,8 @@ pub(crate) fn sigma_in(traj: &Trajectories, group: &[usize], m: usize) -> Option
 
 #[cfg(test)]
 mod tests {
-    use super::{PairRejoin, dissolve_small_clusters, eject, reassign};
+    use super::{LoosePairs, PairRejoin, dissolve_small_clusters, eject, reassign};
+    use crate::pairstats::pair_stats;
     use crate::testscene::{CHILD, PARENT, hinge_x, hinged_capture, moving_capture};
 
     /// Two 4-marker bodies at a hinge swinging ±15°, with 1 mm deterministic jitter: a child
@@ -736,7 +843,7 @@ mod tests {
         });
         let mut clusters = vec![vec![0, 1, 2, 3], vec![4, 5, 6, 7], vec![8], vec![9]];
         assert_eq!(
-            dissolve_small_clusters(&traj, &mut clusters, 3.0, 10, None),
+            dissolve_small_clusters(&traj, &mut clusters, 3.0, 10, None, None),
             1
         );
         clusters.iter_mut().for_each(|c| c.sort_unstable());
@@ -776,7 +883,7 @@ mod tests {
             vec![12, 13],
         ];
         assert_eq!(
-            dissolve_small_clusters(&traj, &mut clusters, 3.0, 10, None),
+            dissolve_small_clusters(&traj, &mut clusters, 3.0, 10, None, None),
             1
         );
         clusters.iter_mut().for_each(|c| c.sort_unstable());
@@ -824,7 +931,7 @@ mod tests {
                 spectral_of,
                 ratio: 8.0,
             };
-            let n = dissolve_small_clusters(traj, &mut clusters, 3.0, 10, Some(rejoin));
+            let n = dissolve_small_clusters(traj, &mut clusters, 3.0, 10, Some(rejoin), None);
             clusters.iter_mut().for_each(|c| c.sort_unstable());
             (n, clusters)
         };
@@ -835,5 +942,50 @@ mod tests {
         );
         assert_eq!(dissolve(&jittered, &apart), (0, as_cut()));
         assert_eq!(dissolve(&capture(0.0, 2.0), &together), (0, as_cut()));
+    }
+
+    /// An arm swinging ±20° about x against a fixed 4-marker body carries marker 6 and,
+    /// 15 mm off the axis, marker 4, which the clustering left with the body (its distances
+    /// to the body's markers change by a few mm). Marker 6 is paired with a body marker 5
+    /// that keeps a fairly steady distance to it (20 mm off the axis). The pair re-pairs:
+    /// 6 takes 4 (steadier with it than 5 is, and 4 no steadier with the body), 5 rejoins
+    /// the body. Where the arm has no steadier partner for 6 (marker 4 on the body), the
+    /// pair stays: a true two-marker segment whose one marker its neighbour holds.
+    #[test]
+    fn loose_pair_re_pairs_with_a_steadier_partner() {
+        let scene = |x_on_arm: bool| {
+            let points: Vec<[f64; 3]> = PARENT
+                .iter()
+                .copied()
+                .chain([[60.0, 0.0, -15.0], [-60.0, 20.0, 0.0], [0.0, 30.0, -150.0]])
+                .collect();
+            moving_capture(points.len(), 300, 0.3, |t, k| {
+                let swing = 20f64.to_radians() * (0.7 * t).sin();
+                match k {
+                    4 if x_on_arm => hinge_x(swing, points[k], 0.0),
+                    6 => hinge_x(swing, points[k], 0.0),
+                    _ => points[k],
+                }
+            })
+        };
+        let run = |traj: &mocap_io::Trajectories| {
+            let stats = pair_stats(traj);
+            let mut clusters = vec![vec![0, 1, 2, 3, 4], vec![5, 6]];
+            let repair = LoosePairs {
+                stats: &stats,
+                tol_mm: 5.0,
+            };
+            let n = dissolve_small_clusters(traj, &mut clusters, 3.0, 10, None, Some(repair));
+            clusters.iter_mut().for_each(|c| c.sort_unstable());
+            (n, clusters)
+        };
+        assert_eq!(
+            run(&scene(true)),
+            (1, vec![vec![0, 1, 2, 3, 5], vec![4, 6]])
+        );
+        assert_eq!(
+            run(&scene(false)),
+            (0, vec![vec![0, 1, 2, 3, 4], vec![5, 6]])
+        );
     }
 }

@@ -354,7 +354,7 @@ fn merge_rigid(
 
 /// Fewest markers a donor keeps when it gives a marker to an orphan: three non-collinear
 /// markers still give it a full pose of its own.
-const DONOR_KEEPS: usize = 3;
+pub(crate) const DONOR_KEEPS: usize = 3;
 
 /// Gives each lone marker (a group of one) a partner taken from a group of four or more.
 ///
