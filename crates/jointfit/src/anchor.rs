@@ -37,6 +37,13 @@
 //! greedy search goes on from it. A marker set with two markers on every segment starts
 //! this way; so does a group of such segments no posed segment reaches.
 //!
+//! A two-marker S posed from its markers and one centre turns about the line through its
+//! markers as freely as the centre is near that line (a knee marker beside the knee). Along
+//! the tree (second pass), its other joint's centre, its markers' common centre in that
+//! neighbour's frame, is a fourth point of its pose when the two centres fit alike
+//! (`Params::anchor_two_centres`); a two-marker S no single centre can pose (each in line
+//! with its markers) is posed from the two best centres at once.
+//!
 //! Segments with their own poses (≥ 3 markers) get the same anchor search, and frames
 //! where only 2 of their markers are visible are filled from those 2 plus the anchor's
 //! centre (issue 5, item 4).
@@ -74,6 +81,9 @@ pub(crate) struct Anchor {
     /// Posed first of all, from S's and N's markers' common centre (`seed.rs`), before N
     /// had a pose.
     pub seed: bool,
+    /// A two-marker S posed from its markers and both its joints' centres: the second
+    /// neighbour and the centre of S's markers in its frame.
+    pub second_centre: Option<(usize, CentreFit)>,
 }
 
 /// A common centre of S's markers in N's local frame.
@@ -91,6 +101,8 @@ pub(crate) struct CentreFit {
     /// True when one direction of the centre was undetermined (a hinge axis) and set by
     /// placement.
     pub hinge: bool,
+    /// That direction (N-local unit vector) when `hinge`.
+    pub axis: Option<DVec3>,
     /// Per marker of S (in S's marker order): mean radius (mm) and mean unit direction
     /// from the centre (N-local); NaN when the marker had too few samples.
     pub radii: Vec<(f64, DVec3)>,
@@ -145,6 +157,8 @@ pub(crate) fn anchor_segments(
     let mut seed_refused = vec![vec![false; n]; n];
     let mut seeded: Vec<(usize, usize)> = Vec::new();
     let mut seed_memo = seed::SeedMemo::default();
+    // Centre fits at the refit bar, for two-centre poses (`joint_centres`).
+    let mut refit_memo: Vec<Vec<Option<Option<CentreFit>>>> = vec![vec![None; n]; n];
     loop {
         let open = |s: usize, nb: usize| !failed[s][nb] && (!tree_only || on_tree(s, nb));
         let wanted: Vec<(usize, usize)> = (0..n)
@@ -173,6 +187,52 @@ pub(crate) fn anchor_segments(
             if tree_only {
                 tree_only = false;
                 continue;
+            }
+            // A two-marker segment no single joint could pose (its markers nearly in line
+            // with each centre) may be posed from two neighbours' centres at once: tree
+            // neighbours along a tree, else the two whose centres fit best, as anchoring
+            // chooses one.
+            if params.anchor_two_centres {
+                let both = (0..n)
+                    .filter(|&s| !posed[s] && segments[s].len() == 2)
+                    .find_map(|s| {
+                        let near = (0..n)
+                            .filter(|&nb| nb != s && posed[nb] && on_tree(s, nb))
+                            .filter(|&nb| !posed_through(&anchors, s, nb))
+                            .collect();
+                        let row = &mut refit_memo[s];
+                        let mut found =
+                            joint_centres(traj, &segments[s], near, &tracks, params, row);
+                        let second = found.get(1)?.clone();
+                        let first = found.swap_remove(0);
+                        let new = two_centre_poses(
+                            traj,
+                            s,
+                            &segments[s],
+                            &first,
+                            &second,
+                            &tracks,
+                            params,
+                        );
+                        let count = posed_count(&pose_track(&new));
+                        (count >= params.min_frames).then_some((s, first, second, new, count))
+                    });
+                if let Some((s, (nb, fit), second, new, count)) = both {
+                    tracks[s] = pose_track(&new);
+                    poses[s] = new;
+                    posed[s] = true;
+                    anchors[s] = Some(Anchor {
+                        neighbour: nb,
+                        posed_by_anchor: true,
+                        fit,
+                        frames_posed: count,
+                        filled: Vec::new(),
+                        secondary: None,
+                        seed: false,
+                        second_centre: Some(second),
+                    });
+                    continue;
+                }
             }
             // Nothing posed is left to anchor to: start from two two-marker segments'
             // common centre, if any pair has one (`seed.rs`).
@@ -211,6 +271,7 @@ pub(crate) fn anchor_segments(
                 excursion_deg: common.excursion_deg,
                 samples: 4 * common.centre.iter().flatten().count(),
                 hinge: false,
+                axis: None,
                 radii: Vec::new(),
             };
             let new = anchored_poses(
@@ -248,7 +309,7 @@ pub(crate) fn anchor_segments(
         poses[s] = new;
         tracks[s] = track;
         posed[s] = true;
-        anchors[s] = Some(Anchor {
+        let mut anchor = Anchor {
             neighbour: nb,
             posed_by_anchor: true,
             fit,
@@ -256,7 +317,41 @@ pub(crate) fn anchor_segments(
             filled: Vec::new(),
             secondary: None,
             seed: false,
-        });
+            second_centre: None,
+        };
+        // Along the tree, a two-marker segment's other joint gives its pose a fourth point.
+        let along = || {
+            (0..n)
+                .filter(|&x| x != s && x != nb && posed[x] && on_tree(s, x))
+                .filter(|&x| !posed_through(&anchors, s, x))
+                .collect()
+        };
+        if tree.is_some()
+            && params.anchor_two_centres
+            && segments[s].len() == 2
+            && let Some(second) = joint_centres(
+                traj,
+                &segments[s],
+                along(),
+                &tracks,
+                params,
+                &mut refit_memo[s],
+            )
+            .into_iter()
+            .next()
+            && agree(&anchor.fit, &second.1, params)
+        {
+            let first = (nb, anchor.fit.clone());
+            let new = two_centre_poses(traj, s, &segments[s], &first, &second, &tracks, params);
+            let track = pose_track(&new);
+            if posed_count(&track) >= count {
+                anchor.frames_posed = posed_count(&track);
+                anchor.second_centre = Some(second);
+                poses[s] = new;
+                tracks[s] = track;
+            }
+        }
+        anchors[s] = Some(anchor);
     }
     // A seed is posed through its partner's joint: once the partner is posed, that joint's
     // common centre in the partner's frame is its anchor, as for any anchored segment.
@@ -275,6 +370,7 @@ pub(crate) fn anchor_segments(
                 filled: Vec::new(),
                 secondary: None,
                 seed: true,
+                second_centre: None,
             });
         }
     }
@@ -355,6 +451,7 @@ pub(crate) fn anchor_segments(
                 filled,
                 secondary: None,
                 seed: false,
+                second_centre: None,
             });
         }
     }
@@ -379,6 +476,121 @@ pub(crate) fn anchor_segments(
         }
     }
     anchors
+}
+
+/// The centres of two-marker segment S's `markers` in the frames of the posed
+/// `neighbours`, best first (RMS radial residual), each qualifying at
+/// `Params::anchor_refit_min_excursion_deg`: a second centre only adds a point to a pose,
+/// so the bar is the refit's, not anchoring's. `memo` is S's row of fits already made at
+/// that bar (a posed neighbour's poses never change).
+///
+/// Why: a two-marker segment posed from its markers and one centre turns about the line
+/// through them as freely as that centre is near it, and a knee marker 14 mm from the knee
+/// centre leaves the shank free to spin (BTK Gait.trc: 178° of relative rotation at the
+/// knee, the ankle thrown 190 mm off the malleoli). Its other joint's centre, here the
+/// ankle's in the foot's frame, needs no shank pose at all.
+fn joint_centres(
+    traj: &Trajectories,
+    markers: &[usize],
+    neighbours: Vec<usize>,
+    tracks: &[Vec<Option<Pose>>],
+    params: &Params,
+    memo: &mut [Option<Option<CentreFit>>],
+) -> Vec<(usize, CentreFit)> {
+    let missing: Vec<usize> = neighbours
+        .iter()
+        .copied()
+        .filter(|&nb| memo[nb].is_none())
+        .collect();
+    let fitted: Vec<Option<CentreFit>> = missing
+        .par_iter()
+        .map(|&nb| {
+            let bar = params.anchor_refit_min_excursion_deg;
+            let mut fit = centre_fit(traj, markers, &tracks[nb], params, bar)?;
+            // On a hinge axis the centre's place is a convention; as a point of S's pose
+            // it is taken where the axis passes nearest S's markers (a limb's bone is
+            // across its hinge's axis), which is where a ball joint turning mostly about
+            // one axis has its centre.
+            if let Some(axis) = fit.axis {
+                let ends: Vec<DVec3> = fit
+                    .radii
+                    .iter()
+                    .filter(|(r, u)| r.is_finite() && u.is_finite())
+                    .map(|(r, u)| fit.centre + *r * *u)
+                    .collect();
+                if !ends.is_empty() {
+                    let mean = ends.iter().sum::<DVec3>() / ends.len() as f64;
+                    fit.centre += axis * axis.dot(mean - fit.centre);
+                }
+            }
+            Some(fit)
+        })
+        .collect();
+    for (nb, fit) in missing.into_iter().zip(fitted) {
+        memo[nb] = Some(fit);
+    }
+    let mut found: Vec<(usize, CentreFit)> = neighbours
+        .into_iter()
+        .filter_map(|nb| memo[nb].clone().flatten().map(|fit| (nb, fit)))
+        .collect();
+    found.sort_by(|x, y| x.1.rms_mm.total_cmp(&y.1.rms_mm).then(x.0.cmp(&y.0)));
+    found
+}
+
+/// Whether `nb`'s poses come, through a chain of anchors, from `s`'s.
+fn posed_through(anchors: &[Option<Anchor>], s: usize, nb: usize) -> bool {
+    let mut at = nb;
+    for _ in 0..anchors.len() {
+        match anchors[at].as_ref().filter(|a| a.posed_by_anchor) {
+            Some(a) if a.neighbour == s => return true,
+            Some(a) => at = a.neighbour,
+            None => return false,
+        }
+    }
+    true
+}
+
+/// Whether a second centre may join an anchor's in a pose: the anchor's centre keeps S's
+/// markers' distances no more than [`TWO_CENTRE_AGREEMENT`] times as loosely as the
+/// second's (plus `Params::min_spread_mm`, the noise floor). An anchor taken because a
+/// better neighbour's centre lay in line with S's markers (random-clean-s5001 at two
+/// markers per segment: 15.3 mm against 0.0 mm) would drag the second centre's pose with it.
+fn agree(anchor: &CentreFit, second: &CentreFit, params: &Params) -> bool {
+    anchor.rms_mm <= TWO_CENTRE_AGREEMENT * second.rms_mm + params.min_spread_mm
+}
+
+/// See [`agree`]: the real captures' pairs of centres are within 2.1 × of each other.
+const TWO_CENTRE_AGREEMENT: f64 = 3.0;
+
+/// Poses of two-marker segment `id` from its markers and two neighbours' centres (each
+/// neighbour and the centre in its frame), carried by the neighbours' poses.
+fn two_centre_poses(
+    traj: &Trajectories,
+    id: usize,
+    markers: &[usize],
+    first: &(usize, CentreFit),
+    second: &(usize, CentreFit),
+    tracks: &[Vec<Option<Pose>>],
+    params: &Params,
+) -> SegmentPoses {
+    let (t1, c1) = (&tracks[first.0], first.1.centre);
+    let (t2, c2) = (&tracks[second.0], second.1.centre);
+    let shape = fit_shape(
+        traj.frames(),
+        markers.len() + 2,
+        markers.len(),
+        |f, k| match markers.get(k) {
+            Some(&m) => traj.get(f, m).map(DVec3::from_array),
+            None if k == markers.len() => t1[f].as_ref().map(|p| p.apply(c1)),
+            None => t2[f].as_ref().map(|p| p.apply(c2)),
+        },
+        FitRules {
+            // The centres are no markers (see `anchored_poses`).
+            max_spin_deg: 0.0,
+            ..FitRules::of(params)
+        },
+    );
+    shape.into_poses(id, markers.len())
 }
 
 /// Fits, in parallel (each is independent), the centre of every `(S, N)` in `wanted` not
@@ -606,6 +818,7 @@ pub(crate) fn centre_fit(
         excursion_deg,
         samples,
         hinge,
+        axis: axis.filter(|_| hinge),
         radii,
     })
 }

@@ -37,8 +37,9 @@
 //! Greedy anchoring does not know the tree, and a segment whose own markers nearly line
 //! up even when all are seen is posed with a spin error that throws its joints' images
 //! far. So a second pass (`Params::tree_poses`) runs along the minimum spanning tree of the
-//! first pass's costs: such segments are posed through a tree neighbour's joint, and
-//! anchors are sought among tree neighbours first. Its pairs keep the first pass's costs
+//! first pass's costs: such segments are posed through a tree neighbour's joint, anchors
+//! are sought among tree neighbours first, and a two-marker segment is posed from both its
+//! joints' centres (`Params::anchor_two_centres`). Its pairs keep the first pass's costs
 //! and relative rotations, so the tree topo chooses is the one the first pass's poses
 //! support. Where it would leave a pair the first pass fitted without a centre, the first
 //! pass's fits stand.
@@ -141,7 +142,14 @@ pub fn run_on_segments(
     // --presets hard: 8101-8124 1.95 → 1.98 %, --markers 2:3 3.08 → 3.15 %).
     let tree = cheapest_tree(segments.len(), &own.fits);
     let off_tree = |(s, nb): (usize, &Option<usize>)| nb.is_some_and(|nb| !tree[s][nb]);
-    if !loose.contains(&true) && !own.anchored_to.iter().enumerate().any(off_tree) {
+    // A two-marker segment with two tree neighbours to take centres from
+    // (`Params::anchor_two_centres`).
+    let two_joints = (0..segments.len()).any(|s| {
+        params.anchor_two_centres
+            && segments[s].len() == 2
+            && tree[s].iter().filter(|&&t| t).count() >= 2
+    });
+    if !loose.contains(&true) && !own.anchored_to.iter().enumerate().any(off_tree) && !two_joints {
         // Every anchor is a tree neighbour already: a second pass would repeat the first.
         return Ok(own.fits);
     }
@@ -313,6 +321,17 @@ fn fit_all(
                 anchor.neighbour,
                 anchor.fit.describe()
             ));
+        }
+        if let Some((nb, second)) = &anchor.second_centre {
+            let (a, b) = (s.min(*nb), s.max(*nb));
+            if let Some(fit) = fits.iter_mut().find(|p| p.a == a && p.b == b) {
+                fit.evidence.push_str(&format!(
+                    "; segment {s} posed through this joint too, with its anchor {}'s \
+                     (common centre in segment {nb}: {})",
+                    anchor.neighbour,
+                    second.describe()
+                ));
+            }
         }
         if let Some((nb, filled)) = &anchor.secondary {
             let (a, b) = (s.min(*nb), s.max(*nb));

@@ -93,6 +93,9 @@ pub struct Params {
     /// `anchor_centres_by_distance` for a segment's joints other than its anchor: least RMS
     /// angle (degrees) its markers must turn about the centre for the distances to place it.
     pub anchor_refit_min_excursion_deg: f64,
+    /// Along the tree, pose a two-marker segment posed through one joint from its markers
+    /// and both its joints' centres.
+    pub anchor_two_centres: bool,
     /// Where no segment can be posed by its own markers, pose one of two two-marker
     /// segments from its markers plus their common centre (`seed.rs`), and anchor on from it.
     pub anchor_seed: bool,
@@ -129,6 +132,7 @@ impl Default for Params {
             anchor_line_prior: true,
             anchor_centres_by_distance: true,
             anchor_refit_min_excursion_deg: 5.0,
+            anchor_two_centres: true,
             anchor_seed: true,
             hinge_slide_max_rise: 0.0,
             local_voxels: 8,
@@ -334,6 +338,25 @@ pub const PARAM_DOCS: &[(&str, &str)] = &[
          where it lies no farther (1 mm) from the pair's markers than the refit's (mean \
          nearest-marker distance), since where the two disagree a nearly free direction was \
          settled by bias; hinge placement then leaves it; default true",
+    ),
+    (
+        "anchor_two_centres",
+        "a two-marker segment posed through one joint is posed again from its two markers \
+         and both its joints' centres when a second neighbour's frame sees its markers keep \
+         their distances to a common centre (anchor_refit_min_excursion_deg's bar; along the \
+         tree in the second pass, tree_poses, which then always runs where such a segment \
+         has two tree neighbours) and the anchor's centre fits no more than 3 times as \
+         loosely as that one, plus min_spread_mm; a two-marker segment no single joint can \
+         pose is posed from the two centres that fit best. One centre near the line of the \
+         two markers leaves the segment free to spin about it (BTK Gait.trc: a knee marker \
+         14 mm from the knee centre; the shank turned 178° against the thigh and the ankles \
+         sat 190 and 149 mm off the malleoli's midpoint, now 8 and 23 mm; CMU 02_01 right \
+         femur 2.5 % → 0.2 % short of Vicon's). cargo xtask eval --compare \
+         jointfit.anchor_two_centres=false,true on seeds 4001-4006,6001-6006,7001,9001,1001, \
+         5001: the same trees everywhere but --markers 2:3 skin 35 → 36/96, means hard \
+         1.788 → 1.786 %, skin 1.853 → 1.844 %, --markers 2:3 hard 3.018 → 2.967 %, skin \
+         2.944 → 2.898 %, clean 0.185 → 0.187 %, --sweep 0.2:0.4 hard 4.027 → 4.031 %; on \
+         10001-10032 noise 0.372 → 0.364 %, hard 1.851 → 1.847 %; default true",
     ),
     (
         "anchor_refit_min_excursion_deg",

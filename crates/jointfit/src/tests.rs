@@ -773,7 +773,8 @@ fn line_prior_fixes_the_centre_along_a_short_swinging_limb() {
 
 /// A 2-marker segment between two 4-marker ones, each of which is hidden for 60 frames:
 /// whichever neighbour poses the middle segment, its hidden frames are filled through
-/// the other neighbour's joint, so the middle segment has a pose in every frame.
+/// the other neighbour's joint (`anchor_two_centres` off), or the middle segment is posed
+/// through both joints (on), so it has a pose in every frame.
 #[test]
 fn anchored_segment_gaps_are_filled_through_its_other_joint() {
     let mut rng = TestRng(35);
@@ -786,22 +787,28 @@ fn anchored_segment_gaps_are_filled_through_its_other_joint() {
     let trial = generate(&mut rng, &bodies, 300, 0.2, |f, b, _| {
         (b == 0 && (100..160).contains(&f)) || (b == 2 && (200..260).contains(&f))
     });
-    let fits = run_on_segments(&trial.traj, &trial.segments, &Params::default()).unwrap();
-    let posed = fits.poses[1]
-        .rotations
-        .iter()
-        .filter(|q| q[0].is_finite())
-        .count();
-    assert_eq!(posed, 300);
-    let evidence = format!(
-        "{} {}",
-        pair(&fits, 0, 1).evidence,
-        pair(&fits, 1, 2).evidence
-    );
-    assert!(evidence.contains("filled through this joint"), "{evidence}");
-    for (a, b) in [(0, 1), (1, 2)] {
-        let err = mean_error(pair(&fits, a, b), &trial.joints[b]);
-        assert!(err < 3.0, "joint {a}-{b}: mean position error {err} mm");
+    for (two_centres, how) in [(false, "filled through this joint"), (true, "joint too")] {
+        let params = Params {
+            anchor_two_centres: two_centres,
+            ..Params::default()
+        };
+        let fits = run_on_segments(&trial.traj, &trial.segments, &params).unwrap();
+        let posed = fits.poses[1]
+            .rotations
+            .iter()
+            .filter(|q| q[0].is_finite())
+            .count();
+        assert_eq!(posed, 300);
+        let evidence = format!(
+            "{} {}",
+            pair(&fits, 0, 1).evidence,
+            pair(&fits, 1, 2).evidence
+        );
+        assert!(evidence.contains(how), "{evidence}");
+        for (a, b) in [(0, 1), (1, 2)] {
+            let err = mean_error(pair(&fits, a, b), &trial.joints[b]);
+            assert!(err < 3.0, "joint {a}-{b}: mean position error {err} mm");
+        }
     }
 }
 
@@ -1221,4 +1228,100 @@ fn two_markers_on_every_segment_start_from_a_common_centre() {
             assert!(err < 0.5, "{} {}: {err} mm", trial.name, j.name);
         }
     }
+}
+
+/// A thigh (4 markers), a shank carried by two markers, one next to the knee (as BTK
+/// Gait.trc's medial knee marker is), and a foot (4 markers); the knee flexes 0–60° and
+/// abducts ±8°, the ankle turns ±9° and ±5°, too little for anchoring's excursion bar, so
+/// only the knee can pose the shank. Where the knee centre is 11.7 mm off the line of the
+/// shank's markers, the shank posed through it spins about that line and carries the
+/// ankle off; posed from the ankle's centre in the foot's frame too, it does not. Where it
+/// is 3.7 mm off, the knee alone poses nothing, both centres do.
+#[test]
+fn a_two_marker_segment_is_posed_through_both_its_joints() {
+    let measure = |knee_marker: DVec3, params: &Params| {
+        let mut rng = TestRng(44);
+        let frames = 600;
+        let thigh = [
+            DVec3::new(60.0, 0.0, -100.0),
+            DVec3::new(-50.0, 30.0, -200.0),
+            DVec3::new(10.0, -70.0, -300.0),
+            DVec3::new(0.0, 40.0, -250.0),
+        ];
+        let knee_in_thigh = DVec3::new(0.0, 0.0, -400.0);
+        let shank = [knee_marker, DVec3::new(20.0, 40.0, -200.0)];
+        let ankle_in_shank = DVec3::new(0.0, 0.0, -400.0);
+        let foot = [
+            DVec3::new(30.0, 60.0, -40.0),
+            DVec3::new(-30.0, 120.0, -50.0),
+            DVec3::new(10.0, 180.0, -60.0),
+            DVec3::new(0.0, -40.0, -50.0),
+        ];
+        let mut positions = Vec::with_capacity(frames * 10);
+        let (mut knees, mut ankles) = (Vec::new(), Vec::new());
+        for f in 0..frames {
+            let phase = f as f64 / 100.0 * std::f64::consts::TAU;
+            let flex = 30f64.to_radians() * (1.0 - phase.cos());
+            let abduct = 8f64.to_radians() * (0.7 * phase).sin();
+            let plantar = 9f64.to_radians() * (1.3 * phase + 0.4).sin();
+            let invert = 5f64.to_radians() * (0.9 * phase + 1.0).cos();
+            let q = rng.rotation();
+            let t = rng.vec3(1000.0);
+            let mut mark = |p: DVec3| positions.push((p + rng.vec3(1.5)).to_array());
+            for m in thigh {
+                mark(q * m + t);
+            }
+            let k = q * knee_in_thigh + t;
+            let qs = q * DQuat::from_rotation_x(flex) * DQuat::from_rotation_y(abduct);
+            for m in shank {
+                mark(qs * m + k);
+            }
+            let a = qs * ankle_in_shank + k;
+            let qf = qs * DQuat::from_rotation_x(plantar) * DQuat::from_rotation_y(invert);
+            for m in foot {
+                mark(qf * m + a);
+            }
+            knees.push(k);
+            ankles.push(a);
+        }
+        let labels = (0..10).map(|i| format!("M{i}")).collect();
+        let traj = mocap_io::Trajectories::new(labels, 100.0, 1, frames, positions).unwrap();
+        let segments = vec![vec![0, 1, 2, 3], vec![4, 5], vec![6, 7, 8, 9]];
+        let fits = run_on_segments(&traj, &segments, params).unwrap();
+        let (knee, ankle) = (pair(&fits, 0, 1), pair(&fits, 1, 2));
+        (
+            mean_error(knee, &knees),
+            mean_error(ankle, &ankles),
+            format!("{}\n{}", knee.evidence, ankle.evidence),
+        )
+    };
+    let off = Params {
+        anchor_two_centres: false,
+        ..Params::default()
+    };
+    // Measured: 11.7 mm off, ankle 5.6 mm with both centres, 49.8 mm through the knee alone.
+    let near = DVec3::new(12.0, 4.0, -10.0);
+    let (on, without) = (measure(near, &Params::default()), measure(near, &off));
+    assert!(
+        on.1 < 10.0 && on.1 < 0.25 * without.1,
+        "ankle {:.1} mm through both joints, {:.1} mm through the knee alone\n{}",
+        on.1,
+        without.1,
+        without.2
+    );
+    // Measured: 3.7 mm off, knee 1.9 mm and ankle 5.1 mm with both centres, no pose without.
+    let nearer = DVec3::new(4.0, 4.0, -10.0);
+    let (on, without) = (measure(nearer, &Params::default()), measure(nearer, &off));
+    assert!(
+        without.1.is_nan(),
+        "posed through the knee alone: {}",
+        without.2
+    );
+    assert!(
+        on.0 < 5.0 && on.1 < 10.0,
+        "knee {:.1} mm, ankle {:.1} mm\n{}",
+        on.0,
+        on.1,
+        on.2
+    );
 }
