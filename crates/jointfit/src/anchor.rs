@@ -86,6 +86,22 @@ pub(crate) struct Anchor {
     pub second_centre: Option<(usize, CentreFit)>,
 }
 
+impl Anchor {
+    /// S posed through neighbour `neighbour`'s centre `fit` in `frames_posed` frames.
+    fn posing(neighbour: usize, fit: CentreFit, frames_posed: usize) -> Self {
+        Self {
+            neighbour,
+            posed_by_anchor: true,
+            fit,
+            frames_posed,
+            filled: Vec::new(),
+            secondary: None,
+            seed: false,
+            second_centre: None,
+        }
+    }
+}
+
 /// A common centre of S's markers in N's local frame.
 #[derive(Clone, Debug)]
 pub(crate) struct CentreFit {
@@ -98,10 +114,8 @@ pub(crate) struct CentreFit {
     pub excursion_deg: f64,
     /// Samples (marker × frame) used.
     pub samples: usize,
-    /// True when one direction of the centre was undetermined (a hinge axis) and set by
-    /// placement.
-    pub hinge: bool,
-    /// That direction (N-local unit vector) when `hinge`.
+    /// The direction the distances left undetermined (a hinge axis, N-local unit vector),
+    /// along which the centre was set by placement; `None` when they fixed every direction.
     pub axis: Option<DVec3>,
     /// Per marker of S (in S's marker order): mean radius (mm) and mean unit direction
     /// from the centre (N-local); NaN when the marker had too few samples.
@@ -109,6 +123,12 @@ pub(crate) struct CentreFit {
 }
 
 impl CentreFit {
+    /// Whether one direction of the centre was undetermined (a hinge axis) and set by
+    /// placement.
+    pub fn hinge(&self) -> bool {
+        self.axis.is_some()
+    }
+
     /// One line for `PairFit::evidence`.
     pub fn describe(&self) -> String {
         format!(
@@ -116,7 +136,7 @@ impl CentreFit {
             self.rms_mm,
             self.samples,
             self.excursion_deg,
-            if self.hinge {
+            if self.hinge() {
                 ", centre placed on the hinge axis"
             } else {
                 ""
@@ -222,14 +242,8 @@ pub(crate) fn anchor_segments(
                     poses[s] = new;
                     posed[s] = true;
                     anchors[s] = Some(Anchor {
-                        neighbour: nb,
-                        posed_by_anchor: true,
-                        fit,
-                        frames_posed: count,
-                        filled: Vec::new(),
-                        secondary: None,
-                        seed: false,
                         second_centre: Some(second),
+                        ..Anchor::posing(nb, fit, count)
                     });
                     continue;
                 }
@@ -270,7 +284,6 @@ pub(crate) fn anchor_segments(
                 rms_mm: common.rms_mm,
                 excursion_deg: common.excursion_deg,
                 samples: 4 * common.centre.iter().flatten().count(),
-                hinge: false,
                 axis: None,
                 radii: Vec::new(),
             };
@@ -309,16 +322,7 @@ pub(crate) fn anchor_segments(
         poses[s] = new;
         tracks[s] = track;
         posed[s] = true;
-        let mut anchor = Anchor {
-            neighbour: nb,
-            posed_by_anchor: true,
-            fit,
-            frames_posed: count,
-            filled: Vec::new(),
-            secondary: None,
-            seed: false,
-            second_centre: None,
-        };
+        let mut anchor = Anchor::posing(nb, fit, count);
         // Along the tree, a two-marker segment's other joint gives its pose a fourth point.
         let along = || {
             (0..n)
@@ -363,14 +367,8 @@ pub(crate) fn anchor_segments(
         fit_candidates(traj, segments, &tracks, params, &mut memo, &wanted);
         if let Some(Some(fit)) = memo[s][partner].clone() {
             anchors[s] = Some(Anchor {
-                neighbour: partner,
-                posed_by_anchor: true,
-                fit,
-                frames_posed: posed_count(&tracks[s]),
-                filled: Vec::new(),
-                secondary: None,
                 seed: true,
-                second_centre: None,
+                ..Anchor::posing(partner, fit, posed_count(&tracks[s]))
             });
         }
     }
@@ -444,14 +442,10 @@ pub(crate) fn anchor_segments(
         }
         if let Some((nb, fit, filled)) = fill(s, None, poses, &mut tracks, &anchors, &mut memo) {
             anchors[s] = Some(Anchor {
-                neighbour: nb,
                 posed_by_anchor: false,
-                fit,
                 frames_posed: filled.iter().filter(|&&x| x).count(),
                 filled,
-                secondary: None,
-                seed: false,
-                second_centre: None,
+                ..Anchor::posing(nb, fit, 0)
             });
         }
     }
@@ -817,7 +811,6 @@ pub(crate) fn centre_fit(
         rms_mm,
         excursion_deg,
         samples,
-        hinge,
         axis: axis.filter(|_| hinge),
         radii,
     })

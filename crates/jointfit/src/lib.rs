@@ -474,7 +474,7 @@ fn distance_centre(
 ) -> Option<DistanceCentre> {
     let other = if fit.a == s { fit.b } else { fit.a };
     if other == anchor.neighbour {
-        return (!anchor.fit.hinge).then(|| DistanceCentre {
+        return (!anchor.fit.hinge()).then(|| DistanceCentre {
             frame: other,
             centre: anchor.fit.centre,
             rms_mm: anchor.fit.rms_mm,
@@ -493,7 +493,7 @@ fn distance_centre(
         params,
         params.anchor_refit_min_excursion_deg,
     )?;
-    (!cf.hinge).then(|| DistanceCentre {
+    (!cf.hinge()).then(|| DistanceCentre {
         frame: other,
         centre: cf.centre,
         rms_mm: cf.rms_mm,
