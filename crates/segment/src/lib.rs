@@ -15,9 +15,7 @@
 //! on the noise, and pieces of one or two markers within one on the spread of ρ inside the
 //! spectral clusters (skin widens it beyond the noise; see `rigidity::rigid_spread`).
 //! A marker still alone takes an ambiguous partner (rigid with it and with its own group,
-//! near a joint axis) from a group that keeps three, so both sides stay poseable; if none,
-//! it is a 1-marker segment when some distance of its stays within the tolerance, else
-//! unassigned. Unassigned means too little data, or moving against every marker.
+//! near a joint axis) from a group that keeps three, so both sides stay poseable.
 //! Before that, a rigid-fit check: each cluster of 4–10 markers is fitted as one rigid body
 //! per frame and as the best two; it splits when one body explains it clearly worse (ρ sees
 //! a joint's rotation to second order near a straight limb, a fit to first order), and a
@@ -41,6 +39,11 @@
 //! (`join_small`). Last, label swaps (two markers' trajectories exchanged for a while; see
 //! `swaps`) are looked for on the result; any found are undone and the capture segmented
 //! again, and listed in [`Segmentation::swaps`] (`repair_swaps`).
+//! After all the rest, a pair whose ρ exceeds `pair_rigid_factor` tolerances is two lone
+//! markers, and a lone marker is a 1-marker segment when some distance of its stays within
+//! the tolerance or it swings about a point of a body of ≥ 3 (a sphere or, about a hinge, a
+//! circle in that body's frame; `singleton_swing_factor`, see `swing`), else unassigned.
+//! Unassigned means too little data, or moving against every marker.
 //! Or agglomeration alone (`method = "linkage"`) or rigid cliques (`method = "cliques"`).
 //!
 //! It does not estimate poses, joints or topology (jointfit, topo) and does no I/O.
@@ -62,6 +65,7 @@ mod rigidity;
 mod segmentation;
 mod spectral;
 mod swaps;
+mod swing;
 #[cfg(test)]
 mod tests;
 #[cfg(test)]
@@ -71,6 +75,7 @@ pub use error::Error;
 pub use jointsplit::JointEvidence;
 pub use params::{Affinity, Linkage, Method, PARAM_DOCS, Params};
 pub use segmentation::*;
+pub use swing::Swing;
 
 use std::collections::BTreeSet;
 
@@ -372,23 +377,50 @@ fn segment_capture(
             return Ok(again);
         }
     }
+    if params.pair_rigid_factor > 0.0 {
+        // Scaled linkage keeps two markers that are each other's nearest, however loose.
+        split_loose_pairs(
+            &mut clusters,
+            &stats,
+            params.pair_rigid_factor * tolerance_mm,
+            min_overlap,
+        );
+        rigidity::normalise(&mut clusters);
+    }
     // Groups too small to be a segment: their markers are unassigned, with what we saw;
-    // except a lone marker with a steady partner across a joint (see `singleton_steady_factor`).
+    // except a lone marker with a steady partner across a joint (`singleton_steady_factor`)
+    // or one that swings about a point of a body (`singleton_swing_factor`).
     let singleton_bound = params.singleton_steady_factor * tolerance_mm;
+    let swing_bound = params.singleton_swing_factor * tolerance_mm;
+    let body_poses = if swing_bound > 0.0 && clusters.iter().any(|c| c.len() == 1) {
+        let bodies: Vec<Vec<usize>> = clusters.iter().filter(|c| c.len() >= 3).cloned().collect();
+        reassign::group_poses(traj, &bodies)
+    } else {
+        Vec::new()
+    };
     clusters.retain(|c| {
         if c.len() >= params.min_segment_markers {
             return true;
         }
-        if let [m] = c[..]
-            && steadiest_rho(&stats, m, min_overlap).is_some_and(|(r, _)| r <= singleton_bound)
-        {
-            return true;
+        let mut best_swing = None;
+        if let [m] = c[..] {
+            if steadiest_rho(&stats, m, min_overlap).is_some_and(|(r, _)| r <= singleton_bound) {
+                return true;
+            }
+            let swings = swing::swings(traj, &body_poses, m);
+            if swings.iter().any(|w| w.hangs(swing_bound, tolerance_mm)) {
+                return true;
+            }
+            best_swing = swings.iter().map(|w| w.residual_mm).min_by(f64::total_cmp);
         }
         for &m in c {
-            unassigned.push(UnassignedMarker {
-                marker: m,
-                reason: small_group_reason(&stats, m, c.len(), params, labels),
-            });
+            let mut reason = small_group_reason(&stats, m, c.len(), params, labels);
+            if let Some(r) = best_swing {
+                reason.push_str(&format!(
+                    "; it swings about no body's point (best sphere residual {r:.2} mm)"
+                ));
+            }
+            unassigned.push(UnassignedMarker { marker: m, reason });
         }
         false
     });
@@ -436,6 +468,14 @@ pub fn fit_split_sigmas(traj: &Trajectories, markers: &[usize]) -> Option<(f64, 
 /// other markers. A diagnostic.
 pub fn marker_fit_sigma(traj: &Trajectories, group: &[usize], marker: usize) -> Option<f64> {
     reassign::sigma_in(traj, group, marker)
+}
+
+/// How marker `m`'s trajectory in the frame of `group` (≥ 3 markers, posed per frame)
+/// fits a sphere: a marker on a segment of its own swings about the joint with `group`'s
+/// segment. `None` without a pose or a sphere. A diagnostic.
+pub fn marker_swing(traj: &Trajectories, group: &[usize], m: usize) -> Option<Swing> {
+    let poses = reassign::group_poses(traj, &[group.to_vec()]);
+    swing::swings(traj, &poses, m).into_iter().next()
 }
 
 /// How parts `a` and `b` (marker indices, ≥ 3 each) move relative to each other: the joint
@@ -562,6 +602,24 @@ fn steadiest_rho(stats: &PairStats, m: usize, min_overlap: usize) -> Option<(f64
         .filter(|&j| j != m)
         .filter_map(|j| stats.rho(m, j, min_overlap).map(|r| (r, j)))
         .min_by(|a, b| a.0.total_cmp(&b.0).then(a.1.cmp(&b.1)))
+}
+
+/// Splits every two-marker cluster whose pair's ρ exceeds `max_rho_mm` into two lone markers.
+fn split_loose_pairs(
+    clusters: &mut Vec<Vec<usize>>,
+    stats: &PairStats,
+    max_rho_mm: f64,
+    min_overlap: usize,
+) {
+    let mut lone = Vec::new();
+    clusters.retain(|c| match c[..] {
+        [a, b] if stats.rho(a, b, min_overlap).is_some_and(|r| r > max_rho_mm) => {
+            lone.extend([vec![a], vec![b]]);
+            false
+        }
+        _ => true,
+    });
+    clusters.extend(lone);
 }
 
 /// Why marker `m` ended in a group of `size` < `min_segment_markers`, naming its most rigid partner.

@@ -268,25 +268,7 @@ pub(crate) fn marker_sigma(
     stride: usize,
     min_frames: usize,
 ) -> Option<f64> {
-    let markers = traj.markers().max(1);
-    let locals: Vec<[f64; 3]> = traj
-        .positions()
-        .chunks_exact(markers)
-        .step_by(stride)
-        .zip(poses)
-        .filter_map(|(frame, pose)| {
-            let pose = pose.as_ref()?;
-            let x = *frame.get(m)?;
-            if !mocap_io::is_present(x) {
-                return None;
-            }
-            let d = [x[0] - pose.t[0], x[1] - pose.t[1], x[2] - pose.t[2]];
-            // Rᵀ · d: into the body's frame.
-            Some(std::array::from_fn(|i| {
-                (0..3).map(|j| pose.r[j][i] * d[j]).sum()
-            }))
-        })
-        .collect();
+    let locals = locals_in(traj, poses, m, stride);
     if locals.len() < min_frames.max(3) {
         return None;
     }
@@ -316,6 +298,47 @@ pub(crate) fn marker_sigma(
             .max(0.0)
             .sqrt(),
     )
+}
+
+/// Marker `m`'s position in a body's frame (shape coordinates, mm) at every strided frame
+/// where the body has a pose and `m` is seen.
+pub(crate) fn locals_in(
+    traj: &Trajectories,
+    poses: &[Option<Pose>],
+    m: usize,
+    stride: usize,
+) -> Vec<[f64; 3]> {
+    let markers = traj.markers().max(1);
+    traj.positions()
+        .chunks_exact(markers)
+        .step_by(stride)
+        .zip(poses)
+        .filter_map(|(frame, pose)| {
+            let pose = pose.as_ref()?;
+            let x = *frame.get(m)?;
+            if !mocap_io::is_present(x) {
+                return None;
+            }
+            let d = [x[0] - pose.t[0], x[1] - pose.t[1], x[2] - pose.t[2]];
+            // Rᵀ · d: into the body's frame.
+            Some(std::array::from_fn(|i| {
+                (0..3).map(|j| pose.r[j][i] * d[j]).sum()
+            }))
+        })
+        .collect()
+}
+
+/// Each group's pose per strided frame (see [`stride_of`]) as one rigid body, for the
+/// groups of ≥ 3 markers with a reference shape; `None` for the others.
+pub(crate) fn group_poses(
+    traj: &Trajectories,
+    groups: &[Vec<usize>],
+) -> Vec<Option<Vec<Option<Pose>>>> {
+    let stride = stride_of(traj);
+    groups
+        .iter()
+        .map(|g| Body::new(traj, g, stride).map(|b| b.poses))
+        .collect()
 }
 
 /// Robust fit σ of three markers as one rigid body, mm per coordinate: the [`QUANTILE`] over

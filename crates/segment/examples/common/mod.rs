@@ -23,12 +23,22 @@ pub fn trial_from_args(args: &[String], frames: usize) -> Trial {
 
 /// The synthetic trial of one subject, preset, length and seed.
 pub fn generate(subject: Subject, preset: Preset, frames: usize, seed: u64) -> Trial {
+    let defaults = SynthConfig::default();
+    // `MARKERS=MIN:MAX` in the environment sets the markers per segment.
+    let markers_per_segment = std::env::var("MARKERS")
+        .ok()
+        .and_then(|m| {
+            let (a, b) = m.split_once(':')?;
+            Some((a.parse().ok()?, b.parse().ok()?))
+        })
+        .unwrap_or(defaults.markers_per_segment);
     synth::generate(&SynthConfig {
         subject,
         preset,
         frames,
         seed,
-        ..SynthConfig::default()
+        markers_per_segment,
+        ..defaults
     })
     .expect("synthetic trial")
 }
