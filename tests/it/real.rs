@@ -459,3 +459,118 @@ fn a_glitching_marker_keeps_its_plate_whole_and_is_reported() {
     );
     assert_eq!(glitches("RSK3"), Some(0));
 }
+
+/// Median over frames of the distance (mm) from a joint's positions to the midpoint of two
+/// markers of the capture (labels `a`, `b`).
+fn median_distance_to_midpoint(
+    joint: &serde_json::Value,
+    traj: &mocap_io::Trajectories,
+    a: &str,
+    b: &str,
+) -> f64 {
+    let index = |label: &str| {
+        traj.labels()
+            .iter()
+            .position(|l| l == label)
+            .unwrap_or_else(|| panic!("{label} in the capture"))
+    };
+    let (ia, ib) = (index(a), index(b));
+    let positions = joint["positions"].as_array().expect("joint positions");
+    let mut d: Vec<f64> = positions
+        .iter()
+        .enumerate()
+        .filter_map(|(f, p)| {
+            let p: Vec<f64> = p.as_array()?.iter().filter_map(|v| v.as_f64()).collect();
+            let (pa, pb) = (traj.get(f, ia)?, traj.get(f, ib)?);
+            (p.len() == 3).then(|| {
+                (0..3)
+                    .map(|k| (p[k] - 0.5 * (pa[k] + pb[k])).powi(2))
+                    .sum::<f64>()
+                    .sqrt()
+            })
+        })
+        .collect();
+    assert!(!d.is_empty(), "no frame with the joint and {a}, {b}");
+    d.sort_by(f64::total_cmp);
+    d[d.len() / 2]
+}
+
+/// BTK's Gait.trc marks both epicondyles of each knee and both malleoli of each ankle: the
+/// joint centres are their midpoints (the clinical convention). The medial knee marker
+/// goes with the shank and stays put in the thigh's frame, on the knee's axis; marker
+/// distances cannot place a hinge along its axis, so the knee is placed where the axis
+/// crosses the bones (`jointfit.anchor_hinge_slides`; with it off, the knees sat at the
+/// medial marker, 63 and 51 mm from the midpoint).
+#[test]
+fn gait_trc_knees_and_ankles_sit_between_their_epicondyles_and_malleoli() {
+    let Some((data, skeleton)) = real_skeleton("gait_trc_joint_centres", "trc/btk/Gait.trc") else {
+        return;
+    };
+    let capture =
+        mocap_io::read_capture(&data.join("trc/btk/Gait.trc"), &Default::default()).unwrap();
+    let traj = &capture.trajectories;
+    let segment_with = |label: &str| {
+        skeleton["segments"].as_array().and_then(|s| {
+            s.iter().find_map(|seg| {
+                let has = seg["markers"].as_array()?.iter().any(|m| m == label);
+                has.then(|| seg["id"].as_u64()).flatten()
+            })
+        })
+    };
+    let mut report = Vec::new();
+    // (joint, a marker of each segment it joins, the two markers whose midpoint it is, bar mm).
+    for (name, side_a, side_b, m1, m2, bar) in [
+        (
+            "right knee",
+            "R.Thigh",
+            "R.Shank",
+            "R.Knee",
+            "R.Knee.Medial",
+            35.0,
+        ),
+        (
+            "left knee",
+            "L.Thigh",
+            "L.Shank",
+            "L.Knee",
+            "L.Knee.Medial",
+            35.0,
+        ),
+        (
+            "right ankle",
+            "R.Shank",
+            "R.Heel",
+            "R.Ankle",
+            "R.Ankle.Medial",
+            30.0,
+        ),
+        (
+            "left ankle",
+            "L.Shank",
+            "L.Heel",
+            "L.Ankle",
+            "L.Ankle.Medial",
+            30.0,
+        ),
+    ] {
+        let (sa, sb) = (segment_with(side_a), segment_with(side_b));
+        let joint = skeleton["joints"].as_array().and_then(|joints| {
+            joints.iter().find(|j| {
+                let (p, c) = (j["parent_segment"].as_u64(), j["child_segment"].as_u64());
+                (p, c) == (sa, sb) || (p, c) == (sb, sa)
+            })
+        });
+        let Some(joint) = joint else {
+            panic!("no {name} joint between {side_a} and {side_b}'s segments");
+        };
+        let d = median_distance_to_midpoint(joint, traj, m1, m2);
+        report.push((name, d, bar));
+    }
+    eprintln!("Gait.trc joint centres from the markers' midpoints (mm): {report:?}");
+    for (name, d, bar) in report {
+        assert!(
+            d <= bar,
+            "{name}: {d:.1} mm from the midpoint (bar {bar} mm)"
+        );
+    }
+}

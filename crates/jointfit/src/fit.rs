@@ -388,7 +388,8 @@ pub(crate) fn recentre(
 }
 
 /// Applies [`recentre`]'s result; `source` says where the centre came from (evidence).
-/// The centre is then fixed: hinge placement leaves it where it is.
+/// The centre is then fixed: hinge placement leaves it where it is (but see
+/// `Params::anchor_hinge_slides`).
 pub(crate) fn apply_recentred(
     fit: &mut PairFit,
     r: Recentred,

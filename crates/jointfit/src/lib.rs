@@ -413,6 +413,13 @@ fn centre_by_distances(
     let then = nearest_marker_mm(traj, markers(), |f| both(f).map(|(_, new)| new));
     if then <= now + NEARER_TOLERANCE_MM {
         fit::apply_recentred(fit, moved, ta, tb, &c.note);
+        if params.anchor_hinge_slides && fit.kind == JointKind::Hinge {
+            // Every point of a hinge's axis keeps its distance to every marker turning
+            // about it: the distances place the centre across the axis, not along it.
+            fit.centre_from_distances = false;
+            fit.evidence
+                .push_str(", free to slide along the hinge axis");
+        }
     } else {
         fit.evidence.push_str(&format!(
             "; {} not used: its centre is {then:.1} mm from the nearest marker on average, \
