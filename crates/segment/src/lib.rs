@@ -39,11 +39,12 @@
 //! (`join_small`). Last, label swaps (two markers' trajectories exchanged for a while; see
 //! `swaps`) are looked for on the result; any found are undone and the capture segmented
 //! again, and listed in [`Segmentation::swaps`] (`repair_swaps`).
-//! After all the rest, a pair whose ρ exceeds `pair_rigid_factor` tolerances is two lone
-//! markers, and a lone marker is a 1-marker segment when some distance of its stays within
-//! the tolerance or it swings about a point of a body of ≥ 3 (a sphere or, about a hinge, a
-//! circle in that body's frame; `singleton_swing_factor`, see `swing`), else unassigned.
-//! Unassigned means too little data, or moving against every marker.
+//! After all the rest, a marker whose steadiest ρ in its group exceeds `loose_marker_factor`
+//! tolerances leaves it (a loose pair is two lone markers), and a lone marker is a 1-marker
+//! segment when some distance of its stays within the tolerance or it swings about a point
+//! of a body of ≥ 3 (a sphere or, about a hinge, a circle in that body's frame;
+//! `singleton_swing_factor`, see `swing`), else unassigned. Unassigned means too little
+//! data, or moving against every marker.
 //! Or agglomeration alone (`method = "linkage"`) or rigid cliques (`method = "cliques"`).
 //!
 //! It does not estimate poses, joints or topology (jointfit, topo) and does no I/O.
@@ -377,12 +378,12 @@ fn segment_capture(
             return Ok(again);
         }
     }
-    if params.pair_rigid_factor > 0.0 {
-        // Scaled linkage keeps two markers that are each other's nearest, however loose.
-        split_loose_pairs(
+    if params.loose_marker_factor > 0.0 {
+        // Scaled linkage keeps markers that are each other's nearest, however loose.
+        take_out_loose_markers(
             &mut clusters,
             &stats,
-            params.pair_rigid_factor * tolerance_mm,
+            params.loose_marker_factor * tolerance_mm,
             min_overlap,
         );
         rigidity::normalise(&mut clusters);
@@ -604,21 +605,30 @@ fn steadiest_rho(stats: &PairStats, m: usize, min_overlap: usize) -> Option<(f64
         .min_by(|a, b| a.0.total_cmp(&b.0).then(a.1.cmp(&b.1)))
 }
 
-/// Splits every two-marker cluster whose pair's ρ exceeds `max_rho_mm` into two lone markers.
-fn split_loose_pairs(
+/// Takes out of its cluster every marker whose steadiest ρ to the cluster's other markers
+/// exceeds `max_rho_mm` (both markers of a loose pair), as a lone marker.
+fn take_out_loose_markers(
     clusters: &mut Vec<Vec<usize>>,
     stats: &PairStats,
     max_rho_mm: f64,
     min_overlap: usize,
 ) {
     let mut lone = Vec::new();
-    clusters.retain(|c| match c[..] {
-        [a, b] if stats.rho(a, b, min_overlap).is_some_and(|r| r > max_rho_mm) => {
-            lone.extend([vec![a], vec![b]]);
-            false
-        }
-        _ => true,
-    });
+    for c in clusters.iter_mut() {
+        let loose: Vec<usize> = c
+            .iter()
+            .copied()
+            .filter(|&m| {
+                c.iter()
+                    .filter(|&&x| x != m)
+                    .filter_map(|&x| stats.rho(m, x, min_overlap))
+                    .fold(f64::INFINITY, f64::min)
+                    > max_rho_mm
+            })
+            .collect();
+        c.retain(|m| !loose.contains(m));
+        lone.extend(loose.into_iter().map(|m| vec![m]));
+    }
     clusters.extend(lone);
 }
 

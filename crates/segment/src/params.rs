@@ -101,8 +101,8 @@ pub struct Params {
     pub singleton_steady_factor: f64,
     /// ... or when it swings about a point of a body of ≥ 3: a sphere or circle in that body's frame, residual ≤ this × the tolerance; 0 = off.
     pub singleton_swing_factor: f64,
-    /// A two-marker group whose ρ exceeds this × the tolerance is two lone markers, not a segment; 0 = off.
-    pub pair_rigid_factor: f64,
+    /// A marker whose steadiest ρ in its group exceeds this × the tolerance leaves it as a lone marker; 0 = off.
+    pub loose_marker_factor: f64,
     /// A cluster of 4–10 markers splits in two when its rigid-fit σ exceeds this × the best bipartition's pooled σ; 0 = off.
     pub fit_split_ratio: f64,
     /// ... and exceeds this × the typical segment's fit σ (the median over the clusters of ≥ 2 markers).
@@ -164,7 +164,7 @@ impl Default for Params {
             pair_orphans: true,
             singleton_steady_factor: 1.0,
             singleton_swing_factor: 0.5,
-            pair_rigid_factor: 2.0,
+            loose_marker_factor: 2.0,
             fit_split_ratio: 2.0,
             fit_split_floor: 2.0,
             reassign_ratio: 2.0,
@@ -304,8 +304,8 @@ pub const PARAM_DOCS: &[(&str, &str)] = &[
         "a marker still alone is also a 1-marker segment when it swings about a point of a body of ≥ 3 markers, as a marker on a segment of its own does about its joint: its trajectory in that body's frame fits a sphere (about a hinge, a circle) whose residual (the spread of its distance to the centre, what ρ is for a pair) is ≤ this × the tolerance, while it moves ≥ 2 tolerances (RMS) along an arc that turns ≳ 25° (radius ≤ 8 × that spread); 0 = off; default 0.5",
     ),
     (
-        "pair_rigid_factor",
-        "last, a two-marker group whose ρ exceeds this × the tolerance is no rigid segment: its two markers are judged as lone markers (singleton_steady_factor, singleton_swing_factor). Two markers on neighbouring segments that are each other's nearest (a sparse marker set: one marker on the shank, one on the foot) pass the scaled linkage as a pair; a true pair under skin keeps ρ within about 1.3 tolerances (--markers 2:3 skin trials); 0 = off; default 2.0",
+        "loose_marker_factor",
+        "last, a marker whose steadiest ρ to the other markers of its group exceeds this × the tolerance is rigid with none of them and leaves the group as a lone marker (singleton_steady_factor and singleton_swing_factor judge it; a loose pair is two). Scaled linkage keeps markers that are each other's nearest however loose: on a sparse marker set (one marker on the shank, one on the foot) such pairs and triples formed across joints (human clean --markers 1:3 s4001: shank + foot at ρ 19.7 mm, tolerance 2 mm); a marker of a true segment under skin keeps its steadiest ρ within about 1.3 tolerances (at 1×, two --markers 2:3 skin trees broke); 0 = off; default 2.0",
     ),
     (
         "fit_split_ratio",
@@ -445,7 +445,7 @@ impl Params {
         non_negative("slide_min_mm", self.slide_min_mm)?;
         non_negative("singleton_steady_factor", self.singleton_steady_factor)?;
         non_negative("singleton_swing_factor", self.singleton_swing_factor)?;
-        non_negative("pair_rigid_factor", self.pair_rigid_factor)?;
+        non_negative("loose_marker_factor", self.loose_marker_factor)?;
         non_negative("fit_split_ratio", self.fit_split_ratio)?;
         non_negative("fit_split_floor", self.fit_split_floor)?;
         non_negative("reassign_ratio", self.reassign_ratio)?;

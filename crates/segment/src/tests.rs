@@ -339,9 +339,23 @@ fn a_glitching_marker_stays_with_its_body_and_its_glitch_is_counted() {
     assert!((0..n).filter(|&m| m != 9).all(|m| {
         (0..frames).all(|f| traj.get(f, m).is_some() == repaired.get(f, m).is_some())
     }));
+    // Unchecked, its distances to its body spread so far that it is rigid with none of its
+    // markers and leaves the body (`loose_marker_factor`); with that off it stays, to be
+    // measured against the checked run.
     let unchecked = Params {
         glitch_factor: 0.0,
         ..Params::default()
+    };
+    let loose = run(&traj, &unchecked).expect("segments");
+    assert!(
+        loose
+            .segments
+            .iter()
+            .all(|s| !s.markers.contains(&9) || s.markers.len() == 1)
+    );
+    let unchecked = Params {
+        loose_marker_factor: 0.0,
+        ..unchecked
     };
     let plain = run(&traj, &unchecked).expect("segments");
     assert_eq!(plain.markers[9].glitch_frames, 0);
@@ -1087,16 +1101,17 @@ fn sparse_set_outcome(seed: u64, params: &Params) -> (usize, usize, usize) {
 }
 
 /// One marker on the shank and one on the foot are each other's nearest, and scaled
-/// linkage pairs them however much their distance changes; a pair is a segment only if it
-/// is rigid (`pair_rigid_factor`), and a marker alone on its segment is one when it swings
+/// linkage pairs them however much their distance changes; a marker stays in a group only if
+/// it is rigid with some marker of it (`loose_marker_factor`), and a marker alone on its segment is one when it swings
 /// about a point of its neighbour (`singleton_swing_factor`). Human, clean, one to three
 /// markers a segment, seeds 4001–4004: found pairs that mix two true segments 12 → 2 (both
-/// with ρ within 2 tolerances: markers near a joint), lone markers hanging from a neighbour
-/// found whole kept as one-marker segments 0 → 9 of 12 (the other three sit in mixed groups).
+/// with ρ within 2 tolerances: markers near a joint); lone markers hanging from a
+/// neighbour found whole (12 without these checks, 14 with: loose markers no longer spoil
+/// the neighbour) kept as one-marker segments 0 → 12.
 #[test]
 fn a_sparse_marker_set_keeps_no_loose_pair_and_its_hanging_markers() {
     let off = Params {
-        pair_rigid_factor: 0.0,
+        loose_marker_factor: 0.0,
         singleton_swing_factor: 0.0,
         ..Params::default()
     };
@@ -1108,7 +1123,7 @@ fn a_sparse_marker_set_keeps_no_loose_pair_and_its_hanging_markers() {
     let (on, off) = (total(&Params::default()), total(&off));
     assert!(on.0 <= 2 && off.0 >= 10, "mixed pairs: {on:?} vs {off:?}");
     assert!(
-        on.1 == off.1 && on.1 >= 10,
+        on.1 >= off.1 && on.1 >= 10,
         "hanging markers: {on:?} vs {off:?}"
     );
     assert!(
