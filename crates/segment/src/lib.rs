@@ -40,7 +40,8 @@
 //! `swaps`) are looked for on the result; any found are undone and the capture segmented
 //! again, and listed in [`Segmentation::swaps`] (`repair_swaps`).
 //! After all the rest, a marker whose steadiest ρ in its group exceeds `loose_marker_factor`
-//! tolerances leaves it (a loose pair is two lone markers), and a lone marker is a 1-marker
+//! tolerances leaves it (a loose pair is two lone markers), a lone marker that keeps every
+//! distance to a group within the tolerance joins it, and a lone marker is a 1-marker
 //! segment when some distance of its stays within the tolerance or it swings about a point
 //! of a body of ≥ 3 (a sphere or, about a hinge, a circle in that body's frame;
 //! `singleton_swing_factor`, see `swing`), else unassigned. Unassigned means too little
@@ -386,6 +387,8 @@ fn segment_capture(
             params.loose_marker_factor * tolerance_mm,
             min_overlap,
         );
+        // ... and a lone marker rigid with every marker of a small group belongs to it.
+        join_rigid_lone_markers(&mut clusters, &stats, tolerance_mm, min_overlap);
         rigidity::normalise(&mut clusters);
     }
     // Groups too small to be a segment: their markers are unassigned, with what we saw;
@@ -603,6 +606,41 @@ fn steadiest_rho(stats: &PairStats, m: usize, min_overlap: usize) -> Option<(f64
         .filter(|&j| j != m)
         .filter_map(|j| stats.rho(m, j, min_overlap).map(|r| (r, j)))
         .min_by(|a, b| a.0.total_cmp(&b.0).then(a.1.cmp(&b.1)))
+}
+
+/// Puts each lone marker into the group of two or more every marker of which it keeps its
+/// distance to within `tol_mm` (ρ), the one with the smallest largest ρ.
+fn join_rigid_lone_markers(
+    clusters: &mut [Vec<usize>],
+    stats: &PairStats,
+    tol_mm: f64,
+    min_overlap: usize,
+) {
+    let lone: Vec<usize> = clusters
+        .iter()
+        .filter(|c| c.len() == 1)
+        .map(|c| c[0])
+        .collect();
+    for m in lone {
+        let best = clusters
+            .iter()
+            .enumerate()
+            .filter(|(_, c)| c.len() >= 2)
+            .filter_map(|(k, c)| {
+                let worst = c
+                    .iter()
+                    .map(|&x| stats.rho(m, x, min_overlap))
+                    .try_fold(0.0f64, |w, r| r.map(|r| w.max(r)))?;
+                (worst <= tol_mm).then_some((k, worst))
+            })
+            .min_by(|a, b| a.1.total_cmp(&b.1));
+        if let Some((k, _)) = best {
+            clusters[k].push(m);
+            if let Some(own) = clusters.iter().position(|c| c[..] == [m]) {
+                clusters[own].clear();
+            }
+        }
+    }
 }
 
 /// Takes out of its cluster every marker whose steadiest ρ to the cluster's other markers

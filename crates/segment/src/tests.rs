@@ -1131,3 +1131,41 @@ fn a_sparse_marker_set_keeps_no_loose_pair_and_its_hanging_markers() {
         "kept: {on:?} vs {off:?}"
     );
 }
+
+/// A sparse robot arm (clean, one to three markers a segment, seed 4001) whose first link's
+/// three markers came out as a pair and a lone marker that kept every distance to the pair:
+/// the lone marker joins it (`loose_marker_factor`'s last step), and the link is whole.
+#[test]
+fn a_lone_marker_rigid_with_a_pair_joins_it() {
+    let config = synth::SynthConfig {
+        subject: synth::Subject::Robotarm,
+        preset: synth::Preset::Clean,
+        seed: 4001,
+        frames: 480,
+        markers_per_segment: (1, 3),
+        ..synth::SynthConfig::default()
+    };
+    let trial = synth::generate(&config).expect("synthetic trial");
+    let link1 = true_partition(&trial)
+        .into_iter()
+        .find(|s| {
+            s.len() == 3 && {
+                let labels = trial.trajectories.labels();
+                trial.truth.segments.iter().any(|t| {
+                    t.name == "link1"
+                        && t.markers.iter().all(|l| s.iter().any(|&m| labels[m] == *l))
+                })
+            }
+        })
+        .expect("link1 has three markers");
+    let whole = |params: &Params| {
+        let seg = run(&trial.trajectories, params).expect("segments");
+        partition(&seg).contains(&link1)
+    };
+    let off = Params {
+        loose_marker_factor: 0.0,
+        ..Params::default()
+    };
+    assert!(whole(&Params::default()));
+    assert!(!whole(&off));
+}
