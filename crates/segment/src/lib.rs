@@ -44,8 +44,9 @@
 //! distance to a group within the tolerance joins it, and a lone marker is a 1-marker
 //! segment when some distance of its stays within the tolerance or it swings about a point
 //! of a body of ≥ 3 (a sphere or, about a hinge, a circle in that body's frame;
-//! `singleton_swing_factor`, see `swing`), else unassigned. Unassigned means too little
-//! data, or moving against every marker.
+//! `singleton_swing_factor`, see `swing`) or its steadiest partner is in a group too small
+//! to pose (`singleton_next_to_small`), else unassigned. Unassigned means too little data,
+//! or moving against every marker.
 //! Or agglomeration alone (`method = "linkage"`) or rigid cliques (`method = "cliques"`).
 //!
 //! It does not estimate poses, joints or topology (jointfit, topo) and does no I/O.
@@ -402,6 +403,12 @@ fn segment_capture(
     } else {
         Vec::new()
     };
+    let mut group_size = vec![0usize; markers];
+    for c in &clusters {
+        for &m in c {
+            group_size[m] = c.len();
+        }
+    }
     clusters.retain(|c| {
         if c.len() >= params.min_segment_markers {
             return true;
@@ -409,6 +416,13 @@ fn segment_capture(
         let mut best_swing = None;
         if let [m] = c[..] {
             if steadiest_rho(&stats, m, min_overlap).is_some_and(|(r, _)| r <= singleton_bound) {
+                return true;
+            }
+            // Its steadiest partner sits in a group too small to pose: no swing can be
+            // tested, and moving against every group it is what the segmentation says.
+            if params.singleton_next_to_small
+                && steadiest_rho(&stats, m, min_overlap).is_some_and(|(_, j)| group_size[j] < 3)
+            {
                 return true;
             }
             let swings = swing::swings(traj, &body_poses, m);

@@ -101,6 +101,8 @@ pub struct Params {
     pub singleton_steady_factor: f64,
     /// ... or when it swings about a point of a body of ≥ 3: a sphere or circle in that body's frame, residual ≤ this × the tolerance; 0 = off.
     pub singleton_swing_factor: f64,
+    /// ... or when its steadiest partner is in a group of one or two markers (nothing to test a swing against).
+    pub singleton_next_to_small: bool,
     /// A marker whose steadiest ρ in its group exceeds this × the tolerance leaves it as a lone marker (and a lone marker rigid with a whole group joins it); 0 = off.
     pub loose_marker_factor: f64,
     /// A cluster of 4–10 markers splits in two when its rigid-fit σ exceeds this × the best bipartition's pooled σ; 0 = off.
@@ -164,6 +166,7 @@ impl Default for Params {
             pair_orphans: true,
             singleton_steady_factor: 1.0,
             singleton_swing_factor: 0.5,
+            singleton_next_to_small: true,
             loose_marker_factor: 2.0,
             fit_split_ratio: 2.0,
             fit_split_floor: 2.0,
@@ -302,6 +305,10 @@ pub const PARAM_DOCS: &[(&str, &str)] = &[
     (
         "singleton_swing_factor",
         "a marker still alone is also a 1-marker segment when it swings about a point of a body of ≥ 3 markers, as a marker on a segment of its own does about its joint: its trajectory in that body's frame fits a sphere (about a hinge, a circle) whose residual (the spread of its distance to the centre, what ρ is for a pair) is ≤ this × the tolerance, while it moves ≥ 2 tolerances (RMS) along an arc that turns ≳ 25° (radius ≤ 8 × that spread); 0 = off; default 0.5",
+    ),
+    (
+        "singleton_next_to_small",
+        "a marker still alone is also a 1-marker segment when its steadiest partner (least ρ) is in a group of one or two markers: a segment hanging from a neighbour that carries one or two markers has no body of three to swing about, and moving against every group it is a segment of its own as far as the markers can tell; jointfit anchors it through a joint or leaves it detached. A marker sliding on a segment of three or more has its steadiest partner there, and must pass the swing test. Sparse sets (--markers 1:3, seeds 4001-4006,6001-6006,7001,9001,1001,5001): clean 12 -> 31/96 exact trees (1.60 -> 2.18 % of height: the joints of segments found now, most of them one-marker, are the least exact), hard 5 -> 6 (5.04 -> 5.00 %); no other suite and no real capture changes (none has such a marker); default true",
     ),
     (
         "loose_marker_factor",

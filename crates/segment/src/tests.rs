@@ -1169,3 +1169,41 @@ fn a_lone_marker_rigid_with_a_pair_joins_it() {
     assert!(whole(&Params::default()));
     assert!(!whole(&off));
 }
+
+/// A sparse snowman (clean, one to three markers a segment, seed 4001): the right forearm's
+/// one marker hangs from a two-marker upper arm, which has no pose to test a swing in; it
+/// moves against every group, and is a one-marker segment (`singleton_next_to_small`).
+#[test]
+fn a_lone_marker_next_to_a_pair_is_a_segment() {
+    let config = synth::SynthConfig {
+        subject: synth::Subject::Snowman,
+        preset: synth::Preset::Clean,
+        seed: 4001,
+        frames: 480,
+        markers_per_segment: (1, 3),
+        ..synth::SynthConfig::default()
+    };
+    let trial = synth::generate(&config).expect("synthetic trial");
+    let forearm = trial
+        .truth
+        .segments
+        .iter()
+        .find(|s| s.name == "r_forearm")
+        .expect("a right forearm");
+    assert_eq!(forearm.markers.len(), 1);
+    let labels = trial.trajectories.labels();
+    let m = labels
+        .iter()
+        .position(|l| *l == forearm.markers[0])
+        .expect("its marker");
+    let alone = |params: &Params| {
+        let seg = run(&trial.trajectories, params).expect("segments");
+        partition(&seg).contains(&vec![m])
+    };
+    let off = Params {
+        singleton_next_to_small: false,
+        ..Params::default()
+    };
+    assert!(alone(&Params::default()));
+    assert!(!alone(&off));
+}
