@@ -393,8 +393,9 @@ fn segment_capture(
         rigidity::normalise(&mut clusters);
     }
     // Groups too small to be a segment: their markers are unassigned, with what we saw;
-    // except a lone marker with a steady partner across a joint (`singleton_steady_factor`)
-    // or one that swings about a point of a body (`singleton_swing_factor`).
+    // except a lone marker with a steady partner across a joint (`singleton_steady_factor`),
+    // one next to a group too small to pose (`singleton_next_to_small`), or one that swings
+    // about a point of a body (`singleton_swing_factor`).
     let singleton_bound = params.singleton_steady_factor * tolerance_mm;
     let swing_bound = params.singleton_swing_factor * tolerance_mm;
     let body_poses = if swing_bound > 0.0 && clusters.iter().any(|c| c.len() == 1) {
@@ -421,7 +422,8 @@ fn segment_capture(
             // Its steadiest partner sits in a group too small to pose: no swing can be
             // tested, and moving against every group it is what the segmentation says.
             if params.singleton_next_to_small
-                && steadiest_rho(&stats, m, min_overlap).is_some_and(|(_, j)| group_size[j] < 3)
+                && steadiest_rho(&stats, m, min_overlap)
+                    .is_some_and(|(_, j)| (1..3).contains(&group_size[j]))
             {
                 return true;
             }
@@ -489,11 +491,14 @@ pub fn marker_fit_sigma(traj: &Trajectories, group: &[usize], marker: usize) -> 
 }
 
 /// How marker `m`'s trajectory in the frame of `group` (≥ 3 markers, posed per frame)
-/// fits a sphere: a marker on a segment of its own swings about the joint with `group`'s
-/// segment. `None` without a pose or a sphere. A diagnostic.
+/// fits a sphere or a circle, whichever fits closer: a marker on a segment of its own
+/// swings about the joint with `group`'s segment. `None` without a pose or a fit. A
+/// diagnostic.
 pub fn marker_swing(traj: &Trajectories, group: &[usize], m: usize) -> Option<Swing> {
     let poses = reassign::group_poses(traj, &[group.to_vec()]);
-    swing::swings(traj, &poses, m).into_iter().next()
+    swing::swings(traj, &poses, m)
+        .into_iter()
+        .min_by(|a, b| a.residual_mm.total_cmp(&b.residual_mm))
 }
 
 /// How parts `a` and `b` (marker indices, ≥ 3 each) move relative to each other: the joint

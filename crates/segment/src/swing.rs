@@ -1,7 +1,8 @@
 //! A marker on a segment of its own swings about the joint it hangs from: in the frame of
 //! the neighbour on the other side, its distance to the joint centre is constant, so its
-//! trajectory lies on a sphere. That distance's spread is what ρ is for a pair of markers,
-//! with the joint centre as the partner (see `singleton_steady_factor`).
+//! trajectory lies on a sphere (about a hinge, on a circle). That distance's spread is what
+//! ρ is for a pair of markers, with the joint centre as the partner (see
+//! `singleton_swing_factor`).
 
 use mocap_io::Trajectories;
 
@@ -17,7 +18,7 @@ const MIN_SPREAD_TOLERANCES: f64 = 2.0;
 /// a flat patch of a trajectory that has none.
 const MAX_RADIUS_SPREADS: f64 = 8.0;
 
-/// How a marker's trajectory in a body's frame fits a sphere.
+/// How a marker's trajectory in a body's frame fits a sphere (or a circle).
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct Swing {
     /// RMS of the distance to the sphere's centre about its radius, mm: the spread of that
