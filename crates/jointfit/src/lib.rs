@@ -32,7 +32,8 @@
 //! in one point per frame, and one of them is posed from its markers plus that point. A
 //! segment posed through a joint has a twist about its marker line that is derived, not
 //! seen, so its joints are centred by its markers' distances
-//! (`Params::anchor_centres_by_distance`) wherever those fix the centre.
+//! (`Params::anchor_centres_by_distance`) wherever those fix the centre (a hinge's only
+//! across its axis, `Params::anchor_hinge_slides`).
 //!
 //! Greedy anchoring does not know the tree, and a segment whose own markers nearly line
 //! up even when all are seen is posed with a spin error that throws its joints' images

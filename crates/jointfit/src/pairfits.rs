@@ -94,7 +94,8 @@ pub struct PairFit {
     /// Human-readable evidence for `kind` (conditioning, range of motion).
     pub evidence: String,
     /// The centre was set from a posed-through segment's marker distances, which fixed it
-    /// in every direction: hinge placement must not slide it along the axis.
+    /// in every direction: hinge placement must not slide it along the axis (never so for a
+    /// hinge under `Params::anchor_hinge_slides`: distances do not fix a point of its axis).
     #[serde(default)]
     pub centre_from_distances: bool,
     /// Every pose started from this joint: no segment had a pose of its own, and one of
