@@ -63,7 +63,8 @@ pub struct Args {
     #[arg(long)]
     pub json: bool,
     /// Under each trial, one line per true joint: kind, estimated joint and kind, mean and
-    /// worst error, its steady and varying parts in the parent's frame (mm), known %; then
+    /// worst error, its steady and varying parts in the parent's frame (mm), for a hinge the
+    /// steady part along its axis (mm), known %; then
     /// each estimated joint no true joint matched, by the true segments it joins.
     #[arg(long)]
     pub joints: bool,
@@ -149,6 +150,9 @@ pub struct JointResult {
     pub steady_mm: Option<f64>,
     /// RMS of the error about that mean, mm: what changes frame to frame.
     pub varying_mm: Option<f64>,
+    /// For a hinge, the steady part's component along the true axis, mm: how far along
+    /// its axis, which the motion leaves open, the centre was put.
+    pub steady_along_axis_mm: Option<f64>,
     /// Share of the truth's frames where the estimate is known.
     pub known_fraction: f64,
 }
@@ -159,11 +163,7 @@ pub struct JointResult {
 /// rotation `[x, y, z, w]`.
 pub fn error_in_frame(errors: &[Option<[f64; 3]>], rotations: &[[f64; 4]]) -> Option<(f64, f64)> {
     let (mut sum, mut squares, mut count) = (DVec3::ZERO, 0.0, 0usize);
-    for (e, q) in errors.iter().zip(rotations) {
-        let Some(e) = e.map(DVec3::from_array).filter(|e| e.is_finite()) else {
-            continue;
-        };
-        let local = DQuat::from_array(*q).normalize().inverse() * e;
+    for local in local_errors(errors, rotations) {
         sum += local;
         squares += local.length_squared();
         count += 1;
@@ -173,6 +173,30 @@ pub fn error_in_frame(errors: &[Option<[f64; 3]>], rotations: &[[f64; 4]]) -> Op
         let spread = (squares / count as f64 - mean.length_squared()).max(0.0);
         (mean.length(), spread.sqrt())
     })
+}
+
+/// Each known error (`errors[f]`, global) in the frame whose local → global rotation is
+/// `rotations[f]` (`[x, y, z, w]`).
+fn local_errors<'a>(
+    errors: &'a [Option<[f64; 3]>],
+    rotations: &'a [[f64; 4]],
+) -> impl Iterator<Item = DVec3> + 'a {
+    errors.iter().zip(rotations).filter_map(|(e, q)| {
+        let e = e.map(DVec3::from_array).filter(|e| e.is_finite())?;
+        Some(DQuat::from_array(*q).normalize().inverse() * e)
+    })
+}
+
+/// The length (mm) of the mean error in the moving frame (see [`error_in_frame`]) along
+/// `axis_local`, a unit vector in that frame; `None` with no known frame.
+pub fn steady_along(
+    errors: &[Option<[f64; 3]>],
+    rotations: &[[f64; 4]],
+    axis_local: DVec3,
+) -> Option<f64> {
+    let (sum, count) =
+        local_errors(errors, rotations).fold((DVec3::ZERO, 0usize), |(s, n), e| (s + e, n + 1));
+    (count > 0).then(|| (sum / count as f64).dot(axis_local).abs())
 }
 
 /// The suite the arguments describe, in print order.
@@ -306,7 +330,14 @@ fn evaluate(
                     .filter_map(|f| trial.segment_rotations.get(f * segments + j.parent_segment))
                     .copied()
                     .collect();
+                let along = j.axis.zip(rotations.first()).and_then(|(axis, q0)| {
+                    // The truth's axis is global at frame 0; the parent's frame holds it fixed.
+                    let local =
+                        DQuat::from_array(*q0).normalize().inverse() * DVec3::from_array(axis);
+                    steady_along(&errors, &rotations, local.try_normalize()?)
+                });
                 error_in_frame(&errors, &rotations)
+                    .map(|(steady, varying)| (steady, varying, along))
             });
             JointResult {
                 truth: j.name.clone(),
@@ -315,8 +346,9 @@ fn evaluate(
                 estimated_kind: estimated.map(|e| e.kind.clone()),
                 mean_mm: matched.and_then(|m| m.mean_mm),
                 worst_mm: matched.and_then(|m| m.worst_mm),
-                steady_mm: split.map(|(steady, _)| steady),
-                varying_mm: split.map(|(_, varying)| varying),
+                steady_mm: split.map(|(steady, ..)| steady),
+                varying_mm: split.map(|(_, varying, _)| varying),
+                steady_along_axis_mm: split.and_then(|(.., along)| along),
                 known_fraction: matched.map_or(0.0, |m| m.known_fraction),
             }
         })
@@ -602,7 +634,7 @@ fn print_joints(joints: &[JointResult]) {
     let opt = |x: Option<f64>| x.map_or_else(|| "-".into(), |v| fmt_f(v, 1));
     for j in joints {
         println!(
-            "    {:<14} {:<9} {:<14} {:<9} {:>8} {:>8} {:>8} {:>8} {:>6}",
+            "    {:<14} {:<9} {:<14} {:<9} {:>8} {:>8} {:>8} {:>8} {:>6} {:>6}",
             j.truth,
             j.kind,
             j.estimate.as_deref().unwrap_or("(missed)"),
@@ -611,6 +643,7 @@ fn print_joints(joints: &[JointResult]) {
             opt(j.worst_mm),
             opt(j.steady_mm),
             opt(j.varying_mm),
+            opt(j.steady_along_axis_mm),
             fmt_f(j.known_fraction * 100.0, 1),
         );
     }
@@ -965,6 +998,10 @@ mod tests {
         );
         // Unknown frames are skipped; none known, no split.
         assert!(error_in_frame(&[None, None], &rotations).is_none());
+        // Along a local axis: the whole offset along x, none of it along z.
+        let along = |axis: DVec3| steady_along(&fixed, &rotations, axis).unwrap();
+        assert!((along(DVec3::X) - 10.0).abs() < 1e-9 && along(DVec3::Z) < 1e-9);
+        assert!(steady_along(&[None, None], &rotations, DVec3::X).is_none());
     }
 
     #[test]
@@ -1116,6 +1153,7 @@ mod tests {
             mean_mm: None,
             worst_mm: None,
             steady_mm: None,
+            steady_along_axis_mm: None,
             varying_mm: None,
             known_fraction: 1.0,
         };
