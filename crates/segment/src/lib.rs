@@ -203,6 +203,12 @@ fn segment_capture(
             // as one is the joint test's to say (`joint_merge_z`), from their rotation.
             let spread_mm = rigidity::rigid_spread(&stats, &clusters, min_overlap)
                 .map_or(noise_mm, |s| s.max(noise_mm));
+            // Clusters that mix segments (a sparse marker set) raise it without bound.
+            let spread_mm = if params.spread_max_noise_factor > 0.0 {
+                spread_mm.min(params.spread_max_noise_factor * noise_mm)
+            } else {
+                spread_mm
+            };
             let tolerance_mm = tolerance_from(spread_mm);
             let noise_tolerance_mm = tolerance_from(noise_mm);
             let clusters = if params.rigidity_check && params.split_linkage {

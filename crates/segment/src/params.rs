@@ -91,6 +91,8 @@ pub struct Params {
     pub tolerance_factor: f64,
     /// Smallest automatic tolerance, mm.
     pub tolerance_min_mm: f64,
+    /// The rigid spread read off the spectral clusters counts for at most this × the noise level; 0 = no bound.
+    pub spread_max_noise_factor: f64,
     /// A marker slides when its RMS ρ to its mates exceeds this ratio × its mates' RMS ρ among themselves.
     pub slide_ratio: f64,
     /// ... and exceeds this, mm.
@@ -161,6 +163,7 @@ impl Default for Params {
             tolerance_mm: 0.0,
             tolerance_factor: 5.0,
             tolerance_min_mm: 2.0,
+            spread_max_noise_factor: 4.0,
             slide_ratio: 2.0,
             slide_min_mm: 1.0,
             pair_orphans: true,
@@ -301,6 +304,10 @@ pub const PARAM_DOCS: &[(&str, &str)] = &[
     (
         "singleton_steady_factor",
         "a marker still alone (rigid with no group) is a 1-marker segment when its smallest ρ to any marker is ≤ this × the tolerance (a steady partner across a joint: jointfit poses it as a swing about the neighbour's joint); otherwise, and always when 0, it is unassigned as sliding or unexplained (unassigned also covers markers with too little data); default 1.0",
+    ),
+    (
+        "spread_max_noise_factor",
+        "the rigid spread (each marker's second-smallest ρ in its spectral cluster, median; see tolerance_factor) counts for at most this × the noise level (the smallest ρ): skin raises it to 1.5-2.8 × the noise on noiseless synthetic skin (rigid_spread) and up to 2.4 × on the real captures (Sample_Jump2), while spectral clusters that mix segments, as on a sparse marker set, raise it without bound (human clean --markers 1:3 s6002: a 21.5 mm tolerance on noiseless data, thigh and pelvis merged). --markers 1:3 clean, seeds 10001-10032: 81 -> 84 of 192 exact trees, joint precision 0.85 -> 0.88, recall 0.80 -> 0.84; seeds 4001-4006,6001-6006,7001,9001,1001,5001: 31 -> 32 of 96; no other suite and no real capture changes; 0 = no bound; default 4.0",
     ),
     (
         "singleton_swing_factor",
@@ -452,6 +459,7 @@ impl Params {
         non_negative("slide_min_mm", self.slide_min_mm)?;
         non_negative("singleton_steady_factor", self.singleton_steady_factor)?;
         non_negative("singleton_swing_factor", self.singleton_swing_factor)?;
+        non_negative("spread_max_noise_factor", self.spread_max_noise_factor)?;
         non_negative("loose_marker_factor", self.loose_marker_factor)?;
         non_negative("fit_split_ratio", self.fit_split_ratio)?;
         non_negative("fit_split_floor", self.fit_split_floor)?;

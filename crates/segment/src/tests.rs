@@ -1207,3 +1207,32 @@ fn a_lone_marker_next_to_a_pair_is_a_segment() {
     assert!(alone(&Params::default()));
     assert!(!alone(&off));
 }
+
+/// A sparse human (clean, one to three markers a segment, seed 6002) whose spectral
+/// clusters mix segments: their second-nearest ρ made a 21.5 mm tolerance on noiseless
+/// data and merged thigh with pelvis; bounded by the noise level (`spread_max_noise_factor`)
+/// the tolerance stays at its floor.
+#[test]
+fn mixed_clusters_do_not_inflate_the_tolerance() {
+    let config = synth::SynthConfig {
+        subject: synth::Subject::Human,
+        preset: synth::Preset::Clean,
+        seed: 6002,
+        frames: 480,
+        markers_per_segment: (1, 3),
+        ..synth::SynthConfig::default()
+    };
+    let trial = synth::generate(&config).expect("synthetic trial");
+    let seg = run(&trial.trajectories, &Params::default()).expect("segments");
+    assert!(
+        seg.tolerance_mm <= Params::default().tolerance_min_mm + 1e-9,
+        "{}",
+        seg.tolerance_mm
+    );
+    let unbounded = Params {
+        spread_max_noise_factor: 0.0,
+        ..Params::default()
+    };
+    let seg = run(&trial.trajectories, &unbounded).expect("segments");
+    assert!(seg.tolerance_mm > 10.0, "{}", seg.tolerance_mm);
+}
