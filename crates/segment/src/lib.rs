@@ -422,14 +422,14 @@ fn segment_capture(
         }
         let mut best_swing = None;
         if let [m] = c[..] {
-            if steadiest_rho(&stats, m, min_overlap).is_some_and(|(r, _)| r <= singleton_bound) {
+            let steadiest = steadiest_rho(&stats, m, min_overlap);
+            if steadiest.is_some_and(|(r, _)| r <= singleton_bound) {
                 return true;
             }
             // Its steadiest partner sits in a group too small to pose: no swing can be
             // tested, and moving against every group it is what the segmentation says.
             if params.singleton_next_to_small
-                && steadiest_rho(&stats, m, min_overlap)
-                    .is_some_and(|(_, j)| (1..3).contains(&group_size[j]))
+                && steadiest.is_some_and(|(_, j)| (1..3).contains(&group_size[j]))
             {
                 return true;
             }

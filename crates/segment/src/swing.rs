@@ -71,19 +71,13 @@ pub(crate) fn sphere_fit(points: &[[f64; 3]]) -> Option<Swing> {
     if points.len() < 4 {
         return None;
     }
-    let n = points.len() as f64;
-    let mut mean = [0.0; 3];
-    for p in points {
-        (0..3).for_each(|i| mean[i] += p[i] / n);
-    }
+    let (mean, spread) = mean_and_spread(points);
     // Centred, so the normal equations are conditioned by the spread, not the position.
     let mut a = [[0.0; 4]; 4];
     let mut b = [0.0; 4];
-    let mut spread2 = 0.0;
     for p in points {
         let y = [p[0] - mean[0], p[1] - mean[1], p[2] - mean[2]];
         let y2 = y[0] * y[0] + y[1] * y[1] + y[2] * y[2];
-        spread2 += y2 / n;
         let row = [2.0 * y[0], 2.0 * y[1], 2.0 * y[2], 1.0];
         for r in 0..4 {
             b[r] += row[r] * y2;
@@ -95,7 +89,7 @@ pub(crate) fn sphere_fit(points: &[[f64; 3]]) -> Option<Swing> {
     let x = solve(a, b)?;
     let centre = [x[0] + mean[0], x[1] + mean[1], x[2] + mean[2]];
     let r2 = x[3] + x[0] * x[0] + x[1] * x[1] + x[2] * x[2];
-    swing_about(points, centre, r2, spread2.sqrt())
+    swing_about(points, centre, r2, spread)
 }
 
 /// The least-squares circle through `points` in their best-fitting plane (algebraic fit in
@@ -108,15 +102,10 @@ pub(crate) fn circle_fit(points: &[[f64; 3]]) -> Option<Swing> {
         return None;
     }
     let n = points.len() as f64;
-    let mut mean = [0.0; 3];
-    for p in points {
-        (0..3).for_each(|i| mean[i] += p[i] / n);
-    }
+    let (mean, spread) = mean_and_spread(points);
     let mut cov = [0.0; 9];
-    let mut spread2 = 0.0;
     for p in points {
         let y = [p[0] - mean[0], p[1] - mean[1], p[2] - mean[2]];
-        spread2 += (y[0] * y[0] + y[1] * y[1] + y[2] * y[2]) / n;
         for r in 0..3 {
             for c in 0..3 {
                 cov[r * 3 + c] += y[r] * y[c] / n;
@@ -142,12 +131,21 @@ pub(crate) fn circle_fit(points: &[[f64; 3]]) -> Option<Swing> {
     }
     let x = solve(a, b)?;
     let centre = [0, 1, 2].map(|i| mean[i] + x[0] * e1[i] + x[1] * e2[i]);
-    swing_about(
-        points,
-        centre,
-        x[2] + x[0] * x[0] + x[1] * x[1],
-        spread2.sqrt(),
-    )
+    swing_about(points, centre, x[2] + x[0] * x[0] + x[1] * x[1], spread)
+}
+
+/// The mean of `points` (non-empty) and their RMS distance from it (mm).
+fn mean_and_spread(points: &[[f64; 3]]) -> ([f64; 3], f64) {
+    let n = points.len() as f64;
+    let mut mean = [0.0; 3];
+    for p in points {
+        (0..3).for_each(|i| mean[i] += p[i] / n);
+    }
+    let spread2: f64 = points
+        .iter()
+        .map(|p| (0..3).map(|i| (p[i] - mean[i]).powi(2)).sum::<f64>() / n)
+        .sum();
+    (mean, spread2.sqrt())
 }
 
 /// The swing of `points` about `centre` at the fitted squared radius `r2`: the RMS of

@@ -1049,19 +1049,25 @@ fn cmu_49_04_keeps_the_shin_marker_out_of_the_thigh() {
     }
 }
 
-/// A sparse marker set (one to three markers a segment, clean): how many found pairs mix
-/// two true segments, and of the true one-marker segments hanging from a true neighbour
-/// found whole with ≥ 3 markers, how many are found as one-marker segments.
-fn sparse_set_outcome(seed: u64, params: &Params) -> (usize, usize, usize) {
+/// A clean trial of `subject` with one to three markers a segment (a sparse marker set),
+/// 480 frames.
+fn sparse_trial(subject: synth::Subject, seed: u64) -> synth::Trial {
     let config = synth::SynthConfig {
-        subject: synth::Subject::Human,
+        subject,
         preset: synth::Preset::Clean,
         seed,
         frames: 480,
         markers_per_segment: (1, 3),
         ..synth::SynthConfig::default()
     };
-    let trial = synth::generate(&config).expect("synthetic trial");
+    synth::generate(&config).expect("synthetic trial")
+}
+
+/// A sparse marker set (one to three markers a segment, clean): how many found pairs mix
+/// two true segments, and of the true one-marker segments hanging from a true neighbour
+/// found whole with ≥ 3 markers, how many are found as one-marker segments.
+fn sparse_set_outcome(seed: u64, params: &Params) -> (usize, usize, usize) {
+    let trial = sparse_trial(synth::Subject::Human, seed);
     let seg = run(&trial.trajectories, params).expect("segments");
     // Each true segment's sorted marker indices, in the truth's order.
     let labels = trial.trajectories.labels();
@@ -1137,15 +1143,7 @@ fn a_sparse_marker_set_keeps_no_loose_pair_and_its_hanging_markers() {
 /// the lone marker joins it (`loose_marker_factor`'s last step), and the link is whole.
 #[test]
 fn a_lone_marker_rigid_with_a_pair_joins_it() {
-    let config = synth::SynthConfig {
-        subject: synth::Subject::Robotarm,
-        preset: synth::Preset::Clean,
-        seed: 4001,
-        frames: 480,
-        markers_per_segment: (1, 3),
-        ..synth::SynthConfig::default()
-    };
-    let trial = synth::generate(&config).expect("synthetic trial");
+    let trial = sparse_trial(synth::Subject::Robotarm, 4001);
     let link1 = true_partition(&trial)
         .into_iter()
         .find(|s| {
@@ -1175,15 +1173,7 @@ fn a_lone_marker_rigid_with_a_pair_joins_it() {
 /// moves against every group, and is a one-marker segment (`singleton_next_to_small`).
 #[test]
 fn a_lone_marker_next_to_a_pair_is_a_segment() {
-    let config = synth::SynthConfig {
-        subject: synth::Subject::Snowman,
-        preset: synth::Preset::Clean,
-        seed: 4001,
-        frames: 480,
-        markers_per_segment: (1, 3),
-        ..synth::SynthConfig::default()
-    };
-    let trial = synth::generate(&config).expect("synthetic trial");
+    let trial = sparse_trial(synth::Subject::Snowman, 4001);
     let forearm = trial
         .truth
         .segments
@@ -1214,15 +1204,7 @@ fn a_lone_marker_next_to_a_pair_is_a_segment() {
 /// the tolerance stays at its floor.
 #[test]
 fn mixed_clusters_do_not_inflate_the_tolerance() {
-    let config = synth::SynthConfig {
-        subject: synth::Subject::Human,
-        preset: synth::Preset::Clean,
-        seed: 6002,
-        frames: 480,
-        markers_per_segment: (1, 3),
-        ..synth::SynthConfig::default()
-    };
-    let trial = synth::generate(&config).expect("synthetic trial");
+    let trial = sparse_trial(synth::Subject::Human, 6002);
     let seg = run(&trial.trajectories, &Params::default()).expect("segments");
     assert!(
         seg.tolerance_mm <= Params::default().tolerance_min_mm + 1e-9,
