@@ -259,7 +259,12 @@ pub fn findings(document: &export::SkeletonJson, spin_limit_deg: f64) -> Vec<Str
             let spin = s
                 .spin_deg
                 .filter(|&d| spin_limit_deg > 0.0 && d > spin_limit_deg)?;
-            Some(format!("{} (±{spin:.0}°: {})", s.id, s.markers.join(", ")))
+            let spin = if spin >= jointfit::SPIN_UNFIXED_DEG {
+                "turn not fixed".to_string()
+            } else {
+                format!("±{spin:.0}°")
+            };
+            Some(format!("{} ({spin}: {})", s.id, s.markers.join(", ")))
         })
         .collect();
     if !loose.is_empty() {

@@ -75,8 +75,8 @@ pub struct SegmentJson {
     /// Frames in which its rigid pose was measured.
     pub frames_with_pose: usize,
     /// How well its markers fix its rotation: the standard error (degrees) of its turn
-    /// about its markers' line with all of them seen; large where they nearly line up.
-    /// Absent for fewer than 3 markers.
+    /// about its markers' line with all of them seen; large where they nearly line up, 180
+    /// where they do not fix that turn at all. Absent for fewer than 3 markers.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub spin_deg: Option<f64>,
 }

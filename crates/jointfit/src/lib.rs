@@ -97,11 +97,18 @@ pub fn run(
 
 /// A segment's rotation uncertainty about its markers' line with all its markers seen
 /// (degrees, the linearised standard error: its median fit scatter over the lever of its
-/// reference shape); `None` for fewer than 3 markers, no fitted frame or markers on a
-/// line.
+/// reference shape), at most [`SPIN_UNFIXED_DEG`]; `None` for fewer than 3 markers, no
+/// fitted frame or markers on a line.
 pub fn segment_spin_deg(poses: &SegmentPoses) -> Option<f64> {
-    poses::spin_error_deg(poses).filter(|d| d.is_finite())
+    poses::spin_error_deg(poses)
+        .filter(|d| d.is_finite())
+        .map(|d| d.min(SPIN_UNFIXED_DEG))
 }
+
+/// The largest spin error [`segment_spin_deg`] gives (degrees): a turn's error beyond half
+/// a revolution means the markers do not fix that turn at all (the linearised figure grows
+/// without bound as they line up: 1.7e8 degrees for Sample_Jump2's right forearm).
+pub const SPIN_UNFIXED_DEG: f64 = 180.0;
 
 /// [`run`] on bare marker lists: `segments[id]` = marker indices of segment `id` (for
 /// evaluations that start from a known segmentation rather than the segment stage's).

@@ -1325,3 +1325,21 @@ fn a_two_marker_segment_is_posed_through_both_its_joints() {
         on.2
     );
 }
+
+/// Three markers spread 100 mm fix a segment's spin to the scatter over the lever; as the
+/// middle one comes onto the line of the other two the linearised error grows without
+/// bound, and the reported one stops at half a revolution ("not fixed at all").
+#[test]
+fn spin_error_saturates_where_markers_line_up() {
+    let poses = |offset_mm: f64| crate::SegmentPoses {
+        segment: 0,
+        reference: vec![[-100.0, 0.0, 0.0], [0.0, offset_mm, 0.0], [100.0, 0.0, 0.0]],
+        rotations: vec![[0.0, 0.0, 0.0, 1.0]; 3],
+        translations: vec![[0.0; 3]; 3],
+        rms_mm: vec![1.0; 3],
+    };
+    let spread = crate::segment_spin_deg(&poses(100.0)).expect("three markers");
+    assert!(spread > 0.1 && spread < 5.0, "{spread}°");
+    let lined_up = crate::segment_spin_deg(&poses(1e-9)).expect("three markers");
+    assert_eq!(lined_up, crate::SPIN_UNFIXED_DEG);
+}
