@@ -32,12 +32,18 @@ pub fn generate(subject: Subject, preset: Preset, frames: usize, seed: u64) -> T
             Some((a.parse().ok()?, b.parse().ok()?))
         })
         .unwrap_or(defaults.markers_per_segment);
+    // `NOISE=MM` sets the noise σ of the noise, hard and messy presets.
+    let noise_mm = std::env::var("NOISE")
+        .ok()
+        .and_then(|n| n.parse().ok())
+        .unwrap_or(defaults.noise_mm);
     synth::generate(&SynthConfig {
         subject,
         preset,
         frames,
         seed,
         markers_per_segment,
+        noise_mm,
         ..defaults
     })
     .expect("synthetic trial")
