@@ -15,7 +15,9 @@
 //! S's markers (any point on a true axis is fixed in both segments, so the resulting pose
 //! does not depend on where). The cost is the RMS of the radial residual (mm); pairs with
 //! too few samples, too little angular excursion about `c` for their residual (no
-//! identifiable joint) or too large a residual are not candidates. For a ball joint
+//! identifiable joint) or too large a residual are not candidates, except that a neighbour
+//! S keeps clearly steadier distances to than to every one that qualifies is one however
+//! little S turns about it (`Params::anchor_steadier_ratio`). For a ball joint
 //! (`Params::anchor_line_prior`) a two-marker S's line adds a first-order cue for the
 //! centre's coordinate along the limb. Greedily, the cheapest (S, N) over all unposed S
 //! and posed N is taken, S becomes posed, and the search repeats until no candidate is
@@ -120,6 +122,10 @@ pub(crate) struct CentreFit {
     /// Per marker of S (in S's marker order): mean radius (mm) and mean unit direction
     /// from the centre (N-local); NaN when the marker had too few samples.
     pub radii: Vec<(f64, DVec3)>,
+    /// Whether S's markers turn enough about the centre to fix it: at least the
+    /// excursion asked of [`centre_fit`], or less with a residual that pins it
+    /// (`Params::anchor_exact_centre_mm`).
+    pub identified: bool,
 }
 
 impl CentreFit {
@@ -192,13 +198,23 @@ pub(crate) fn anchor_segments(
             if posed[s] || segments[s].is_empty() {
                 continue;
             }
-            for nb in 0..n {
-                if nb == s || !posed[nb] || !open(s, nb) {
-                    continue;
-                }
-                if let Some(Some(fit)) = &memo[s][nb]
-                    && best.is_none_or(|(c, _, _)| fit.rms_mm < c)
-                {
+            let fits = || {
+                (0..n)
+                    .filter(|&nb| nb != s && posed[nb] && open(s, nb))
+                    .filter_map(|nb| Some((nb, memo[s][nb].as_ref()?.as_ref()?)))
+            };
+            // A neighbour S keeps clearly steadier distances to than to any whose centre
+            // is identified is S's neighbour, however little S turns about it (a foot whose
+            // markers sit near the ankle barely swing about it, and swing about the knee
+            // with the whole leg); `Params::anchor_steadier_ratio`.
+            let identified = fits()
+                .filter(|(_, f)| f.identified)
+                .map(|(_, f)| f.rms_mm)
+                .fold(f64::INFINITY, f64::min);
+            for (nb, fit) in fits() {
+                let steadier = identified.is_finite()
+                    && fit.rms_mm < params.anchor_steadier_ratio * identified;
+                if (fit.identified || steadier) && best.is_none_or(|(c, _, _)| fit.rms_mm < c) {
                     best = Some((fit.rms_mm, s, nb));
                 }
             }
@@ -286,6 +302,7 @@ pub(crate) fn anchor_segments(
                 samples: 4 * common.centre.iter().flatten().count(),
                 axis: None,
                 radii: Vec::new(),
+                identified: true,
             };
             let new = anchored_poses(
                 traj,
@@ -365,7 +382,10 @@ pub(crate) fn anchor_segments(
         }
         let wanted = [(s, partner)];
         fit_candidates(traj, segments, &tracks, params, &mut memo, &wanted);
-        if let Some(Some(fit)) = memo[s][partner].clone() {
+        if let Some(Some(fit)) = memo[s][partner]
+            .clone()
+            .filter(|f| f.as_ref().is_some_and(|f| f.identified))
+        {
             anchors[s] = Some(Anchor {
                 seed: true,
                 ..Anchor::posing(partner, fit, posed_count(&tracks[s]))
@@ -412,7 +432,10 @@ pub(crate) fn anchor_segments(
             fit_candidates(traj, segments, tracks, params, memo, &wanted);
             best = round
                 .into_iter()
-                .filter_map(|nb| memo[s][nb].as_ref()?.as_ref().map(|f| (f.rms_mm, nb)))
+                .filter_map(|nb| {
+                    let f = memo[s][nb].as_ref()?.as_ref()?;
+                    f.identified.then_some((f.rms_mm, nb))
+                })
                 .min_by(|x, y| x.0.total_cmp(&y.0));
             if best.is_some() {
                 break;
@@ -500,7 +523,8 @@ fn joint_centres(
         .par_iter()
         .map(|&nb| {
             let bar = params.anchor_refit_min_excursion_deg;
-            let mut fit = centre_fit(traj, markers, &tracks[nb], params, bar)?;
+            let mut fit =
+                centre_fit(traj, markers, &tracks[nb], params, bar).filter(|f| f.identified)?;
             // On a hinge axis the centre's place is a convention; as a point of S's pose
             // it is taken where the axis passes nearest S's markers (a limb's bone is
             // across its hinge's axis), which is where a ball joint turning mostly about
@@ -620,8 +644,9 @@ fn fit_candidates(
 }
 
 /// Common centre of `markers` (S's) in the frame of a neighbour with poses `track`;
-/// `None` unless the markers turn at least `min_excursion_deg` RMS about it, or less but
-/// with a residual that pins the centre within `Params::anchor_exact_centre_mm`.
+/// `None` when the residual exceeds `Params::anchor_max_rms_mm`; `identified` when the
+/// markers turn at least `min_excursion_deg` RMS about it, or less but with a residual
+/// that pins the centre within `Params::anchor_exact_centre_mm`.
 pub(crate) fn centre_fit(
     traj: &Trajectories,
     markers: &[usize],
@@ -803,9 +828,7 @@ pub(crate) fn centre_fit(
     // let it stray about residual / excursion (radians) across the markers' paths.
     let exact = params.anchor_exact_centre_mm > 0.0
         && rms_mm / excursion_deg.to_radians() <= params.anchor_exact_centre_mm;
-    let ok = rms_mm.is_finite()
-        && rms_mm <= params.anchor_max_rms_mm
-        && (excursion_deg >= min_excursion_deg || exact);
+    let ok = rms_mm.is_finite() && rms_mm <= params.anchor_max_rms_mm;
     ok.then_some(CentreFit {
         centre,
         rms_mm,
@@ -813,6 +836,7 @@ pub(crate) fn centre_fit(
         samples,
         axis: axis.filter(|_| hinge),
         radii,
+        identified: excursion_deg >= min_excursion_deg || exact,
     })
 }
 

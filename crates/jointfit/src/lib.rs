@@ -507,7 +507,8 @@ fn distance_centre(
         &tracks[other],
         params,
         params.anchor_refit_min_excursion_deg,
-    )?;
+    )
+    .filter(|f| f.identified)?;
     (!cf.hinge()).then(|| DistanceCentre {
         frame: other,
         centre: cf.centre,

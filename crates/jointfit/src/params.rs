@@ -77,6 +77,10 @@ pub struct Params {
     pub anchor: bool,
     /// Anchoring: least RMS angle (degrees) the markers must turn about the common centre.
     pub anchor_min_excursion_deg: f64,
+    /// Anchoring: a neighbour whose centre fits S's markers with a residual below this
+    /// fraction of the best identified neighbour's is a candidate however little S turns
+    /// about it (default 0.7; 0 = off).
+    pub anchor_steadier_ratio: f64,
     /// Anchoring: largest RMS radial residual (mm) of an acceptable common centre.
     pub anchor_max_rms_mm: f64,
     /// Anchoring: a common centre turned about less than the excursion bounds above still
@@ -130,6 +134,7 @@ impl Default for Params {
             max_iters: 200,
             anchor: true,
             anchor_min_excursion_deg: 10.0,
+            anchor_steadier_ratio: 0.7,
             anchor_max_rms_mm: 25.0,
             anchor_exact_centre_mm: 10.0,
             anchor_line_prior: true,
@@ -267,6 +272,26 @@ pub const PARAM_DOCS: &[(&str, &str)] = &[
          posed neighbour whose frame sees their markers at the most constant distance from \
          one centre, and fill frames where only 2 of a segment's markers are visible from \
          those 2 plus that joint; bool; default true",
+    ),
+    (
+        "anchor_steadier_ratio",
+        "anchoring: a posed neighbour whose common centre fits a segment's markers with a \
+         radial residual below this fraction of the best neighbour whose centre their turn \
+         identifies (anchor_min_excursion_deg, anchor_exact_centre_mm) is a candidate too, \
+         however little they turn about it: the segment keeps clearly steadier distances to \
+         it. With two markers on every segment, 1 mm noise (human-noise-s4003 --markers \
+         2:2), the right foot's markers sit near the ankle and turn 9.5 deg about it in the \
+         shank's frame (residual 1.85 mm) and 34.5 deg about the knee with the whole leg \
+         (2.99 mm): without it the foot went to the thigh and the tree skipped the shank. \
+         cargo xtask eval --compare jointfit.anchor_steadier_ratio=0,0.7 (S16 = seeds \
+         4001-4006, 6001-6006, 7001, 9001, 1001, 5001): --markers 2:2 noise trees 61 -> \
+         63/96 (2.05 -> 1.98 %), hard 12 -> 18/96; --markers 2:3 hard 34 -> 36/96, skin 37 -> \
+         39/96 (2.89 -> 2.85 %); default markers hard S16 76/96 and 10001-10032 146/192 \
+         unchanged, means 1.786 -> 1.784 % and 1.841 -> 1.835 %; --markers 1:3 clean 2.20 -> \
+         2.28 %, hard 5.00 -> 4.94 %. At 1.0 (any steadier fit) 2:2 noise also 63/96 but \
+         2.01 %, 2:3 hard 37/96 at 3.05 % against 2.98. Real: Gait.trc's left upper arm \
+         (two markers, with a one-marker wrist) 215 -> 325 mm and its right ankle 21 -> 9 mm \
+         from the malleoli's midpoint; CMU 02_01's limbs unchanged; 0 = off; default 0.7",
     ),
     (
         "anchor_min_excursion_deg",
@@ -433,6 +458,7 @@ impl Params {
                 self.anchor_refit_min_excursion_deg,
             ),
             ("anchor_exact_centre_mm", self.anchor_exact_centre_mm),
+            ("anchor_steadier_ratio", self.anchor_steadier_ratio),
             ("hinge_slide_max_rise", self.hinge_slide_max_rise),
         ] {
             if !(value.is_finite() && value >= 0.0) {
