@@ -194,6 +194,15 @@ pub(crate) fn anchor_segments(
             .collect();
         fit_candidates(traj, segments, &tracks, params, &mut memo, &wanted);
         let mut best: Option<(f64, usize, usize)> = None;
+        // The residual of the anchor the search would take next anywhere.
+        let next_identified = (0..n)
+            .filter(|&s| !posed[s] && !segments[s].is_empty())
+            .flat_map(|s| (0..n).map(move |nb| (s, nb)))
+            .filter(|&(s, nb)| nb != s && posed[nb] && open(s, nb))
+            .filter_map(|(s, nb)| memo[s][nb].as_ref()?.as_ref())
+            .filter(|f| f.identified)
+            .map(|f| f.rms_mm)
+            .fold(f64::INFINITY, f64::min);
         for s in 0..n {
             if posed[s] || segments[s].is_empty() {
                 continue;
@@ -206,11 +215,18 @@ pub(crate) fn anchor_segments(
             // A neighbour S keeps clearly steadier distances to than to any whose centre
             // is identified is S's neighbour, however little S turns about it (a foot whose
             // markers sit near the ankle barely swing about it, and swing about the knee
-            // with the whole leg); `Params::anchor_steadier_ratio`.
+            // with the whole leg); `Params::anchor_steadier_ratio`. With no such neighbour
+            // yet, clearly steadier than the anchor taken next anywhere: a forearm turning
+            // little about the elbow is posed before its hand can hang from the upper arm.
             let identified = fits()
                 .filter(|(_, f)| f.identified)
                 .map(|(_, f)| f.rms_mm)
                 .fold(f64::INFINITY, f64::min);
+            let identified = if identified.is_finite() {
+                identified
+            } else {
+                next_identified
+            };
             for (nb, fit) in fits() {
                 let steadier = identified.is_finite()
                     && fit.rms_mm < params.anchor_steadier_ratio * identified;

@@ -279,19 +279,23 @@ pub const PARAM_DOCS: &[(&str, &str)] = &[
          radial residual below this fraction of the best neighbour whose centre their turn \
          identifies (anchor_min_excursion_deg, anchor_exact_centre_mm) is a candidate too, \
          however little they turn about it: the segment keeps clearly steadier distances to \
-         it. With two markers on every segment, 1 mm noise (human-noise-s4003 --markers \
-         2:2), the right foot's markers sit near the ankle and turn 9.5 deg about it in the \
-         shank's frame (residual 1.85 mm) and 34.5 deg about the knee with the whole leg \
-         (2.99 mm): without it the foot went to the thigh and the tree skipped the shank. \
-         cargo xtask eval --compare jointfit.anchor_steadier_ratio=0,0.7 (S16 = seeds \
-         4001-4006, 6001-6006, 7001, 9001, 1001, 5001): --markers 2:2 noise trees 61 -> \
-         63/96 (2.05 -> 1.98 %), hard 12 -> 18/96; --markers 2:3 hard 34 -> 36/96, skin 37 -> \
-         39/96 (2.89 -> 2.85 %); default markers hard S16 76/96 and 10001-10032 146/192 \
-         unchanged, means 1.786 -> 1.784 % and 1.841 -> 1.835 %; --markers 1:3 clean 2.20 -> \
-         2.28 %, hard 5.00 -> 4.94 %. At 1.0 (any steadier fit) 2:2 noise also 63/96 but \
-         2.01 %, 2:3 hard 37/96 at 3.05 % against 2.98. Real: Gait.trc's left upper arm \
-         (two markers, with a one-marker wrist) 215 -> 325 mm and its right ankle 21 -> 9 mm \
-         from the malleoli's midpoint; CMU 02_01's limbs unchanged; 0 = off; default 0.7",
+         it; with no identified neighbour yet, below this fraction of the anchor the search \
+         would take next anywhere. With two markers on every segment, 1 mm noise \
+         (human-noise-s4003 --markers 2:2), the right foot's markers sit near the ankle and \
+         turn 9.5 deg about it in the shank's frame (residual 1.85 mm) and 34.5 deg about \
+         the knee with the whole leg (2.99 mm): the foot went to the thigh and the tree \
+         skipped the shank; in human-noise-s4002 the left forearm (7.8 deg, 1.76 mm about \
+         the elbow) waited while the hand hung from the upper arm at 13.3 mm. cargo xtask \
+         eval --compare jointfit.anchor_steadier_ratio=0,0.7 (S16 = seeds 4001-4006, \
+         6001-6006, 7001, 9001, 1001, 5001): --markers 2:2 noise trees 61 -> 65/96 (2.05 -> \
+         1.97 %), hard 12 -> 18/96; --markers 2:3 hard 34 -> 36/96, skin 37 -> 39/96 (2.89 \
+         -> 2.84 %); default markers hard S16 76/96 and 10001-10032 146/192 unchanged, means \
+         1.786 -> 1.784 % and 1.841 -> 1.835 %, skin 1.843 -> 1.819 %; --markers 1:3 clean \
+         2.20 -> 2.28 %, hard 5.00 -> 4.94 %. At 1.0 (any steadier fit) 2:2 noise 2.01 %, \
+         2:3 hard 37/96 at 3.05 % against 2.98. Real: Gait.trc's left upper arm (two \
+         markers, with a one-marker wrist) 215 -> 325 mm, its ankles ball joints, the right \
+         one 21 -> 9 mm from the malleoli's midpoint; CMU 02_01's limbs unchanged; 0 = off; \
+         default 0.7",
     ),
     (
         "anchor_min_excursion_deg",

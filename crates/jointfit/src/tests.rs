@@ -1384,3 +1384,48 @@ fn a_segment_goes_to_the_neighbour_it_keeps_steadiest() {
     let (ankle, knee_and_ankle) = costs(&identified_only);
     assert!(ankle > knee_and_ankle, "{ankle} vs {knee_and_ankle}");
 }
+
+/// Two markers on every segment, 1 mm noise (human-noise-s4002 --markers 2:2): the left
+/// forearm turns only 7.8° RMS about the elbow in the upper arm's frame (residual 1.76 mm),
+/// short of identifying the elbow, while the hand's best anchor then was the upper arm at
+/// 13.3 mm. Clearly steadier than that next anchor, the forearm is posed first and the hand
+/// is posed through the wrist; without the rule the hand hung from the upper arm (and the
+/// tree, built on the segmentation's pieces, skipped the forearm).
+#[test]
+fn a_segment_steadier_than_the_next_anchor_is_posed_first() {
+    let trial = synth::generate(&synth::SynthConfig {
+        subject: synth::Subject::Human,
+        preset: synth::Preset::Noise,
+        frames: 480,
+        seed: 4002,
+        markers_per_segment: (2, 2),
+        ..synth::SynthConfig::default()
+    })
+    .unwrap();
+    let segments = trial.true_segment_markers();
+    let index = |name: &str| {
+        trial
+            .truth
+            .segments
+            .iter()
+            .position(|s| s.name == name)
+            .unwrap()
+    };
+    let (upper, fore, hand) = (index("l_upperarm"), index("l_forearm"), index("l_hand"));
+    let evidence = |params: &Params| {
+        let fits = run_on_segments(&trial.trajectories, &segments, params).unwrap();
+        let posed = |a, b| pair(&fits, a, b).evidence.clone();
+        (posed(fore, hand), posed(upper, hand))
+    };
+    let through = format!("segment {hand} posed through this joint");
+    let (wrist, elbow_and_wrist) = evidence(&Params::default());
+    assert!(wrist.contains(&through), "{wrist}");
+    assert!(!elbow_and_wrist.contains(&through), "{elbow_and_wrist}");
+    let identified_only = Params {
+        anchor_steadier_ratio: 0.0,
+        ..Params::default()
+    };
+    let (wrist, elbow_and_wrist) = evidence(&identified_only);
+    assert!(!wrist.contains(&through), "{wrist}");
+    assert!(elbow_and_wrist.contains(&through), "{elbow_and_wrist}");
+}
