@@ -1344,6 +1344,30 @@ fn spin_error_saturates_where_markers_line_up() {
     assert_eq!(lined_up, crate::SPIN_UNFIXED_DEG);
 }
 
+/// A 480-frame synthetic human with two markers on every segment and 1 mm noise (eval's
+/// `--presets noise --markers 2:2`).
+fn two_marker_human(seed: u64) -> synth::Trial {
+    synth::generate(&synth::SynthConfig {
+        subject: synth::Subject::Human,
+        preset: synth::Preset::Noise,
+        frames: 480,
+        seed,
+        markers_per_segment: (2, 2),
+        ..synth::SynthConfig::default()
+    })
+    .unwrap()
+}
+
+/// Index of the true segment called `name`.
+fn true_segment(trial: &synth::Trial, name: &str) -> usize {
+    trial
+        .truth
+        .segments
+        .iter()
+        .position(|s| s.name == name)
+        .unwrap()
+}
+
 /// Two markers on every segment, 1 mm noise (eval's human-noise-s4003 with --markers 2:2):
 /// the right foot's markers sit near the ankle, so they swing little about it (9.5° RMS in
 /// the posed shank's frame, residual 1.85 mm) and much about the knee with the whole leg
@@ -1352,24 +1376,9 @@ fn spin_error_saturates_where_markers_line_up() {
 /// foot went to the thigh and the tree skipped the shank.
 #[test]
 fn a_segment_goes_to_the_neighbour_it_keeps_steadiest() {
-    let trial = synth::generate(&synth::SynthConfig {
-        subject: synth::Subject::Human,
-        preset: synth::Preset::Noise,
-        frames: 480,
-        seed: 4003,
-        markers_per_segment: (2, 2),
-        ..synth::SynthConfig::default()
-    })
-    .unwrap();
+    let trial = two_marker_human(4003);
     let segments = trial.true_segment_markers();
-    let index = |name: &str| {
-        trial
-            .truth
-            .segments
-            .iter()
-            .position(|s| s.name == name)
-            .unwrap()
-    };
+    let index = |name: &str| true_segment(&trial, name);
     let (thigh, shank, foot) = (index("r_thigh"), index("r_shank"), index("r_foot"));
     let costs = |params: &Params| {
         let fits = run_on_segments(&trial.trajectories, &segments, params).unwrap();
@@ -1393,24 +1402,9 @@ fn a_segment_goes_to_the_neighbour_it_keeps_steadiest() {
 /// tree, built on the segmentation's pieces, skipped the forearm).
 #[test]
 fn a_segment_steadier_than_the_next_anchor_is_posed_first() {
-    let trial = synth::generate(&synth::SynthConfig {
-        subject: synth::Subject::Human,
-        preset: synth::Preset::Noise,
-        frames: 480,
-        seed: 4002,
-        markers_per_segment: (2, 2),
-        ..synth::SynthConfig::default()
-    })
-    .unwrap();
+    let trial = two_marker_human(4002);
     let segments = trial.true_segment_markers();
-    let index = |name: &str| {
-        trial
-            .truth
-            .segments
-            .iter()
-            .position(|s| s.name == name)
-            .unwrap()
-    };
+    let index = |name: &str| true_segment(&trial, name);
     let (upper, fore, hand) = (index("l_upperarm"), index("l_forearm"), index("l_hand"));
     let evidence = |params: &Params| {
         let fits = run_on_segments(&trial.trajectories, &segments, params).unwrap();
