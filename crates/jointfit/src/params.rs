@@ -78,8 +78,8 @@ pub struct Params {
     /// Anchoring: least RMS angle (degrees) the markers must turn about the common centre.
     pub anchor_min_excursion_deg: f64,
     /// Anchoring: a neighbour whose centre fits S's markers with a residual below this
-    /// fraction of the best identified neighbour's is a candidate however little S turns
-    /// about it (default 0.7; 0 = off).
+    /// fraction of the best identified neighbour's (with none yet, of the anchor taken next
+    /// anywhere) is a candidate however little S turns about it (default 0.7; 0 = off).
     pub anchor_steadier_ratio: f64,
     /// Anchoring: largest RMS radial residual (mm) of an acceptable common centre.
     pub anchor_max_rms_mm: f64,
