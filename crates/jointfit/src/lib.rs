@@ -477,7 +477,9 @@ struct DistanceCentre {
 /// The centre of `fit`, a pair of segment `s` (posed through `anchor`), by `s`'s markers'
 /// distances: for the anchor's own joint the anchor's common centre, for any other the
 /// common centre of `s`'s markers in the other segment's frame. `None` where the distances
-/// leave a direction free (a hinge axis) or the pair does not move: the pose fit stays.
+/// leave a direction free (a hinge axis), do not pin the centre (an anchor taken for its
+/// steadier distances, `Params::anchor_steadier_ratio`) or the pair does not move: the
+/// pose fit stays.
 fn distance_centre(
     traj: &Trajectories,
     fit: &PairFit,
@@ -489,7 +491,7 @@ fn distance_centre(
 ) -> Option<DistanceCentre> {
     let other = if fit.a == s { fit.b } else { fit.a };
     if other == anchor.neighbour {
-        return (!anchor.fit.hinge()).then(|| DistanceCentre {
+        return (!anchor.fit.hinge() && anchor.fit.identified).then(|| DistanceCentre {
             frame: other,
             centre: anchor.fit.centre,
             rms_mm: anchor.fit.rms_mm,
