@@ -16,8 +16,9 @@
 //! does not depend on where). The cost is the RMS of the radial residual (mm); pairs with
 //! too few samples, too little angular excursion about `c` for their residual (no
 //! identifiable joint) or too large a residual are not candidates, except that a neighbour
-//! S keeps clearly steadier distances to than to every one that qualifies is one however
-//! little S turns about it (`Params::anchor_steadier_ratio`). For a ball joint
+//! S keeps clearly steadier distances to than to every one that qualifies (with none yet,
+//! than the anchor taken next anywhere) is one however little S turns about it
+//! (`Params::anchor_steadier_ratio`). For a ball joint
 //! (`Params::anchor_line_prior`) a two-marker S's line adds a first-order cue for the
 //! centre's coordinate along the limb. Greedily, the cheapest (S, N) over all unposed S
 //! and posed N is taken, S becomes posed, and the search repeats until no candidate is
