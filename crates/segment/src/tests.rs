@@ -653,22 +653,11 @@ fn a_carpus_scoring_just_above_the_joint_threshold_is_cut() {
 
 /// The trial's true segments as marker indices, each ascending, in ascending order.
 fn true_partition(trial: &synth::Trial) -> Vec<Vec<usize>> {
-    let labels = trial.trajectories.labels();
-    let index = |label: &str| {
-        labels
-            .iter()
-            .position(|l| l == label)
-            .expect("truth label in capture")
-    };
     let mut parts: Vec<Vec<usize>> = trial
         .truth
         .segments
         .iter()
-        .map(|s| {
-            let mut v: Vec<usize> = s.markers.iter().map(|l| index(l)).collect();
-            v.sort_unstable();
-            v
-        })
+        .map(|s| true_markers(trial, &s.name))
         .collect();
     parts.sort();
     parts
@@ -1049,6 +1038,29 @@ fn cmu_49_04_keeps_the_shin_marker_out_of_the_thigh() {
     }
 }
 
+/// The capture's indices (ascending) of the markers of the true segment called `name`.
+fn true_markers(trial: &synth::Trial, name: &str) -> Vec<usize> {
+    let labels = trial.trajectories.labels();
+    let segment = trial
+        .truth
+        .segments
+        .iter()
+        .find(|s| s.name == name)
+        .expect("a true segment of that name");
+    let mut markers: Vec<usize> = segment
+        .markers
+        .iter()
+        .map(|l| {
+            labels
+                .iter()
+                .position(|x| x == l)
+                .expect("truth label in capture")
+        })
+        .collect();
+    markers.sort_unstable();
+    markers
+}
+
 /// A clean trial of `subject` with one to three markers a segment (a sparse marker set),
 /// 480 frames.
 fn sparse_trial(subject: synth::Subject, seed: u64) -> synth::Trial {
@@ -1144,18 +1156,8 @@ fn a_sparse_marker_set_keeps_no_loose_pair_and_its_hanging_markers() {
 #[test]
 fn a_lone_marker_rigid_with_a_pair_joins_it() {
     let trial = sparse_trial(synth::Subject::Robotarm, 4001);
-    let link1 = true_partition(&trial)
-        .into_iter()
-        .find(|s| {
-            s.len() == 3 && {
-                let labels = trial.trajectories.labels();
-                trial.truth.segments.iter().any(|t| {
-                    t.name == "link1"
-                        && t.markers.iter().all(|l| s.iter().any(|&m| labels[m] == *l))
-                })
-            }
-        })
-        .expect("link1 has three markers");
+    let link1 = true_markers(&trial, "link1");
+    assert_eq!(link1.len(), 3);
     let whole = |params: &Params| {
         let seg = run(&trial.trajectories, params).expect("segments");
         partition(&seg).contains(&link1)
@@ -1174,21 +1176,11 @@ fn a_lone_marker_rigid_with_a_pair_joins_it() {
 #[test]
 fn a_lone_marker_next_to_a_pair_is_a_segment() {
     let trial = sparse_trial(synth::Subject::Snowman, 4001);
-    let forearm = trial
-        .truth
-        .segments
-        .iter()
-        .find(|s| s.name == "r_forearm")
-        .expect("a right forearm");
-    assert_eq!(forearm.markers.len(), 1);
-    let labels = trial.trajectories.labels();
-    let m = labels
-        .iter()
-        .position(|l| *l == forearm.markers[0])
-        .expect("its marker");
+    let forearm = true_markers(&trial, "r_forearm");
+    assert_eq!(forearm.len(), 1);
     let alone = |params: &Params| {
         let seg = run(&trial.trajectories, params).expect("segments");
-        partition(&seg).contains(&vec![m])
+        partition(&seg).contains(&forearm)
     };
     let off = Params {
         singleton_next_to_small: false,
