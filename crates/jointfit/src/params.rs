@@ -291,8 +291,9 @@ pub const PARAM_DOCS: &[(&str, &str)] = &[
          1.97 %), hard 12 -> 18/96; --markers 2:3 hard 34 -> 36/96, skin 37 -> 39/96 (2.89 \
          -> 2.84 %); default markers hard S16 76/96 and 10001-10032 146/192 unchanged, means \
          1.786 -> 1.784 % and 1.841 -> 1.835 %, skin 1.843 -> 1.819 %; --markers 1:3 clean \
-         2.20 -> 2.28 %, hard 5.00 -> 4.94 %. At 1.0 (any steadier fit) 2:2 noise 2.01 %, \
-         2:3 hard 37/96 at 3.05 % against 2.98. Real: Gait.trc's left upper arm (two \
+         2.20 -> 2.29 %, hard 5.00 -> 4.93 %. At 1.0 (any steadier fit) 2:2 noise 65/96 at \
+         2.02 % against 1.97 (worst trial 68.9 % against 29.7), 2:3 hard 38/96 at 3.05 % \
+         against 36 at 2.98. Real: Gait.trc's left upper arm (two \
          markers, with a one-marker wrist) 215 -> 325 mm, its ankles ball joints, the right \
          one 21 -> 9 mm from the malleoli's midpoint; CMU 02_01's limbs unchanged; 0 = off; \
          default 0.7",
