@@ -82,7 +82,24 @@ pub fn run(
             .collect();
         let shifts = match params.hinge_placement {
             HingePlacement::Tree => jointfit::place_hinge_centres(&mut copy, &edges),
-            HingePlacement::Bone => jointfit::place_hinges_across_bones(&mut copy, &edges),
+            HingePlacement::Bone => {
+                let steadiest = params
+                    .hinge_sides_from_steadiest
+                    .then(|| jointfit::steadiest_orientation(&copy, &edges))
+                    .flatten();
+                match steadiest {
+                    Some(directed) => jointfit::place_hinges_across_bones(
+                        &mut copy,
+                        &directed,
+                        jointfit::EdgeDirection::Steadiest,
+                    ),
+                    None => jointfit::place_hinges_across_bones(
+                        &mut copy,
+                        &edges,
+                        jointfit::EdgeDirection::TreeRoot,
+                    ),
+                }
+            }
             mode => {
                 // The joint solve, capped, for hinges with no ball joint below them.
                 let mut tree = fits.clone();

@@ -47,7 +47,9 @@
 //!
 //! It does not choose which pairs are joints (topo does, from the costs); hinge centres
 //! are placed on their axes from the tree by [`place_hinges_across_bones`] (or the older
-//! [`place_hinge_centres`]), which the caller (bonefit) runs once the tree is known.
+//! [`place_hinge_centres`]), which the caller (bonefit) runs once the tree is known,
+//! with its edges turned from the segment that turns least in the world where that is
+//! clearly not the tree's root ([`steadiest_orientation`]).
 
 mod aguiar;
 mod anchor;
@@ -65,7 +67,10 @@ mod seed;
 mod small;
 
 pub use error::Error;
-pub use hinge::{place_hinge_centres, place_hinges_across_bones, slide_hinge_centre};
+pub use hinge::{
+    EdgeDirection, place_hinge_centres, place_hinges_across_bones, slide_hinge_centre,
+    steadiest_orientation,
+};
 pub use horn::{RigidFit, absolute_orientation, rotation_from_cross_covariance};
 pub use pairfits::*;
 pub use params::{Method, PARAM_DOCS, Params};

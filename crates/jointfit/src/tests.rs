@@ -591,7 +591,8 @@ fn hinge_centres_placed_across_the_child_bone() {
     // slanted parent drags along the axis.
     let before = mean_error(pair(&fits, 0, 1), &trial.joints[1]);
     assert!(before > 10.0, "{before} mm before placement");
-    let shifts = crate::place_hinges_across_bones(&mut fits, &edges);
+    let shifts =
+        crate::place_hinges_across_bones(&mut fits, &edges, crate::EdgeDirection::TreeRoot);
     assert_eq!(shifts[1], 0.0, "the ball joint does not slide");
     // Joint 1 is pinned by the ball joint its child carries. The leaf's hinge has its
     // markers and the parent's ball joint, both right, but the parent's markers (off to
@@ -637,7 +638,7 @@ fn a_leaf_hinge_sits_midway_between_its_outermost_markers() {
     let trial = generate(&mut rng, &bodies, 300, 0.0, |_, _, _| false);
     let mut fits = run_on_segments(&trial.traj, &trial.segments, &Params::default()).unwrap();
     let edges = tree_edges(&fits, &[(0, 1)]);
-    crate::place_hinges_across_bones(&mut fits, &edges);
+    crate::place_hinges_across_bones(&mut fits, &edges, crate::EdgeDirection::TreeRoot);
     let fit = pair(&fits, 0, 1);
     assert_eq!(fit.kind, JointKind::Hinge);
     let err = mean_error(fit, &trial.joints[1]);
@@ -938,7 +939,7 @@ fn hinge_beside_a_coincident_ball_joint_takes_its_point() {
     // The leaf's markers are scattered about, so only the ball joint pins the centre.
     let mut across = fits.clone();
     crate::place_hinge_centres(&mut fits, &edges);
-    crate::place_hinges_across_bones(&mut across, &edges);
+    crate::place_hinges_across_bones(&mut across, &edges, crate::EdgeDirection::TreeRoot);
     for (how, fits) in [("tree", &fits), ("across bones", &across)] {
         let err = mean_error(pair(fits, 1, 3), &trial.joints[3]);
         assert!(
@@ -1145,7 +1146,7 @@ fn two_hinges_whose_axes_meet_share_the_meeting_point() {
     let edges = tree_edges(&fits, &[(0, 1), (1, 2), (1, 3)]);
     assert_eq!(pair(&fits, 1, 2).kind, JointKind::Hinge);
     assert_eq!(pair(&fits, 1, 3).kind, JointKind::Hinge);
-    crate::place_hinges_across_bones(&mut fits, &edges);
+    crate::place_hinges_across_bones(&mut fits, &edges, crate::EdgeDirection::TreeRoot);
     for child in [2, 3] {
         let err = mean_error(pair(&fits, 1, child), &trial.joints[child]);
         assert!(
