@@ -248,8 +248,8 @@ pub const PARAM_DOCS: &[(&str, &str)] = &[
          bone the axis crosses squarely) with the tree's edges directed from the segment \
          whose orientation wanders least over the capture (1 - the largest singular value² \
          of its mean rotation matrix; jointfit::steadiest_orientation), when that is the \
-         tree's root or wanders under half as much as the root, and then at prior odds of 1 \
-         in 100 that a hinge's sides are the other way round instead of 1 in 10: the \
+         tree's root or wanders under half as much as the root, and then with a prior \
+         probability of 1 % that a hinge's sides are the other way round instead of 10 %: the \
          subject's own root (a trunk, a robot's base, a random tree's first segment) turns \
          least, while topo roots the tree at its centre. The output tree keeps its root. \
          cargo xtask eval --compare bonefit.hinge_sides_from_steadiest=false,true: clean \

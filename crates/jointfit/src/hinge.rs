@@ -702,8 +702,8 @@ struct MarkerEvidence {
 /// side: before the solve, a hinge whose parent side's joints and markers lie square to
 /// the axis while its child side's are tilted, very likely so ([`parent_side_is_square`],
 /// judged with every hinge where its own child side's markers and point joints put it),
-/// takes its sides the other way round; at prior odds of 1 in 10 when `direction` is the
-/// tree's root ([`SQUARE_PRIOR`]), 1 in 100 when it is the segment that turns least
+/// takes its sides the other way round, from a prior probability of 10 % when `direction`
+/// is the tree's root ([`SQUARE_PRIOR`]), 1 % when it is the segment that turns least
 /// ([`STEADY_SQUARE_PRIOR`]). `edges` as for [`place_hinge_centres`].
 pub fn place_hinges_across_bones(
     fits: &mut PairFits,
