@@ -254,8 +254,8 @@ pub const PARAM_DOCS: &[(&str, &str)] = &[
          least, while topo roots the tree at its centre. The output tree keeps its root. \
          cargo xtask eval --compare bonefit.hinge_sides_from_steadiest=false,true: clean \
          random trees, seeds 20001-20100 and 30001-30100, 0.438 -> 0.318 % of height (33 \
-         trials better, 14 worse; the generator's root forced as topo.root, without the \
-         lower odds: 0.395); seeds 4001-4006, 6001-6006, 7001, 9001, 1001, 5001 and \
+         trials better, 14 worse; the generator's root forced as topo.root, with the 10 % \
+         prior: 0.395); seeds 4001-4006, 6001-6006, 7001, 9001, 1001, 5001 and \
          10001-10032: clean 0.071 -> 0.062 %, hard 1.818 -> 1.815, skin 1.861 -> 1.852 \
          (robot arm hard 1.050 -> 1.055, human clean 0.041 -> 0.045); --markers 2:3 on the \
          first 16: clean 0.179 -> 0.146, hard 2.978 -> 2.974; seeds 20001-20050, \
