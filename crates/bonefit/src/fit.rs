@@ -87,18 +87,12 @@ pub fn run(
                     .hinge_sides_from_steadiest
                     .then(|| jointfit::steadiest_orientation(&copy, &edges))
                     .flatten();
-                match steadiest {
-                    Some(directed) => jointfit::place_hinges_across_bones(
-                        &mut copy,
-                        &directed,
-                        jointfit::EdgeDirection::Steadiest,
-                    ),
-                    None => jointfit::place_hinges_across_bones(
-                        &mut copy,
-                        &edges,
-                        jointfit::EdgeDirection::TreeRoot,
-                    ),
-                }
+                let direction = match steadiest {
+                    Some(_) => jointfit::EdgeDirection::Steadiest,
+                    None => jointfit::EdgeDirection::TreeRoot,
+                };
+                let directed = steadiest.as_deref().unwrap_or(&edges);
+                jointfit::place_hinges_across_bones(&mut copy, directed, direction)
             }
             mode => {
                 // The joint solve, capped, for hinges with no ball joint below them.

@@ -1021,16 +1021,15 @@ pub fn steadiest_orientation(
     let mut members: Vec<usize> = edges.iter().flat_map(|&(_, p, c)| [p, c]).collect();
     members.sort_unstable();
     members.dedup();
-    let spread = |x: usize| fits.poses.get(x).and_then(orientation_spread);
-    let root_spread = spread(root)?;
+    let spreads: Vec<(usize, f64)> = members
+        .iter()
+        .filter_map(|&x| Some((x, orientation_spread(fits.poses.get(x)?)?)))
+        .collect();
+    let root_spread = spreads.iter().find(|&&(x, _)| x == root)?.1;
     // The steadiest; ties to the lower id (members ascend).
-    let (best, best_spread) = members.iter().filter_map(|&x| Some((x, spread(x)?))).fold(
-        None,
-        |acc: Option<(usize, f64)>, (x, v)| match acc {
-            Some((_, w)) if w <= v => acc,
-            _ => Some((x, v)),
-        },
-    )?;
+    let &(best, best_spread) = spreads
+        .iter()
+        .reduce(|a, b| if b.1 < a.1 { b } else { a })?;
     if best == root {
         Some(edges.to_vec())
     } else {
@@ -1066,8 +1065,8 @@ fn orientation_spread(poses: &crate::pairfits::SegmentPoses) -> Option<f64> {
     sigma2.is_finite().then_some((1.0 - sigma2).max(0.0))
 }
 
-/// Power-iteration steps in [`orientation_spread`]: MᵀM's eigenvalues are those of a mean
-/// of rotations, and the spread only ranks segments, so a few dozen steps are plenty.
+/// Power-iteration steps in [`orientation_spread`] (from a fixed start, so the spread is
+/// the same on every run).
 const POWER_ITERATIONS: usize = 100;
 
 /// `edges` (pair, parent, child) with each edge of `root`'s component turned so that its

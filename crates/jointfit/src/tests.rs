@@ -1359,14 +1359,28 @@ fn two_marker_human(seed: u64) -> synth::Trial {
     .unwrap()
 }
 
-/// Index of the true segment called `name`.
-fn true_segment(trial: &synth::Trial, name: &str) -> usize {
-    trial
-        .truth
-        .segments
-        .iter()
-        .position(|s| s.name == name)
-        .unwrap()
+/// [`two_marker_human`] with its true segments' markers and the indices of the true
+/// segments called `names`.
+fn two_marker_limb(seed: u64, names: [&str; 3]) -> (synth::Trial, Vec<Vec<usize>>, [usize; 3]) {
+    let trial = two_marker_human(seed);
+    let segments = trial.true_segment_markers();
+    let index = names.map(|name| {
+        trial
+            .truth
+            .segments
+            .iter()
+            .position(|s| s.name == name)
+            .unwrap()
+    });
+    (trial, segments, index)
+}
+
+/// Anchoring that takes only neighbours whose centre the turn identifies.
+fn identified_anchors_only() -> Params {
+    Params {
+        anchor_steadier_ratio: 0.0,
+        ..Params::default()
+    }
 }
 
 /// Two markers on every segment, 1 mm noise (eval's human-noise-s4003 with --markers 2:2):
@@ -1377,20 +1391,15 @@ fn true_segment(trial: &synth::Trial, name: &str) -> usize {
 /// foot went to the thigh and the tree skipped the shank.
 #[test]
 fn a_segment_goes_to_the_neighbour_it_keeps_steadiest() {
-    let trial = two_marker_human(4003);
-    let segments = trial.true_segment_markers();
-    let index = |name: &str| true_segment(&trial, name);
-    let (thigh, shank, foot) = (index("r_thigh"), index("r_shank"), index("r_foot"));
+    let (trial, segments, [thigh, shank, foot]) =
+        two_marker_limb(4003, ["r_thigh", "r_shank", "r_foot"]);
     let costs = |params: &Params| {
         let fits = run_on_segments(&trial.trajectories, &segments, params).unwrap();
         (pair(&fits, shank, foot).cost, pair(&fits, thigh, foot).cost)
     };
     let (ankle, knee_and_ankle) = costs(&Params::default());
     assert!(ankle < knee_and_ankle, "{ankle} vs {knee_and_ankle}");
-    let identified_only = Params {
-        anchor_steadier_ratio: 0.0,
-        ..Params::default()
-    };
+    let identified_only = identified_anchors_only();
     let (ankle, knee_and_ankle) = costs(&identified_only);
     assert!(ankle > knee_and_ankle, "{ankle} vs {knee_and_ankle}");
 }
@@ -1403,10 +1412,8 @@ fn a_segment_goes_to_the_neighbour_it_keeps_steadiest() {
 /// tree, built on the segmentation's pieces, skipped the forearm).
 #[test]
 fn a_segment_steadier_than_the_next_anchor_is_posed_first() {
-    let trial = two_marker_human(4002);
-    let segments = trial.true_segment_markers();
-    let index = |name: &str| true_segment(&trial, name);
-    let (upper, fore, hand) = (index("l_upperarm"), index("l_forearm"), index("l_hand"));
+    let (trial, segments, [upper, fore, hand]) =
+        two_marker_limb(4002, ["l_upperarm", "l_forearm", "l_hand"]);
     let evidence = |params: &Params| {
         let fits = run_on_segments(&trial.trajectories, &segments, params).unwrap();
         let posed = |a, b| pair(&fits, a, b).evidence.clone();
@@ -1416,10 +1423,7 @@ fn a_segment_steadier_than_the_next_anchor_is_posed_first() {
     let (wrist, elbow_and_wrist) = evidence(&Params::default());
     assert!(wrist.contains(&through), "{wrist}");
     assert!(!elbow_and_wrist.contains(&through), "{elbow_and_wrist}");
-    let identified_only = Params {
-        anchor_steadier_ratio: 0.0,
-        ..Params::default()
-    };
+    let identified_only = identified_anchors_only();
     let (wrist, elbow_and_wrist) = evidence(&identified_only);
     assert!(!wrist.contains(&through), "{wrist}");
     assert!(elbow_and_wrist.contains(&through), "{elbow_and_wrist}");

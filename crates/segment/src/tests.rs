@@ -514,20 +514,10 @@ fn trial_of(
 
 /// How many found segments hold markers of `segment` (a true segment's name).
 fn pieces_of(trial: &synth::Trial, seg: &Segmentation, segment: &str) -> usize {
-    let labels = trial.trajectories.labels();
-    let truth = trial
-        .truth
-        .segments
-        .iter()
-        .find(|s| s.name == segment)
-        .expect("true segment");
+    let truth = true_markers(trial, segment);
     seg.segments
         .iter()
-        .filter(|s| {
-            s.markers
-                .iter()
-                .any(|&m| truth.markers.contains(&labels[m]))
-        })
+        .filter(|s| s.markers.iter().any(|m| truth.binary_search(m).is_ok()))
         .count()
 }
 
