@@ -471,6 +471,18 @@ impl FirstSolve {
             .sum();
         (value, spread.max(0.0) + 1.0 / row.weight)
     }
+
+    /// The row's point's offset across unknown k's axis, the other unknowns at the
+    /// solution (a sibling hinge's centre slid to where it was placed).
+    fn implied_across(&self, k: usize, row: &ShiftRow) -> DVec3 {
+        let shift: f64 = row
+            .terms
+            .iter()
+            .filter(|&&(i, _)| i != k)
+            .map(|&(i, _)| self.guess[i])
+            .sum();
+        row.across + row.across_per_shift * shift
+    }
 }
 
 /// One piece of a hinge side's evidence seen as a point of the axis.
@@ -626,6 +638,9 @@ struct ShiftRow {
     lever: f64,
     /// Its offset (mm) from the axis, perpendicular to it, in the side's frame.
     across: DVec3,
+    /// How that offset moves per mm the row's other hinge slides along its own axis
+    /// (zero without one): a sibling hinge's centre is a point only once it is placed.
+    across_per_shift: DVec3,
 }
 
 /// What one side of a hinge says about where the axis crosses that side's bone.
@@ -781,8 +796,10 @@ pub fn place_hinges_across_bones(
             };
             // u·(c_g + s_g u_g − c − s_e u) = 0.
             let mut terms = vec![(k, 1.0)];
+            let mut across_per_shift = DVec3::ZERO;
             if let (Some(kg), Some(u_g)) = (unknown[g], u_g) {
                 terms.push((kg, -u.dot(u_g)));
+                across_per_shift = u_g.reject_from_normalized(u);
             }
             let across = (c_g - c).reject_from_normalized(u);
             let lever = across.length();
@@ -797,6 +814,7 @@ pub fn place_hinges_across_bones(
                     weight: 1.0 / variance,
                     lever,
                     across,
+                    across_per_shift,
                 });
             }
         }
@@ -860,6 +878,7 @@ pub fn place_hinges_across_bones(
                 weight: 1.0 / (spread / m.count as f64 + m.tilt_variance),
                 lever: m.lever,
                 across: m.across,
+                across_per_shift: DVec3::ZERO,
             }
         })
     };
@@ -892,10 +911,15 @@ pub fn place_hinges_across_bones(
                     .chain(marker_row(*k, evidence))
                     .map(|row| {
                         let (value, variance) = alone.implied(*k, &row);
+                        // Across from where the sibling hinge sits once placed, not from
+                        // its unplaced centre: siblings sharing one tip are one point, and
+                        // one point fits any plane (random-clean-s30044: three joints at
+                        // one tip, across 35-162 mm unplaced, read as a square parent side
+                        // and turned a leaf hinge 170 mm along its axis).
                         SideItem {
                             value,
                             variance,
-                            across: row.across,
+                            across: alone.implied_across(*k, &row),
                         }
                     })
                     .collect()
@@ -1182,6 +1206,7 @@ fn meeting_rows(
                     weight,
                     lever,
                     across: DVec3::ZERO,
+                    across_per_shift: DVec3::ZERO,
                 });
                 rows.push(ShiftRow {
                     terms: vec![(ke, c), (kg, -1.0)],
@@ -1189,6 +1214,7 @@ fn meeting_rows(
                     weight,
                     lever,
                     across: DVec3::ZERO,
+                    across_per_shift: DVec3::ZERO,
                 });
             }
         }
@@ -1235,6 +1261,7 @@ mod tests {
             weight: 1.0,
             lever,
             across: DVec3::new(lever, 0.0, 0.0),
+            across_per_shift: DVec3::ZERO,
         };
         (row, value, 1.0)
     }
@@ -1258,6 +1285,39 @@ mod tests {
             sum += value / own.max(floor);
         }
         sum / precision
+    }
+
+    #[test]
+    fn a_sibling_hinge_is_seen_across_the_axis_where_it_is_placed() {
+        // Hinge 0's axis is z; sibling hinge 1's centre sits 100 mm out along x, free along
+        // its own axis (x + y)/√2, and its own evidence places it 40 mm along that.
+        let u_g = DVec3::new(1.0, 1.0, 0.0).normalize();
+        let row = ShiftRow {
+            terms: vec![(0, 1.0), (1, 0.0)],
+            b: 0.0,
+            weight: 1.0,
+            lever: 100.0,
+            across: DVec3::new(100.0, 0.0, 0.0),
+            across_per_shift: u_g.reject_from_normalized(DVec3::Z),
+        };
+        let placed = FirstSolve {
+            guess: vec![0.0, 40.0],
+            covariance: vec![vec![1.0, 0.0], vec![0.0, 1.0]],
+        };
+        let across = placed.implied_across(0, &row);
+        let expected = DVec3::new(100.0, 0.0, 0.0) + 40.0 * u_g;
+        assert!((across - expected).length() < 1e-9, "{across}");
+        // Seen from the sibling's own unknown, the row has no other hinge to slide.
+        assert_eq!(
+            placed.implied_across(
+                1,
+                &ShiftRow {
+                    terms: vec![(1, 1.0)],
+                    ..row
+                }
+            ),
+            row.across
+        );
     }
 
     #[test]
