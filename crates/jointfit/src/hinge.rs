@@ -272,7 +272,11 @@ fn solve(mut h: Vec<Vec<f64>>, mut r: Vec<f64>) -> Option<Vec<f64>> {
 /// agree with each other (a body's legs mounted level with each other) confirm each other
 /// while a lone row meeting a vague child side by chance does not take over. Prior odds
 /// `square_odds` for "square" (1: even); a row believed with probability b gets the
-/// variance that moves the solution b of the way to it.
+/// variance that moves the solution b of the way to it. A row that also holds a sibling
+/// hinge's shift (its value's variance is mostly that hinge's) moves that hinge as much as
+/// this one in the joint solve, so its variance counts the sibling's too: judged at this
+/// hinge's precision alone, a row believed at 3 % pinned a sibling leaf's centre 66 mm
+/// from where its own markers put it (random-clean-s30060).
 fn parent_row_floors(
     guess: f64,
     guess_variance: f64,
@@ -306,7 +310,8 @@ fn parent_row_floors(
                     .sqrt()
                     .max(spread2.sqrt());
                 let belief = square_odds * square / (square_odds * square + 1.0 / (2.0 * reach));
-                rest_variance * (1.0 - belief) / belief.max(1e-12)
+                let sibling_variance = (variance - 1.0 / row.weight).max(0.0);
+                (rest_variance + sibling_variance) * (1.0 - belief) / belief.max(1e-12)
             })
             .collect();
         floors = next;
@@ -1318,6 +1323,33 @@ mod tests {
             ),
             row.across
         );
+    }
+
+    #[test]
+    fn a_row_holding_a_sibling_hinge_counts_its_vagueness() {
+        // A precise child side (σ 0.7 mm) at 0; one parent row puts the shift at 50 with
+        // variance 460: either its own (a lone joint 460 mm² vague) or mostly a sibling
+        // hinge's (the row itself σ 1 mm). Equally believed, but in the joint solve the
+        // second would pin the sibling: its floor must count the sibling's variance.
+        let own = (
+            ShiftRow {
+                weight: 1.0 / 460.0,
+                ..row(50.0, 14.0).0
+            },
+            50.0,
+            460.0,
+        );
+        let sibling = (
+            ShiftRow {
+                terms: vec![(0, 1.0), (1, -0.87)],
+                ..row(50.0, 14.0).0
+            },
+            50.0,
+            460.0,
+        );
+        let floor = |c: (ShiftRow, f64, f64)| parent_row_floors(0.0, 0.5, &[c], 0.3)[0];
+        let (lone, held) = (floor(own), floor(sibling));
+        assert!(held > 100.0 * lone, "{lone} {held}");
     }
 
     #[test]
