@@ -63,6 +63,24 @@ fn synthesize(tmp: &Scratch, subject: &str, preset: &str, seed: u64) -> std::pat
     dir
 }
 
+/// Runs the pipeline on the trial `synthesize` wrote as `stem` with `sets` (`STAGE.PARAM=V`)
+/// and scores its skeleton.json against the trial's truth.
+fn run_and_score(
+    tmp: &Scratch,
+    dir: &std::path::Path,
+    stem: &str,
+    sets: &[String],
+) -> synth::score::Score {
+    let mut args = tmp.run_args(&dir.join(format!("{stem}.c3d")));
+    for set in sets {
+        args.extend(["--set".into(), set.clone()]);
+    }
+    crate::support::xtask_ok(&args.iter().map(String::as_str).collect::<Vec<_>>());
+    let truth = synth::read_truth(&dir.join(format!("{stem}.truth.json"))).unwrap();
+    let estimate = synth::score::read_estimate(&tmp.path("out").join("skeleton.json")).unwrap();
+    synth::score::score(&truth, &estimate)
+}
+
 /// Three joints on one tip of the root segment (random-clean-s30044) are one point, and one
 /// point fits any plane: they must not read as a parent side crossing a leaf hinge's axis
 /// squarely. Seen across that axis from where the sibling hinges are placed (not from their
@@ -73,11 +91,7 @@ fn synthesize(tmp: &Scratch, subject: &str, preset: &str, seed: u64) -> std::pat
 fn siblings_sharing_one_tip_do_not_turn_a_hinge() {
     let tmp = Scratch::new("accuracy-one-tip");
     let dir = synthesize(&tmp, "random", "clean", 30044);
-    let truth = synth::read_truth(&dir.join("random-clean-s30044.truth.json")).unwrap();
-    let args = tmp.run_args(&dir.join("random-clean-s30044.c3d"));
-    crate::support::xtask_ok(&args.iter().map(String::as_str).collect::<Vec<_>>());
-    let estimate = synth::score::read_estimate(&tmp.path("out").join("skeleton.json")).unwrap();
-    let score = synth::score::score(&truth, &estimate);
+    let score = run_and_score(&tmp, &dir, "random-clean-s30044", &[]);
     assert!(score.topology_exact, "{score}");
     assert!(
         score.joint_error_mean_pct.is_some_and(|e| e <= 1.0),
@@ -85,6 +99,27 @@ fn siblings_sharing_one_tip_do_not_turn_a_hinge() {
     );
     assert!(
         score.joint_error_worst_pct.is_some_and(|e| e <= 8.0),
+        "{score}"
+    );
+}
+
+/// A leaf hinge (random-clean-s30060, true joint03) whose parent segment carries a sibling
+/// hinge pinned by its own child side: the row "the leaf's centre lies square to the
+/// sibling's axis" is believed at a few percent, and must move the leaf no further than
+/// that. Counted at the sibling's precision alone it pinned the leaf 66 mm from where its
+/// markers put it (1.6 % of height; now 0.2 %).
+#[test]
+fn a_row_through_a_sibling_hinge_moves_it_only_as_far_as_believed() {
+    let tmp = Scratch::new("accuracy-sibling-row");
+    let dir = synthesize(&tmp, "random", "clean", 30060);
+    let score = run_and_score(&tmp, &dir, "random-clean-s30060", &[]);
+    assert!(score.topology_exact, "{score}");
+    assert!(
+        score.joint_error_mean_pct.is_some_and(|e| e <= 0.5),
+        "{score}"
+    );
+    assert!(
+        score.joint_error_worst_pct.is_some_and(|e| e <= 4.0),
         "{score}"
     );
 }
@@ -212,16 +247,9 @@ fn a_subject_a_twentieth_the_size_gets_the_full_size_tree() {
 fn hinge_sides_are_judged_from_the_segment_that_turns_least() {
     let tmp = Scratch::new("accuracy-steadiest");
     let dir = synthesize(&tmp, "random", "clean", 30055);
-    let truth = synth::read_truth(&dir.join("random-clean-s30055.truth.json")).unwrap();
     let score_with = |steadiest: bool| {
-        let mut args = tmp.run_args(&dir.join("random-clean-s30055.c3d"));
-        args.extend([
-            "--set".into(),
-            format!("bonefit.hinge_sides_from_steadiest={steadiest}"),
-        ]);
-        crate::support::xtask_ok(&args.iter().map(String::as_str).collect::<Vec<_>>());
-        let estimate = synth::score::read_estimate(&tmp.path("out").join("skeleton.json")).unwrap();
-        synth::score::score(&truth, &estimate)
+        let set = format!("bonefit.hinge_sides_from_steadiest={steadiest}");
+        run_and_score(&tmp, &dir, "random-clean-s30055", &[set])
     };
     let steadiest = score_with(true);
     let tree_root = score_with(false);
