@@ -574,3 +574,68 @@ fn gait_trc_knees_and_ankles_sit_between_their_epicondyles_and_malleoli() {
         );
     }
 }
+
+/// The labels of the joints skeleton.json warns about as two segments that disagree about
+/// their centre, each as its two segments' first marker labels.
+fn misfit_joints(skeleton: &serde_json::Value) -> Vec<[String; 2]> {
+    let first_label = |segment: &serde_json::Value| -> String {
+        let id = segment.as_u64();
+        skeleton["segments"]
+            .as_array()
+            .and_then(|s| s.iter().find(|s| s["id"].as_u64() == id))
+            .and_then(|s| s["markers"][0].as_str())
+            .unwrap_or("?")
+            .to_owned()
+    };
+    skeleton["joints"]
+        .as_array()
+        .expect("joints")
+        .iter()
+        .filter(|j| j["warnings"].to_string().contains("common centre"))
+        .map(|j| {
+            [
+                first_label(&j["parent_segment"]),
+                first_label(&j["child_segment"]),
+            ]
+        })
+        .collect()
+}
+
+/// The PhoeniX dance (c3d.org sample 13) has marker plates on thighs, feet, upper arms and
+/// hands but none on shanks or forearms, so the tree joins thigh to foot and upper arm to
+/// hand: two joints and a bone between segments the pipeline takes as one joint. Those are
+/// warned about (both arms and the right leg; the left leg is at 6.9°, under the 8° bound),
+/// and the pelvis's joints (to the chest and both thighs) are not; nor is any joint of CMU
+/// 02_01 or the OpenSim walk, whose every segment carries markers.
+#[test]
+fn joints_over_an_unmarked_segment_are_warned_about() {
+    let Some((_, dance)) = real_skeleton("misfit_dance_warned", "c3d/c3d.org/sample13/Dance.c3d")
+    else {
+        return;
+    };
+    let warned = misfit_joints(&dance);
+    for pair in [
+        ["Channel117", "Channel125"],
+        ["Channel154", "Channel145"],
+        ["Channel121", "Channel129"],
+    ] {
+        assert!(
+            warned.iter().any(|w| w[..] == pair),
+            "{pair:?} not warned: {warned:?}"
+        );
+    }
+    // The pelvis plate's joints: to the chest and to both thighs.
+    assert!(
+        warned.iter().all(|w| !w.iter().any(|l| l == "Channel113")),
+        "{warned:?}"
+    );
+    for (what, file) in [
+        ("misfit_cmu_none", "c3d/cmu/02_01.c3d"),
+        ("misfit_opensim_none", "trc/opensim/subject01_walk1.trc"),
+    ] {
+        let Some((_, skeleton)) = real_skeleton(what, file) else {
+            return;
+        };
+        assert!(misfit_joints(&skeleton).is_empty(), "{file}");
+    }
+}

@@ -398,6 +398,31 @@ fn low_range_of_motion_warns() {
     assert!(warnings.contains("below 20"), "{warnings}");
 }
 
+/// A joint whose two segments disagree about their centre by more than skin would (its
+/// residual a sizeable fraction of its markers' distance from the centre) says so, with the
+/// angle in `centre_misfit_deg`; the scene's other joints, fitted exactly, do not.
+#[test]
+fn a_joint_its_segments_disagree_about_warns() {
+    let mut s = scene(60, 60.0);
+    let knee = s.topology.joints[2].pair;
+    s.fits.pairs[knee].residual_rms_mm = 100.0;
+    let doc = json(&files(&s, &Params::default()));
+    for joint in doc["joints"].as_array().into_iter().flatten() {
+        let misfit = joint["centre_misfit_deg"]
+            .as_f64()
+            .expect("a misfit for every joint");
+        let warned = joint["warnings"].to_string().contains("common centre");
+        let (a, b) = (s.fits.pairs[knee].a as u64, s.fits.pairs[knee].b as u64);
+        let ends = [
+            joint["parent_segment"].as_u64(),
+            joint["child_segment"].as_u64(),
+        ];
+        let is_knee = ends == [Some(a), Some(b)] || ends == [Some(b), Some(a)];
+        assert_eq!(warned, is_knee, "{joint}");
+        assert_eq!(misfit > 8.0, is_knee, "{misfit}");
+    }
+}
+
 /// A joint every pose started from (no segment with three markers of its own) says so, and
 /// only that one.
 #[test]
