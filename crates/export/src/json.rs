@@ -10,7 +10,7 @@ const LOW_RANGE_OF_MOTION_DEG: f64 = 20.0;
 /// Above this centre misfit (degrees, [`centre_misfit_deg`]) the two segments may not turn
 /// about one point. Joints of the real captures in ../shared/data whose tree is right stay
 /// at or under 5.5° (CMU 02_01 at most 1.2°); the PhoeniX dance (c3d.org sample 13), which has
-/// no shank or forearm markers, joins thigh to foot and upper arm to hand at 7.1-18.7°
+/// no shank or forearm markers, joins thigh to foot and upper arm to hand at 6.9-18.7°
 /// (three of the four above this), and CMU 49_04's cluster of an upper-arm, a sternum and a
 /// shoulder marker sits at 9°. Synthetic skin of 5-15 mm on segments a few centimetres
 /// across goes further: 2.3 % of the hard preset's true joints (16 seeds) are above it.
