@@ -12,6 +12,10 @@
 //! those frames each sits where the other belongs, at its partner's usual distances from
 //! the partner's home. A steady triangle alone is no proof (a marker near a knee's axis
 //! keeps its distances to both the thigh's and the shank's markers); the exchange is.
+//! A suspect whose partner never left its own distances (the two were close when the
+//! tracker confused them) is paired with the marker of another cluster nearest to where it
+//! was recorded while away, judged on whichever distances are seen, and must also jump at
+//! a window's end: an exchange is a discontinuity, skin is smooth.
 
 use mocap_io::Trajectories;
 use rayon::prelude::*;
@@ -31,6 +35,17 @@ const MIN_EXPLAINED: f64 = 0.9;
 
 /// Fewest swapped frames that prove a swap (fewer can be two markers passing close).
 const MIN_SWAPPED_FRAMES: usize = 3;
+
+/// A swap proven on part of its distances only (a partner that never left its own, a home
+/// unseen during the window) must also jump: one of the two markers moves between two
+/// frames at a window's end by this many times its median frame-to-frame step. A tracker's
+/// exchange is a discontinuity; skin is smooth (snowman-messy-s6005's swap: steps of
+/// 49-68 mm against medians of 11-12 mm; hexapod-hard-s10009's skin, which the distances
+/// alone took for a swap: 2.4-5.6 mm against 4.5-5.7).
+const JUMP_FACTOR: f64 = 4.0;
+
+/// Frames searched on each side of a window's end for [`JUMP_FACTOR`]'s jump.
+const JUMP_SLACK_FRAMES: usize = 2;
 
 /// A marker's own bound: this many times the median change of its distances from their
 /// usual values (a marker skin moves a lot is judged by its own scatter).
@@ -105,6 +120,7 @@ pub(crate) fn find_swaps(
             (y.marker, &y.home),
             hold_mm,
             stride,
+            false,
         );
         if let Some(windows) = test {
             found.push(LabelSwap {
@@ -113,7 +129,80 @@ pub(crate) fn find_swaps(
             });
         }
     }
+    // A suspect with no suspect partner: the two were close when the tracker confused
+    // them, so the partner, sitting where the suspect was, can stay within its own bound
+    // (and its home can be unseen in the window). Its partner is the marker of another
+    // posable cluster nearest to where the suspect was recorded while away; the swap is
+    // proven on the distances that are seen, and by a jump at a window's end.
+    for x in &suspects {
+        let taken = |m: usize| found.iter().any(|s| s.markers.contains(&m));
+        if taken(x.marker) {
+            continue;
+        }
+        let nearest = markers
+            .iter()
+            .filter(|&&(c, m)| c != x.home_cluster && clusters[c].len() >= 3 && !taken(m))
+            .filter_map(|&(c, m)| {
+                let d: Vec<f64> = x
+                    .away
+                    .iter()
+                    .filter_map(|&f| distance(traj, f, x.marker, m))
+                    .collect();
+                (!d.is_empty()).then(|| (d.iter().sum::<f64>() / d.len() as f64, c, m))
+            })
+            .min_by(|p, q| p.0.total_cmp(&q.0).then(p.2.cmp(&q.2)));
+        let Some((_, c, y)) = nearest else {
+            continue;
+        };
+        let home_y: Vec<usize> = clusters[c].iter().copied().filter(|&m| m != y).collect();
+        let test = swap_test(
+            traj,
+            (x.marker, &x.home),
+            (y, &home_y),
+            hold_mm,
+            stride,
+            true,
+        );
+        if let Some(windows) = test.filter(|w| jumps_at_an_end(traj, [x.marker, y], w)) {
+            found.push(LabelSwap {
+                markers: [x.marker, y],
+                frames: windows,
+            });
+        }
+    }
     found
+}
+
+/// Whether one of `markers` jumps ([`JUMP_FACTOR`] × its median step) between two frames
+/// within [`JUMP_SLACK_FRAMES`] of the start or the end of one of `windows`.
+fn jumps_at_an_end(traj: &Trajectories, markers: [usize; 2], windows: &[[usize; 2]]) -> bool {
+    let frames = traj.frames();
+    let step = |m: usize, f: usize| -> Option<f64> {
+        let (p, q) = (traj.get(f, m)?, traj.get(f + 1, m)?);
+        Some(((p[0] - q[0]).powi(2) + (p[1] - q[1]).powi(2) + (p[2] - q[2]).powi(2)).sqrt())
+    };
+    markers.iter().any(|&m| {
+        let mut steps: Vec<f64> = (0..frames.saturating_sub(1))
+            .filter_map(|f| step(m, f))
+            .collect();
+        if steps.is_empty() {
+            return false;
+        }
+        let typical = median(&mut steps);
+        windows.iter().any(|&[start, end]| {
+            // The step into the window (start − 1 → start) and out of it (end → end + 1).
+            [start.checked_sub(1), Some(end)]
+                .into_iter()
+                .flatten()
+                .any(|edge| {
+                    let lo = edge.saturating_sub(JUMP_SLACK_FRAMES);
+                    let hi = (edge + JUMP_SLACK_FRAMES).min(frames.saturating_sub(2));
+                    (lo..=hi)
+                        .filter_map(|f| step(m, f))
+                        .any(|d| d > JUMP_FACTOR * typical)
+                })
+        })
+    })
 }
 
 /// A marker that leaves its usual distances to a home's markers in a minority of frames.
@@ -218,13 +307,15 @@ fn distance(traj: &Trajectories, f: usize, m: usize, h: usize) -> Option<f64> {
 
 /// Whether markers `a` (home `home_a`) and `b` (home `home_b`) are a swap: each at its
 /// home's distances in most frames, each at the other's home's distances for the other
-/// in the rest. Returns the swap windows.
+/// in the rest. Returns the swap windows. With `partial`, a frame where only some of the
+/// four distances are seen counts too, judged on those (a home unseen in the window).
 fn swap_test(
     traj: &Trajectories,
     (a, home_a): (usize, &[usize]),
     (b, home_b): (usize, &[usize]),
     hold_mm: f64,
     stride: usize,
+    partial: bool,
 ) -> Option<Vec<[usize; 2]>> {
     let (usual_a, usual_b) = (
         Distances::new(traj, a, home_a, stride),
@@ -269,7 +360,7 @@ fn swap_test(
     // clearly belong home; runs apart by a few frames that only home explains are one
     // window. A window must hold frames of proof (two markers passing close can look
     // exchanged briefly).
-    let (mut at_home, mut swapped) = (0usize, 0usize);
+    let (mut at_home, mut swapped, mut partly) = (0usize, 0usize, 0usize);
     let mut windows: Vec<([usize; 2], usize)> = Vec::new();
     let mut home_since_last = usize::MAX;
     for &(f, [ha, hb, xa, xb]) in &changes {
@@ -279,7 +370,13 @@ fn swap_test(
         let within =
             |ratios: [Option<f64>; 2], bound: f64| ratios.iter().flatten().all(|&x| x <= bound);
         let judged = home.iter().chain(&away).all(Option::is_some);
-        let proof = judged && !within(home, 1.0) && within(away, 1.0);
+        // Seen in part: away from home on what is seen, and some exchange to weigh.
+        let part = partial
+            && !judged
+            && home.iter().flatten().any(|&x| x > 1.0)
+            && away.iter().any(Option::is_some);
+        partly += usize::from(part);
+        let proof = (judged || part) && !within(home, 1.0) && within(away, 1.0);
         if judged && within(home, 1.0) {
             at_home += 1;
         }
@@ -287,6 +384,10 @@ fn swap_test(
         let (home_cost, away_cost) = match (home[0].zip(away[0]), home[1].zip(away[1])) {
             (Some((h1, x1)), Some((h2, x2))) => (h1 + h2, x1 + x2),
             (Some((h, x)), None) | (None, Some((h, x))) => (h, x),
+            (None, None) if part => (
+                home.iter().flatten().sum::<f64>(),
+                away.iter().flatten().sum::<f64>(),
+            ),
             (None, None) => continue,
         };
         if away_cost >= home_cost {
@@ -307,7 +408,7 @@ fn swap_test(
         }
         home_since_last = 0;
     }
-    let explained = (at_home + swapped) as f64 / both.len().max(1) as f64;
+    let explained = (at_home + swapped) as f64 / (both.len() + partly).max(1) as f64;
     let proven = swapped >= MIN_SWAPPED_FRAMES && at_home > swapped && explained >= MIN_EXPLAINED;
     let windows: Vec<[usize; 2]> = windows
         .into_iter()
@@ -319,4 +420,36 @@ fn swap_test(
         return None;
     }
     Some(windows)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// Two markers moving smoothly (4 mm a frame); with `jump`, the first leaves by 60 mm
+    /// for frames 40-59 (a tracker's exchange), else it swerves by as much smoothly.
+    fn pair(jump: bool) -> Trajectories {
+        let frames = 100;
+        let mut positions = Vec::with_capacity(2 * frames);
+        for f in 0..frames {
+            let x = 4.0 * f as f64;
+            let offset = if jump {
+                if (40..60).contains(&f) { 60.0 } else { 0.0 }
+            } else {
+                60.0 * (std::f64::consts::PI * f as f64 / frames as f64).sin()
+            };
+            positions.push([x, offset, 0.0]);
+            positions.push([x, 100.0, 0.0]);
+        }
+        Trajectories::new(vec!["A".into(), "B".into()], 100.0, 1, frames, positions).expect("valid")
+    }
+
+    #[test]
+    fn an_exchange_jumps_at_its_window_and_skin_does_not() {
+        assert!(jumps_at_an_end(&pair(true), [0, 1], &[[40, 59]]));
+        // Off by the slack: still found.
+        assert!(jumps_at_an_end(&pair(true), [0, 1], &[[42, 57]]));
+        assert!(!jumps_at_an_end(&pair(true), [0, 1], &[[20, 30]]));
+        assert!(!jumps_at_an_end(&pair(false), [0, 1], &[[40, 59]]));
+    }
 }
