@@ -163,7 +163,7 @@ pub(crate) fn find_swaps(
             stride,
             true,
         );
-        if let Some(windows) = test.filter(|w| jumps_at_an_end(traj, [x.marker, y], w)) {
+        if let Some(windows) = test.filter(|w| jumps_at_an_end(traj, [x.marker, y], w, hold_mm)) {
             found.push(LabelSwap {
                 markers: [x.marker, y],
                 frames: windows,
@@ -173,9 +173,15 @@ pub(crate) fn find_swaps(
     found
 }
 
-/// Whether one of `markers` jumps ([`JUMP_FACTOR`] × its median step) between two frames
-/// within [`JUMP_SLACK_FRAMES`] of the start or the end of one of `windows`.
-fn jumps_at_an_end(traj: &Trajectories, markers: [usize; 2], windows: &[[usize; 2]]) -> bool {
+/// Whether one of `markers` jumps ([`JUMP_FACTOR`] × its median step, and more than
+/// `floor_mm`, what skin moves a marker: a still marker's median step is its noise) between
+/// two frames within [`JUMP_SLACK_FRAMES`] of the start or the end of one of `windows`.
+fn jumps_at_an_end(
+    traj: &Trajectories,
+    markers: [usize; 2],
+    windows: &[[usize; 2]],
+    floor_mm: f64,
+) -> bool {
     let frames = traj.frames();
     let step = |m: usize, f: usize| -> Option<f64> {
         let (p, q) = (traj.get(f, m)?, traj.get(f + 1, m)?);
@@ -188,7 +194,7 @@ fn jumps_at_an_end(traj: &Trajectories, markers: [usize; 2], windows: &[[usize; 
         if steps.is_empty() {
             return false;
         }
-        let typical = median(&mut steps);
+        let bound = (JUMP_FACTOR * median(&mut steps)).max(floor_mm);
         windows.iter().any(|&[start, end]| {
             // The step into the window (start − 1 → start) and out of it (end → end + 1).
             [start.checked_sub(1), Some(end)]
@@ -197,9 +203,7 @@ fn jumps_at_an_end(traj: &Trajectories, markers: [usize; 2], windows: &[[usize; 
                 .any(|edge| {
                     let lo = edge.saturating_sub(JUMP_SLACK_FRAMES);
                     let hi = (edge + JUMP_SLACK_FRAMES).min(frames.saturating_sub(2));
-                    (lo..=hi)
-                        .filter_map(|f| step(m, f))
-                        .any(|d| d > JUMP_FACTOR * typical)
+                    (lo..=hi).filter_map(|f| step(m, f)).any(|d| d > bound)
                 })
         })
     })
@@ -446,10 +450,12 @@ mod tests {
 
     #[test]
     fn an_exchange_jumps_at_its_window_and_skin_does_not() {
-        assert!(jumps_at_an_end(&pair(true), [0, 1], &[[40, 59]]));
+        assert!(jumps_at_an_end(&pair(true), [0, 1], &[[40, 59]], 10.0));
         // Off by the slack: still found.
-        assert!(jumps_at_an_end(&pair(true), [0, 1], &[[42, 57]]));
-        assert!(!jumps_at_an_end(&pair(true), [0, 1], &[[20, 30]]));
-        assert!(!jumps_at_an_end(&pair(false), [0, 1], &[[40, 59]]));
+        assert!(jumps_at_an_end(&pair(true), [0, 1], &[[42, 57]], 10.0));
+        assert!(!jumps_at_an_end(&pair(true), [0, 1], &[[20, 30]], 10.0));
+        assert!(!jumps_at_an_end(&pair(false), [0, 1], &[[40, 59]], 10.0));
+        // A jump no larger than skin moves a marker is none.
+        assert!(!jumps_at_an_end(&pair(true), [0, 1], &[[40, 59]], 80.0));
     }
 }
