@@ -477,16 +477,13 @@ impl FirstSolve {
         (value, spread.max(0.0) + 1.0 / row.weight)
     }
 
-    /// The row's point's offset across unknown k's axis, the other unknowns at the
-    /// solution (a sibling hinge's centre slid to where it was placed).
+    /// The row's point's offset across unknown k's axis, its sibling hinge (if any, and
+    /// not k itself) slid to where this solution places it.
     fn implied_across(&self, k: usize, row: &ShiftRow) -> DVec3 {
-        let shift: f64 = row
-            .terms
-            .iter()
-            .filter(|&&(i, _)| i != k)
-            .map(|&(i, _)| self.guess[i])
-            .sum();
-        row.across + row.across_per_shift * shift
+        match row.sibling {
+            Some((g, per_mm)) if g != k => row.across + per_mm * self.guess[g],
+            _ => row.across,
+        }
     }
 }
 
@@ -643,9 +640,9 @@ struct ShiftRow {
     lever: f64,
     /// Its offset (mm) from the axis, perpendicular to it, in the side's frame.
     across: DVec3,
-    /// How that offset moves per mm the row's other hinge slides along its own axis
-    /// (zero without one): a sibling hinge's centre is a point only once it is placed.
-    across_per_shift: DVec3,
+    /// The sibling hinge whose centre the row holds (its unknown), and how the offset moves
+    /// per mm that hinge slides along its own axis: its centre is a point only once placed.
+    sibling: Option<(usize, DVec3)>,
 }
 
 /// What one side of a hinge says about where the axis crosses that side's bone.
@@ -801,10 +798,10 @@ pub fn place_hinges_across_bones(
             };
             // u·(c_g + s_g u_g − c − s_e u) = 0.
             let mut terms = vec![(k, 1.0)];
-            let mut across_per_shift = DVec3::ZERO;
+            let mut sibling = None;
             if let (Some(kg), Some(u_g)) = (unknown[g], u_g) {
                 terms.push((kg, -u.dot(u_g)));
-                across_per_shift = u_g.reject_from_normalized(u);
+                sibling = Some((kg, u_g.reject_from_normalized(u)));
             }
             let across = (c_g - c).reject_from_normalized(u);
             let lever = across.length();
@@ -819,7 +816,7 @@ pub fn place_hinges_across_bones(
                     weight: 1.0 / variance,
                     lever,
                     across,
-                    across_per_shift,
+                    sibling,
                 });
             }
         }
@@ -883,7 +880,7 @@ pub fn place_hinges_across_bones(
                 weight: 1.0 / (spread / m.count as f64 + m.tilt_variance),
                 lever: m.lever,
                 across: m.across,
-                across_per_shift: DVec3::ZERO,
+                sibling: None,
             }
         })
     };
@@ -1211,7 +1208,7 @@ fn meeting_rows(
                     weight,
                     lever,
                     across: DVec3::ZERO,
-                    across_per_shift: DVec3::ZERO,
+                    sibling: None,
                 });
                 rows.push(ShiftRow {
                     terms: vec![(ke, c), (kg, -1.0)],
@@ -1219,7 +1216,7 @@ fn meeting_rows(
                     weight,
                     lever,
                     across: DVec3::ZERO,
-                    across_per_shift: DVec3::ZERO,
+                    sibling: None,
                 });
             }
         }
@@ -1266,7 +1263,7 @@ mod tests {
             weight: 1.0,
             lever,
             across: DVec3::new(lever, 0.0, 0.0),
-            across_per_shift: DVec3::ZERO,
+            sibling: None,
         };
         (row, value, 1.0)
     }
@@ -1303,7 +1300,7 @@ mod tests {
             weight: 1.0,
             lever: 100.0,
             across: DVec3::new(100.0, 0.0, 0.0),
-            across_per_shift: u_g.reject_from_normalized(DVec3::Z),
+            sibling: Some((1, u_g.reject_from_normalized(DVec3::Z))),
         };
         let placed = FirstSolve {
             guess: vec![0.0, 40.0],
