@@ -24,7 +24,8 @@ use crate::fitsplit::median;
 use crate::reassign::nearest_clusters;
 use crate::segmentation::LabelSwap;
 
-/// Most suspect pairs tested, those away together the most first.
+/// Most suspect pairs tested, those away together the most first (and as many lone
+/// suspects, those away the most first).
 const MAX_SWAP_TESTS: usize = 256;
 
 /// Clusters searched as a swapped marker's home, nearest first.
@@ -133,8 +134,16 @@ pub(crate) fn find_swaps(
     // them, so the partner, sitting where the suspect was, can stay within its own bound
     // (and its home can be unseen in the window). Its partner is the marker of another
     // posable cluster nearest to where the suspect was recorded while away; the swap is
-    // proven on the distances that are seen, and by a jump at a window's end.
-    for x in &suspects {
+    // proven on the distances that are seen, and by a jump at a window's end. Tested as
+    // the pairs are, the longest away first and at most MAX_SWAP_TESTS of them.
+    let mut lone: Vec<&Suspect> = suspects.iter().collect();
+    lone.sort_by(|x, y| {
+        y.away
+            .len()
+            .cmp(&x.away.len())
+            .then(x.marker.cmp(&y.marker))
+    });
+    for x in lone.into_iter().take(MAX_SWAP_TESTS) {
         let taken = |m: usize| found.iter().any(|s| s.markers.contains(&m));
         if taken(x.marker) {
             continue;
@@ -183,10 +192,7 @@ fn jumps_at_an_end(
     floor_mm: f64,
 ) -> bool {
     let frames = traj.frames();
-    let step = |m: usize, f: usize| -> Option<f64> {
-        let (p, q) = (traj.get(f, m)?, traj.get(f + 1, m)?);
-        Some(((p[0] - q[0]).powi(2) + (p[1] - q[1]).powi(2) + (p[2] - q[2]).powi(2)).sqrt())
-    };
+    let step = |m: usize, f: usize| Some(apart(traj.get(f, m)?, traj.get(f + 1, m)?));
     markers.iter().any(|&m| {
         let mut steps: Vec<f64> = (0..frames.saturating_sub(1))
             .filter_map(|f| step(m, f))
@@ -305,8 +311,12 @@ impl<'a> Distances<'a> {
 
 /// Distance (mm) between markers `m` and `h` in frame `f`, when both are seen.
 fn distance(traj: &Trajectories, f: usize, m: usize, h: usize) -> Option<f64> {
-    let (p, q) = (traj.get(f, m)?, traj.get(f, h)?);
-    Some(((p[0] - q[0]).powi(2) + (p[1] - q[1]).powi(2) + (p[2] - q[2]).powi(2)).sqrt())
+    Some(apart(traj.get(f, m)?, traj.get(f, h)?))
+}
+
+/// Euclidean distance between two points (mm).
+fn apart(p: [f64; 3], q: [f64; 3]) -> f64 {
+    ((p[0] - q[0]).powi(2) + (p[1] - q[1]).powi(2) + (p[2] - q[2]).powi(2)).sqrt()
 }
 
 /// Whether markers `a` (home `home_a`) and `b` (home `home_b`) are a swap: each at its
