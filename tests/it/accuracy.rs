@@ -89,16 +89,23 @@ fn run_and_score(
 /// axis, 2.3 % of height).
 #[test]
 fn siblings_sharing_one_tip_do_not_turn_a_hinge() {
-    let tmp = Scratch::new("accuracy-one-tip");
-    let dir = synthesize(&tmp, "random", "clean", 30044);
-    let score = run_and_score(&tmp, &dir, "random-clean-s30044", &[]);
+    random_clean_within(30044, 1.0, 8.0);
+}
+
+/// Synthesizes the clean random tree of `seed`, runs it with the defaults, and checks its
+/// tree is exact and its mean and worst joint errors are at most `mean_pct` and `worst_pct`
+/// of its height.
+fn random_clean_within(seed: u64, mean_pct: f64, worst_pct: f64) {
+    let tmp = Scratch::new(&format!("accuracy-random-clean-{seed}"));
+    let dir = synthesize(&tmp, "random", "clean", seed);
+    let score = run_and_score(&tmp, &dir, &format!("random-clean-s{seed}"), &[]);
     assert!(score.topology_exact, "{score}");
     assert!(
-        score.joint_error_mean_pct.is_some_and(|e| e <= 1.0),
+        score.joint_error_mean_pct.is_some_and(|e| e <= mean_pct),
         "{score}"
     );
     assert!(
-        score.joint_error_worst_pct.is_some_and(|e| e <= 8.0),
+        score.joint_error_worst_pct.is_some_and(|e| e <= worst_pct),
         "{score}"
     );
 }
@@ -158,18 +165,7 @@ fn a_swap_whose_partner_stays_put_is_found_by_its_jumps() {
 /// markers put it (1.6 % of height; now 0.2 %).
 #[test]
 fn a_row_through_a_sibling_hinge_moves_it_only_as_far_as_believed() {
-    let tmp = Scratch::new("accuracy-sibling-row");
-    let dir = synthesize(&tmp, "random", "clean", 30060);
-    let score = run_and_score(&tmp, &dir, "random-clean-s30060", &[]);
-    assert!(score.topology_exact, "{score}");
-    assert!(
-        score.joint_error_mean_pct.is_some_and(|e| e <= 0.5),
-        "{score}"
-    );
-    assert!(
-        score.joint_error_worst_pct.is_some_and(|e| e <= 4.0),
-        "{score}"
-    );
+    random_clean_within(30060, 0.5, 4.0);
 }
 
 /// A label swap whose markers leave homes of two (robot arm, seed 21): found with its exact
