@@ -13,7 +13,7 @@ const LOW_RANGE_OF_MOTION_DEG: f64 = 20.0;
 /// no shank or forearm markers, joins thigh to foot and upper arm to hand at 6.9-18.7°
 /// (three of the four above this), and CMU 49_04's cluster of an upper-arm, a sternum and a
 /// shoulder marker sits at 9°. Synthetic skin of 5-15 mm on segments a few centimetres
-/// across goes further: 2.3 % of the hard preset's true joints (16 seeds) are above it.
+/// across goes further: 1.7 % of the hard preset's true joints (16 seeds) are above it.
 const CENTRE_MISFIT_WARN_DEG: f64 = 8.0;
 
 /// The whole of skeleton.json. Field order is the byte order of the file.
