@@ -22,6 +22,11 @@
 //!   of those pairs about as cheap, and it turns clearly more than either: its motion
 //!   composes theirs) is taken after them (`composite_rotation_ratio`): with skin, two
 //!   clavicles on the sternum fit a common centre as well as each fits the thorax.
+//!   Kinds are stronger evidence than costs: a pair that is not a hinge, turning at least
+//!   as much as two hinges through a third segment, is their composite even when they
+//!   cost more (`composite_hinge_cost_ratio`): two hinges on one hub compose to two
+//!   degrees of freedom, and were it a joint, one of those two pairs would compose its
+//!   motion with another joint's and read as no hinge.
 //! - Root: the tree's centre (minimum eccentricity in hops), ties by the smaller sum of
 //!   hops to every segment, then most markers, then the smaller mean distance to the
 //!   other segments over the capture, then lowest id; it lands on the pelvis or torso of
@@ -63,6 +68,10 @@ pub struct Params {
     pub composite_rotation_ratio: f64,
     /// ... when those two cost at most this many times as much as it (default 1.5).
     pub composite_cost_ratio: f64,
+    /// A pair that is not a hinge and turns at least as much as two hinges through a third
+    /// segment, costing at most this many times as much as it, is their composite
+    /// (default 3; 0 = off).
+    pub composite_hinge_cost_ratio: f64,
 }
 
 impl Default for Params {
@@ -74,6 +83,7 @@ impl Default for Params {
             tie_relative: 0.0,
             composite_rotation_ratio: 1.2,
             composite_cost_ratio: 1.5,
+            composite_hinge_cost_ratio: 3.0,
         }
     }
 }
@@ -117,5 +127,20 @@ pub const PARAM_DOCS: &[(&str, &str)] = &[
         "composite_cost_ratio",
         "see composite_rotation_ratio: how much dearer (times) the two pairs through the \
          third segment may be; default 1.5",
+    ),
+    (
+        "composite_hinge_cost_ratio",
+        "a pair (b, c) that is not a hinge (ball or universal) and turns at least as much as \
+         both a-b and a-c, where both of those are hinges costing at most this many times \
+         its cost, is their composite and is taken after them: two hinges on one hub with \
+         different axes compose to two degrees of freedom, and were b-c a joint, a-b or a-c \
+         would compose its motion with another joint's and read as no hinge; the kinds hold \
+         where costs, pulled by skin on a poorly posed hub, do not. Measured \
+         (cargo xtask eval --presets hard, seeds 20001-20050 and 30001-30050, every subject): \
+         exact trees 427 -> 434/600 (random 67 -> 74), none lost; on 16 seeds (4001-4006, \
+         6001-6006, 7001, 9001, 1001, 5001) hard 76 -> 77, skin 64 -> 66, messy 74 -> 75, \
+         clean unchanged; seeds 10001-10032 hard 146 -> 147, noise 188 -> 189, skin 133 -> \
+         135/192; an offline copy of this stage over the same pair fits gains the same trees \
+         at 2 to 5 and loses two human trees at 100; 0 = off; default 3",
     ),
 ];

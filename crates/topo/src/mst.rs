@@ -53,7 +53,7 @@ pub fn run(seg: &Segmentation, fits: &PairFits, params: &Params) -> Result<Topol
         let rank = u8::from(!(params.rigid_first && p.kind == JointKind::Rigid));
         edges.push((rank, p.cost, p.a, p.b, i));
     }
-    if params.composite_rotation_ratio > 0.0 {
+    if params.composite_rotation_ratio > 0.0 || params.composite_hinge_cost_ratio > 0.0 {
         // Pair index by segments, so each triangle costs three lookups, not three scans.
         let mut index = vec![None; n * n];
         for (i, p) in fits.pairs.iter().enumerate() {
@@ -258,12 +258,18 @@ fn break_near_ties(edges: &mut [(u8, f64, usize, usize, usize)], fits: &PairFits
     }
 }
 
-/// When pair (b, c) looks like the composite of two joints through a third segment a
-/// (a–b and a–c both cost at most `composite_cost_ratio` × its cost, and it turns at least
-/// `composite_rotation_ratio` × as much as either), the cost it should be taken after:
-/// the cheapest such a's dearer edge. A pair across two joints composes both joints'
-/// motions, so it turns more than either; where the joints are close (two clavicles on
-/// the sternum, two legs on one tip) it can still fit a centre as well as they do.
+/// When pair (b, c) looks like the composite of two joints through a third segment a,
+/// the cost it should be taken after: the cheapest such a's dearer edge. A pair across
+/// two joints composes both joints' motions, so it turns more than either; where the
+/// joints are close (two clavicles on the sternum, two legs on one tip) it can still fit
+/// a centre as well as they do. It is a composite when
+/// - a–b and a–c both cost at most `composite_cost_ratio` × its cost and it turns at least
+///   `composite_rotation_ratio` × as much as either, or
+/// - it is not a hinge, a–b and a–c are both hinges costing at most
+///   `composite_hinge_cost_ratio` × its cost, and it turns at least as much as either:
+///   two hinges compose to more than one axis, while in a chain through a hinge the
+///   pair across it composes that hinge with the other joint and is no hinge itself.
+///
 /// `index[x * n + y]` is the pair of segments x and y.
 fn composite_of(
     fits: &PairFits,
@@ -279,15 +285,22 @@ fn composite_of(
             .filter(|p| p.cost.is_finite() && p.rotation_rms_deg.is_finite())
     };
     let own = pair(b, c)?;
+    let own_not_hinge = matches!(own.kind, JointKind::Ball | JointKind::Universal);
     (0..n)
         .filter(|&a| a != b && a != c)
         .filter_map(|a| {
             let (ab, ac) = (pair(a, b)?, pair(a, c)?);
             let dearer = ab.cost.max(ac.cost);
             let turns = ab.rotation_rms_deg.max(ac.rotation_rms_deg);
-            let explained = dearer <= params.composite_cost_ratio * own.cost
+            let by_motion = params.composite_rotation_ratio > 0.0
+                && dearer <= params.composite_cost_ratio * own.cost
                 && own.rotation_rms_deg >= params.composite_rotation_ratio * turns;
-            explained.then_some(dearer)
+            let by_kinds = own_not_hinge
+                && ab.kind == JointKind::Hinge
+                && ac.kind == JointKind::Hinge
+                && dearer <= params.composite_hinge_cost_ratio * own.cost
+                && own.rotation_rms_deg >= turns;
+            (by_motion || by_kinds).then_some(dearer)
         })
         .min_by(f64::total_cmp)
 }
@@ -756,6 +769,55 @@ mod tests {
         }
         let t = run(&seg, &f, &Params::default()).unwrap_or_else(|e| panic!("{e}"));
         assert!(edge_set(&t).contains(&(0, 1)));
+    }
+
+    #[test]
+    fn two_hinges_on_a_hub_outrank_the_cheaper_ball_they_compose() {
+        // Hub 2 (poorly posed) carries 0 and 1 on hinges about different axes; the pair
+        // (0, 1) fits a centre at half their cost, reads as a ball and turns more than
+        // either: the hinges' composite, not a joint.
+        let seg = segmentation(&[4, 4, 3, 3]);
+        let mut f = fits(4, |a, b| match (a, b) {
+            (0, 1) => (5.0, JointKind::Ball),
+            (0, 2) => (9.0, JointKind::Hinge),
+            (1, 2) => (12.0, JointKind::Hinge),
+            (2, 3) => (4.0, JointKind::Ball),
+            _ => (60.0, JointKind::Ball),
+        });
+        for p in &mut f.pairs {
+            p.rotation_rms_deg = match (p.a, p.b) {
+                (0, 1) => 41.0,
+                (0, 2) => 38.0,
+                (1, 2) => 30.0,
+                _ => 30.0,
+            };
+        }
+        let t = run(&seg, &f, &Params::default()).unwrap_or_else(|e| panic!("{e}"));
+        assert_eq!(edge_set(&t), [(0, 2), (1, 2), (2, 3)]);
+        let off = Params {
+            composite_hinge_cost_ratio: 0.0,
+            ..Params::default()
+        };
+        let t = run(&seg, &f, &off).unwrap_or_else(|e| panic!("{e}"));
+        assert!(edge_set(&t).contains(&(0, 1)));
+        // Beyond the ratio (12 > 2 x 5), the cheaper pair stands.
+        let tight = Params {
+            composite_hinge_cost_ratio: 2.0,
+            ..Params::default()
+        };
+        let t = run(&seg, &f, &tight).unwrap_or_else(|e| panic!("{e}"));
+        assert!(edge_set(&t).contains(&(0, 1)));
+        // A hinge, or a ball turning less than a hinge through the hub, is no composite.
+        for (kind, turns) in [(JointKind::Hinge, 41.0), (JointKind::Ball, 35.0)] {
+            for p in &mut f.pairs {
+                if (p.a, p.b) == (0, 1) {
+                    p.kind = kind;
+                    p.rotation_rms_deg = turns;
+                }
+            }
+            let t = run(&seg, &f, &Params::default()).unwrap_or_else(|e| panic!("{e}"));
+            assert!(edge_set(&t).contains(&(0, 1)), "{kind:?} {turns}");
+        }
     }
 
     #[test]
