@@ -73,6 +73,8 @@ pub fn run(
     // Hinge centres placed on their axes from the tree, on a copy of the pair fits.
     let placed;
     let mut hinge_shifts = vec![0.0; topo.joints.len()];
+    // Per tree joint: its slide ends at a point two segments' fit measured.
+    let mut measured_point = vec![false; topo.joints.len()];
     let fits = if params.place_hinges {
         let mut copy = fits.clone();
         let edges: Vec<(usize, usize, usize)> = topo
@@ -92,7 +94,9 @@ pub fn run(
                     None => jointfit::EdgeDirection::TreeRoot,
                 };
                 let directed = steadiest.as_deref().unwrap_or(&edges);
-                jointfit::place_hinges_across_bones(&mut copy, directed, direction)
+                let placed = jointfit::place_hinges_across_bones(&mut copy, directed, direction);
+                measured_point = placed.at_composite_point;
+                placed.shifts
             }
             mode => {
                 // The joint solve, capped, for hinges with no ball joint below them.
@@ -121,7 +125,9 @@ pub fn run(
             // A true hinge's centre slides along its axis at no cost to the fit; where the
             // slide makes the two segments disagree about the centre noticeably more, the
             // axis is not a line of equally good centres (a ball read as a hinge, a noisy
-            // axis): keep the pair fit's centre.
+            // axis): keep the pair fit's centre. Unless the slide ends at a point other
+            // segments' fit measured: then the pair's own wobble along a skin-tilted axis
+            // is what grows, not doubt about where the centre is.
             let (Some(before), Some(after)) = (fits.pairs.get(pair), copy.pairs.get(pair)) else {
                 continue;
             };
@@ -133,7 +139,8 @@ pub fn run(
                 || bone.is_nan()
                 || bone <= 0.0
                 || s.abs() <= params.hinge_max_shift_ratio * bone;
-            if short && r1 <= r0 * (1.0 + params.hinge_residual_increase.max(0.0)) + 0.1 {
+            let steady = r1 <= r0 * (1.0 + params.hinge_residual_increase.max(0.0)) + 0.1;
+            if short && (steady || measured_point[e]) {
                 *h = s;
             } else {
                 copy.pairs[pair] = before.clone();

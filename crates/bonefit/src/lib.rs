@@ -57,7 +57,10 @@
 //!   their mean; the others take the joint solve of all hinges
 //!   (`jointfit::place_hinge_centres`) where that slide is at most
 //!   `hinge_max_shift_ratio` of the bone. Every slide is kept only if it barely changes
-//!   the pair's residual (`hinge_residual_increase`). Measured (`cargo xtask eval --seeds
+//!   the pair's residual (`hinge_residual_increase`), or if it ends at a point two other
+//!   segments' pair fit measured (`jointfit::HingePlacements::at_composite_point`: two
+//!   joints on one tip), where skin's tilt of the axis, not doubt, grows the residual.
+//!   Measured (`cargo xtask eval --seeds
 //!   4001,4002,4003,7001,9001,1001,5001,5002 --compare
 //!   bonefit.hinge_placement=child,bone`): clean 0.34 % → 0.10 % of height, hard 1.83 % →
 //!   1.74 %; random-clean over seeds 4001–4016 1.20 % → 0.56 %.
@@ -221,8 +224,9 @@ pub const PARAM_DOCS: &[(&str, &str)] = &[
         "hinge_residual_increase",
         "a slid hinge centre is kept only if the pair's residual RMS (mm, the centre as the \
          two segments carry it) grows by at most this fraction plus 0.1 mm; otherwise the \
-         pair fit's centre stays (the axis is not a line of equally good centres); \
-         default 0.1",
+         pair fit's centre stays (the axis is not a line of equally good centres); a \
+         slide to a point two neighbouring segments' own fit measured (two joints on one \
+         tip) is kept regardless; default 0.1",
     ),
     (
         "hinge_max_shift_ratio",

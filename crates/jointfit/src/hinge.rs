@@ -676,9 +676,19 @@ struct MarkerEvidence {
     across: DVec3,
 }
 
+/// Where [`place_hinges_across_bones`] moved each tree edge's hinge centre.
+#[derive(Clone, Debug, Default, PartialEq)]
+pub struct HingePlacements {
+    /// Shift along the unit axis (mm) per edge, 0 where the hinge did not move.
+    pub shifts: Vec<f64>,
+    /// Per edge: the shift ends at a point two neighbouring segments turn about (a point
+    /// the fits measured, [`composite_point_rows`]), not where anatomy says a bone crosses.
+    pub at_composite_point: Vec<bool>,
+}
+
 /// Moves every free hinge centre of the tree along its axis to where the axis crosses its
 /// child segment's bone, all hinges at once; returns the shifts (mm along the unit axis,
-/// 0 where a hinge did not move) in `edges` order.
+/// 0 where a hinge did not move) in `edges` order, and which ended at a measured point.
 ///
 /// A hinge turns its child about an axis across the child's bone (a knee across the
 /// shank, an elbow across the forearm, a robot's joint across its link): the bone, and so
@@ -711,7 +721,10 @@ struct MarkerEvidence {
 /// - two free hinges of one segment whose axes meet there, within what their fits leave
 ///   and where both hinges' child sides allow: both centres at the meeting point
 ///   ([`meeting_rows`]; hinges hung on one tip, where markers alone place each only to the
-///   limb's radius).
+///   limb's radius);
+/// - the point the hinge's far segment and a neighbouring joint's far segment turn about,
+///   where their pair fit has one on the axis ([`composite_point_rows`]): two joints at
+///   one tip, measured by two segments' poses where axes that skin tilts may not meet.
 ///
 /// Unlike [`place_hinge_centres`], nothing pulls from the parent side unchecked. The
 /// tree's direction says which side is the child, but a tree rooted elsewhere than the
@@ -726,9 +739,12 @@ pub fn place_hinges_across_bones(
     fits: &mut PairFits,
     edges: &[(usize, usize, usize)],
     direction: EdgeDirection,
-) -> Vec<f64> {
+) -> HingePlacements {
     let segments = fits.poses.len();
-    let mut shifts = vec![0.0; edges.len()];
+    let mut placed = HingePlacements {
+        shifts: vec![0.0; edges.len()],
+        at_composite_point: vec![false; edges.len()],
+    };
     // An edge's centre and unit axis (if any) seen from segment x.
     let seen_from = |e: usize, x: usize| -> Option<(DVec3, Option<DVec3>)> {
         let (pair, parent, child) = edges[e];
@@ -759,7 +775,7 @@ pub fn place_hinges_across_bones(
         }
     }
     if count == 0 {
-        return shifts;
+        return placed;
     }
     let residual = |e: usize| {
         fits.pairs
@@ -902,7 +918,7 @@ pub fn place_hinges_across_bones(
             .filter(|row| row.terms.len() == 1)
             .collect();
         let Some(alone) = FirstSolve::of(&points, count) else {
-            return shifts;
+            return placed;
         };
         for (k, child, parent) in hinges.iter_mut() {
             let items = |evidence: &SideEvidence| -> Vec<SideItem> {
@@ -947,7 +963,7 @@ pub fn place_hinges_across_bones(
         .flat_map(|(k, child, _)| with_markers(*k, child))
         .collect();
     let Some(solution) = FirstSolve::of(&rows, count) else {
-        return shifts;
+        return placed;
     };
     let guess = &solution.guess;
     let covariance = &solution.covariance;
@@ -996,8 +1012,12 @@ pub fn place_hinges_across_bones(
     // tip), which pins both far better than their markers.
     let axes = free_axes(edges, &unknown, &seen_from, segments);
     rows.extend(meeting_rows(&axes, &residual, &tilt, &solution));
+    let composite = composite_point_rows(
+        fits, edges, &unknown, &seen_from, &residual, &tilt, &solution,
+    );
+    rows.extend(composite.iter().cloned());
     let Some(s) = solve_rows(&rows, count) else {
-        return shifts;
+        return placed;
     };
     let tracks: Vec<_> = fits.poses.iter().map(pose_track).collect();
     for (e, &(pair, _, _)) in edges.iter().enumerate() {
@@ -1012,10 +1032,14 @@ pub fn place_hinges_across_bones(
             &tracks,
             "to where it crosses a bone squarely",
         ) {
-            shifts[e] = shift;
+            placed.shifts[e] = shift;
+            let bound = PARENT_JOINT_TEST_SIGMAS * PARENT_JOINT_TEST_SIGMAS;
+            placed.at_composite_point[e] = composite
+                .iter()
+                .any(|row| row.terms[0].0 == k && (shift - row.b).powi(2) * row.weight <= bound);
         }
     }
-    shifts
+    placed
 }
 
 /// How much steadier in the world (its orientation's spread, [`orientation_spread`]) the
@@ -1224,6 +1248,110 @@ fn meeting_rows(
     rows
 }
 
+/// Rows putting a free hinge's centre where its far segment and the far segment of a
+/// neighbouring tree joint turn about one point, when they do. Two joints of one segment x
+/// at one point (a random tree's branches hung on one tip) leave the pair of their far
+/// segments y and z a composite turning about that point, fixed in both: its pair fit,
+/// from two segments' poses rather than a hinge's markers, finds it to the fits' noise.
+/// The point is taken for hinge e (x–y) when it lies on e's axis in y's frame and on the
+/// other joint g's axis (or at its centre) in z's frame, each within
+/// [`PARENT_JOINT_TEST_SIGMAS`] standard deviations (the residuals of that joint and of the
+/// y–z fit, and its tilt times how far along its axis the point is), the y–z fit is no worse than the
+/// joints' own (its residual at most the larger of theirs: two joints at different places
+/// leave y–z no common point, so its centre lands off both axes and fits badly), and the
+/// child sides' own evidence (`first`) allows it within the same bound: every point of a
+/// hinge's axis is a centre of its motion, so a neighbour's point on it (a chain whose
+/// bone runs along the next axis: random-skin-s6003, 110 mm apart) is where the hinge is
+/// only if its child's markers agree.
+fn composite_point_rows(
+    fits: &PairFits,
+    edges: &[(usize, usize, usize)],
+    unknown: &[Option<usize>],
+    seen_from: &dyn Fn(usize, usize) -> Option<(DVec3, Option<DVec3>)>,
+    residual: &dyn Fn(usize) -> f64,
+    tilt: &dyn Fn(usize) -> f64,
+    first: &FirstSolve,
+) -> Vec<ShiftRow> {
+    let bound = PARENT_JOINT_TEST_SIGMAS * PARENT_JOINT_TEST_SIGMAS;
+    let mut rows = Vec::new();
+    let far = |e: usize, x: usize| {
+        let (_, parent, child) = edges[e];
+        if parent == x {
+            Some(child)
+        } else if child == x {
+            Some(parent)
+        } else {
+            None
+        }
+    };
+    // Where edge j's joint has `point` (in its segment w's frame): along its axis from its
+    // centre (0 for a point joint), the squared distance off its axis (or centre), and
+    // the variance that distance has there.
+    let seen_at = |j: usize, w: usize, point: DVec3, composite: f64| {
+        let (c, u) = seen_from(j, w)?;
+        let (along, off) = match u {
+            Some(u) => (u.dot(point - c), (point - c).reject_from_normalized(u)),
+            None => (0.0, point - c),
+        };
+        let variance = BONE_SIGMA_FLOOR_MM.powi(2)
+            + residual(j).powi(2)
+            + composite.powi(2)
+            + (tilt(j) * along).powi(2);
+        Some((along, off.length_squared(), variance))
+    };
+    for (e, &(_, pe, ce)) in edges.iter().enumerate() {
+        let Some(k) = unknown[e] else { continue };
+        for x in [pe, ce] {
+            let Some(y) = far(e, x) else { continue };
+            for g in (0..edges.len()).filter(|&g| g != e) {
+                let Some(z) = far(g, x) else { continue };
+                let Some(yz) = fits
+                    .pairs
+                    .iter()
+                    .find(|p| (p.a, p.b) == (y.min(z), y.max(z)))
+                else {
+                    continue;
+                };
+                let composite = yz.residual_rms_mm;
+                if !composite.is_finite() || composite > residual(e).max(residual(g)) {
+                    continue;
+                }
+                let (in_y, in_z) = if y == yz.a {
+                    (yz.centre_in_a, yz.centre_in_b)
+                } else {
+                    (yz.centre_in_b, yz.centre_in_a)
+                };
+                let (in_y, in_z) = (DVec3::from_array(in_y), DVec3::from_array(in_z));
+                if !in_y.is_finite() || !in_z.is_finite() {
+                    continue;
+                }
+                // The point must be both joints': on e's axis as y carries it, and on g's
+                // axis (or at its centre) as z carries it.
+                let (Some((along, off, variance)), Some((_, off_g, variance_g))) = (
+                    seen_at(e, y, in_y, composite),
+                    seen_at(g, z, in_z, composite),
+                ) else {
+                    continue;
+                };
+                let allowed =
+                    (along - first.guess[k]).powi(2) <= bound * (first.covariance[k][k] + variance);
+                if off > bound * variance || off_g > bound * variance_g || !allowed {
+                    continue;
+                }
+                rows.push(ShiftRow {
+                    terms: vec![(k, 1.0)],
+                    b: along,
+                    weight: 1.0 / variance,
+                    lever: off.sqrt(),
+                    across: DVec3::ZERO,
+                    sibling: None,
+                });
+            }
+        }
+    }
+    rows
+}
+
 /// The weighted least-squares shifts of `count` unknowns from `rows`; an unknown no row
 /// mentions stays at 0. `None` when the normal equations are singular.
 fn solve_rows(rows: &[ShiftRow], count: usize) -> Option<Vec<f64>> {
@@ -1287,6 +1415,84 @@ mod tests {
             sum += value / own.max(floor);
         }
         sum / precision
+    }
+
+    /// A pair fit between segments a < b, centres and residual given, nothing else.
+    fn point_fit(a: usize, b: usize, centres: [[f64; 3]; 2], residual: f64) -> PairFit {
+        PairFit {
+            a,
+            b,
+            method: "test".into(),
+            cost: residual,
+            centre_in_a: centres[0],
+            centre_in_b: centres[1],
+            positions: Vec::new(),
+            kind: crate::JointKind::Ball,
+            axis_in_a: None,
+            axis_in_b: None,
+            residual_rms_mm: residual,
+            frames_used: 100,
+            rotation_rms_deg: 30.0,
+            rotation_max_deg: 60.0,
+            wobble_deg: [10.0; 3],
+            evidence: String::new(),
+            centre_from_distances: false,
+            seeded: false,
+        }
+    }
+
+    #[test]
+    fn a_hinge_goes_to_the_point_its_far_segment_and_a_siblings_turn_about() {
+        // Hub 0 carries hinge 0–1 (axis z in segment 1's frame, centre at the origin) and
+        // ball joint 0–2 (centre at segment 2's origin). Segments 1 and 2 turn about one
+        // point, 40 mm along the hinge's axis and at the ball's centre.
+        let edges = [(0, 0, 1), (1, 0, 2)];
+        let unknown = [Some(0), None];
+        let seen_from = |e: usize, x: usize| match (e, x) {
+            (0, 1) => Some((DVec3::ZERO, Some(DVec3::Z))),
+            (1, 2) => Some((DVec3::ZERO, None)),
+            _ => None,
+        };
+        let residual = |_: usize| 5.0;
+        let tilt = |_: usize| 0.05;
+        // The child side's own evidence puts the hinge at `guess` ± 10 mm.
+        let rows_with = |composite: PairFit, guess: f64| {
+            let first = FirstSolve {
+                guess: vec![guess],
+                covariance: vec![vec![100.0]],
+            };
+            let fits = PairFits {
+                pairs: vec![
+                    point_fit(0, 1, [[0.0; 3]; 2], 5.0),
+                    point_fit(0, 2, [[0.0; 3]; 2], 5.0),
+                    composite,
+                ],
+                frames: 100,
+                poses: Vec::new(),
+            };
+            composite_point_rows(
+                &fits, &edges, &unknown, &seen_from, &residual, &tilt, &first,
+            )
+        };
+        let rows = rows_with(point_fit(1, 2, [[3.0, -2.0, 40.0], [0.0; 3]], 4.0), 30.0);
+        assert_eq!(rows.len(), 1);
+        assert_eq!(rows[0].terms, vec![(0, 1.0)]);
+        assert!((rows[0].b - 40.0).abs() < 1e-12, "{}", rows[0].b);
+        // A point well off the axis (60 mm, against σ ≈ 6.8 mm) or away from the ball's
+        // centre is no common point of the two joints, and neither is one fitted worse
+        // than the joints themselves.
+        assert!(rows_with(point_fit(1, 2, [[60.0, 0.0, 40.0], [0.0; 3]], 4.0), 30.0).is_empty());
+        assert!(
+            rows_with(
+                point_fit(1, 2, [[3.0, -2.0, 40.0], [0.0, 50.0, 0.0]], 4.0),
+                30.0
+            )
+            .is_empty()
+        );
+        assert!(rows_with(point_fit(1, 2, [[3.0, -2.0, 40.0], [0.0; 3]], 9.0), 30.0).is_empty());
+        // Every point of the axis is a centre of the hinge's motion: a point its child's
+        // markers put far from it (3σ of both ≈ 36 mm) is another joint on the axis.
+        assert!(rows_with(point_fit(1, 2, [[3.0, -2.0, 40.0], [0.0; 3]], 4.0), -10.0).is_empty());
     }
 
     #[test]

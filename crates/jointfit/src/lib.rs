@@ -68,8 +68,8 @@ mod small;
 
 pub use error::Error;
 pub use hinge::{
-    EdgeDirection, place_hinge_centres, place_hinges_across_bones, slide_hinge_centre,
-    steadiest_orientation,
+    EdgeDirection, HingePlacements, place_hinge_centres, place_hinges_across_bones,
+    slide_hinge_centre, steadiest_orientation,
 };
 pub use horn::{RigidFit, absolute_orientation, rotation_from_cross_covariance};
 pub use pairfits::*;
