@@ -9,6 +9,8 @@
 //! every slid hinge centre is listed (shift, bone).
 #![allow(clippy::print_stdout)]
 
+mod common;
+
 use synth::{Preset, Subject, SynthConfig};
 
 fn main() -> Result<(), Box<dyn std::error::Error>> {
@@ -61,9 +63,7 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
                 ..SynthConfig::default()
             })?;
             let traj = &trial.trajectories;
-            let seg = segment::run(traj, &segment::Params::default())?;
-            let fits = jointfit::run(traj, &seg, &jointfit::Params::default())?;
-            let topology = topo::run(&seg, &fits, &topo::Params::default())?;
+            let (seg, fits, topology) = common::up_to_tree(&trial)?;
             for &(method, rotations) in &methods {
                 let params = bonefit::Params {
                     method,

@@ -5,6 +5,8 @@
 //! (markers per segment as `MIN:MAX`, default the generator's).
 #![allow(clippy::print_stdout)]
 
+mod common;
+
 use synth::{Preset, Subject, SynthConfig};
 
 fn main() -> Result<(), Box<dyn std::error::Error>> {
@@ -18,53 +20,11 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
         .and_then(|a| a.split_once(':'))
         .and_then(|(lo, hi)| Some((lo.parse().ok()?, hi.parse().ok()?)))
         .unwrap_or(SynthConfig::default().markers_per_segment);
-    let trial = synth::generate(&SynthConfig {
-        subject,
-        preset,
-        frames,
-        seed,
-        markers_per_segment,
-        ..SynthConfig::default()
-    })?;
-    let traj = &trial.trajectories;
-    let seg = segment::run(traj, &segment::Params::default())?;
-    let fits = jointfit::run(traj, &seg, &jointfit::Params::default())?;
-    let topology = topo::run(&seg, &fits, &topo::Params::default())?;
-    // Estimated segment → truth segment with the most shared markers.
-    let labels = traj.labels();
-    let truth_of: Vec<Option<usize>> = seg
-        .segments
-        .iter()
-        .map(|s| {
-            let mut best = (0usize, None);
-            for (t, ts) in trial.truth.segments.iter().enumerate() {
-                let shared = s
-                    .markers
-                    .iter()
-                    .filter(|&&m| labels.get(m).is_some_and(|l| ts.markers.contains(l)))
-                    .count();
-                if shared > best.0 {
-                    best = (shared, Some(t));
-                }
-            }
-            best.1
-        })
-        .collect();
-    let true_edge = |a: usize, b: usize| {
-        let (Some(ta), Some(tb)) = (truth_of[a], truth_of[b]) else {
-            return false;
-        };
-        trial.truth.joints.iter().any(|j| {
-            (j.parent_segment, j.child_segment) == (ta, tb)
-                || (j.parent_segment, j.child_segment) == (tb, ta)
-        })
-    };
-    let chosen = |a: usize, b: usize| {
-        topology.joints.iter().any(|j| {
-            (j.parent_segment, j.child_segment) == (a, b)
-                || (j.parent_segment, j.child_segment) == (b, a)
-        })
-    };
+    let trial = common::trial(subject, preset, seed, frames, markers_per_segment)?;
+    let (seg, fits, topology) = common::up_to_tree(&trial)?;
+    let truth_of = common::truth_of(&trial, &seg);
+    let true_edge = |a: usize, b: usize| common::true_edge(&trial, &truth_of, a, b);
+    let chosen = |a: usize, b: usize| common::chosen(&topology, a, b);
     println!(
         "{} segments {}, truth {}; root {}",
         trial.name,
