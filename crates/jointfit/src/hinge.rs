@@ -1305,11 +1305,7 @@ fn composite_point_rows(
             let Some(y) = far(e, x) else { continue };
             for g in (0..edges.len()).filter(|&g| g != e) {
                 let Some(z) = far(g, x) else { continue };
-                let Some(yz) = fits
-                    .pairs
-                    .iter()
-                    .find(|p| (p.a, p.b) == (y.min(z), y.max(z)))
-                else {
+                let Some(yz) = fits.pair(y, z) else {
                     continue;
                 };
                 let composite = yz.residual_rms_mm;

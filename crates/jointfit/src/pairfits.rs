@@ -16,6 +16,20 @@ pub struct PairFits {
     pub pairs: Vec<PairFit>,
 }
 
+impl PairFits {
+    /// The fit between segments x and y (either order); `None` when there is none.
+    pub fn pair(&self, x: usize, y: usize) -> Option<&PairFit> {
+        let (a, b) = (x.min(y), x.max(y));
+        let n = self.poses.len();
+        // Lexicographic order of (a, b), a < b: the pairs before row a, then b's place in
+        // it; a search where the fits are not laid out so.
+        let at = (a < b && b < n).then(|| a * n - a * (a + 1) / 2 + (b - a - 1));
+        at.and_then(|i| self.pairs.get(i))
+            .filter(|p| (p.a, p.b) == (a, b))
+            .or_else(|| self.pairs.iter().find(|p| (p.a, p.b) == (a, b)))
+    }
+}
+
 /// The rigid motion of one segment: local frame → global frame at every frame.
 ///
 /// Local frame: origin at the centroid of the reference shape, axes of the global frame

@@ -1106,6 +1106,21 @@ fn a_hinge_wobbling_by_pose_noise_alone_is_a_hinge() {
     }
 }
 
+/// A pair is found by its two segments in either order, and only a pair of two segments.
+#[test]
+fn a_pair_fit_is_found_by_its_segments() {
+    let mut rng = TestRng(7);
+    let bodies = chain(&mut rng, &[Articulation::Ball(50.0); 3], 4);
+    let trial = generate(&mut rng, &bodies, 60, 0.1, |_, _, _| false);
+    let fits = run_on_segments(&trial.traj, &trial.segments, &Params::default()).unwrap();
+    for (x, y) in [(0, 1), (3, 1), (2, 0), (3, 2)] {
+        let p = fits.pair(x, y).unwrap_or_else(|| panic!("no pair {x}-{y}"));
+        assert_eq!((p.a, p.b), (x.min(y), x.max(y)));
+    }
+    assert!(fits.pair(2, 2).is_none());
+    assert!(fits.pair(1, 4).is_none());
+}
+
 /// Two hinges hung on one tip of a parent whose bone meets neither axis squarely, each
 /// child carried by three markers that straddle its bone unevenly along the axis (their
 /// midrange 20 mm off it): the axes meet at the tip, and both centres go there.
