@@ -1253,16 +1253,18 @@ fn meeting_rows(
 /// at one point (a random tree's branches hung on one tip) leave the pair of their far
 /// segments y and z a composite turning about that point, fixed in both: its pair fit,
 /// from two segments' poses rather than a hinge's markers, finds it to the fits' noise.
-/// The point is taken for hinge e (x–y) when it lies on e's axis in y's frame and on the
-/// other joint g's axis (or at its centre) in z's frame, each within
-/// [`PARENT_JOINT_TEST_SIGMAS`] standard deviations (the residuals of that joint and of the
-/// y–z fit, and its tilt times how far along its axis the point is), the y–z fit is no worse than the
-/// joints' own (its residual at most the larger of theirs: two joints at different places
-/// leave y–z no common point, so its centre lands off both axes and fits badly), and the
-/// child sides' own evidence (`first`) allows it within the same bound: every point of a
-/// hinge's axis is a centre of its motion, so a neighbour's point on it (a chain whose
-/// bone runs along the next axis: random-skin-s6003, 110 mm apart) is where the hinge is
-/// only if its child's markers agree.
+/// The point is taken for hinge e (x–y) when
+/// - it lies on e's axis in y's frame and on the other joint g's axis (or at its centre)
+///   in z's frame, each within [`PARENT_JOINT_TEST_SIGMAS`] standard deviations (the
+///   residuals of that joint and of the y–z fit, and its tilt times how far along its
+///   axis the point is);
+/// - the y–z fit is no worse than the joints' own (its residual at most the larger of
+///   theirs): two joints at different places leave y–z no common point, so its centre
+///   lands off the axes and fits badly;
+/// - the child sides' own evidence (`first`) allows it within the same bound: every point
+///   of a hinge's axis is a centre of its motion, so a neighbour's point on it (a chain
+///   whose bone runs along the next axis: random-skin-s6003, 110 mm apart) is where the
+///   hinge is only if its child's markers agree.
 fn composite_point_rows(
     fits: &PairFits,
     edges: &[(usize, usize, usize)],
