@@ -65,7 +65,9 @@ pub struct Args {
     /// Under each trial, one line per true joint: kind, estimated joint and kind, mean and
     /// worst error, its steady and varying parts in the parent's frame (mm), for a hinge the
     /// steady part along its axis (mm), known %; then
-    /// each estimated joint no true joint matched, by the true segments it joins.
+    /// each estimated joint no true joint matched, by the true segments it joins. With
+    /// --compare, each variant's estimated kind, mean and worst error and a hinge's steady
+    /// part along its axis side by side.
     #[arg(long)]
     pub joints: bool,
     /// Give the later stages the true segments instead of the segment stage's, to tell
@@ -565,7 +567,7 @@ pub fn main(args: &Args) -> Result<()> {
             println!("{line}");
         }
     } else {
-        print_comparison(&all);
+        print_comparison(&all, args.joints);
     }
     Ok(())
 }
@@ -814,7 +816,7 @@ fn summary_line(label: &str, results: &[TrialResult], wall: f64) -> String {
     format!("summary [{label}] {}; {wall:.1} s wall", parts.join("; "))
 }
 
-fn print_comparison(all: &[(String, Vec<TrialResult>, f64)]) {
+fn print_comparison(all: &[(String, Vec<TrialResult>, f64)], joints: bool) {
     let mut header = format!("{:<22}", "trial");
     for (label, _, _) in all {
         header.push_str(&format!(" | {:^30}", truncate(label, 30)));
@@ -847,6 +849,11 @@ fn print_comparison(all: &[(String, Vec<TrialResult>, f64)]) {
             }
         }
         println!("{line}");
+        if joints {
+            for line in joint_comparison_lines(all, i) {
+                println!("{line}");
+            }
+        }
     }
     for (label, results, wall) in all {
         println!("{}", summary_line(label, results, *wall));
@@ -857,6 +864,37 @@ fn print_comparison(all: &[(String, Vec<TrialResult>, f64)]) {
             println!("  {} FAILED: {}", r.trial, r.error.as_deref().unwrap_or(""));
         }
     }
+}
+
+/// Under trial `i` of a comparison, one line per true joint: its kind, then per variant
+/// the estimated kind, mean and worst error and, for a hinge, the steady part along its
+/// axis (mm), in the columns of the trial's own line.
+fn joint_comparison_lines(all: &[(String, Vec<TrialResult>, f64)], i: usize) -> Vec<String> {
+    let opt = |x: Option<f64>| x.map_or_else(|| "-".into(), |v| fmt_f(v, 1));
+    let Some(first) = all.first().and_then(|(_, r, _)| r.get(i)) else {
+        return Vec::new();
+    };
+    first
+        .joints
+        .iter()
+        .enumerate()
+        .map(|(k, truth)| {
+            let mut line = format!("    {:<12} {:<5}", truncate(&truth.truth, 12), truth.kind);
+            for (_, results, _) in all {
+                match results.get(i).and_then(|r| r.joints.get(k)) {
+                    Some(j) if j.estimate.is_some() => line.push_str(&format!(
+                        " | {:<6} {:>7} {:>7} {:>7}",
+                        j.estimated_kind.as_deref().unwrap_or("-"),
+                        opt(j.mean_mm),
+                        opt(j.worst_mm),
+                        opt(j.steady_along_axis_mm),
+                    )),
+                    _ => line.push_str(&format!(" | {:<30}", "(missed)")),
+                }
+            }
+            line
+        })
+        .collect()
 }
 
 fn truncate(s: &str, n: usize) -> String {
@@ -1139,6 +1177,43 @@ mod tests {
         assert_eq!(json["by_subject"]["clean"]["human"]["trials"], 2);
         // One subject: the summary line says it all.
         assert!(subject_lines(&results[..2]).is_empty());
+    }
+
+    /// `--compare --joints`: each true joint's line holds every variant's estimate in the
+    /// trial line's columns, and says where a variant missed it.
+    #[test]
+    fn compared_joints_line_up_under_their_variants() {
+        let joint = |name: &str, estimate: Option<f64>| JointResult {
+            truth: name.into(),
+            kind: "hinge".into(),
+            estimate: estimate.map(|_| "j1".into()),
+            estimated_kind: estimate.map(|_| "ball".into()),
+            mean_mm: estimate,
+            worst_mm: estimate.map(|e| 2.0 * e),
+            steady_mm: None,
+            steady_along_axis_mm: estimate.map(|e| e / 2.0),
+            varying_mm: None,
+            known_fraction: 1.0,
+        };
+        let mut a = result("random", "hard", true, 1.0);
+        a.joints = vec![joint("joint01", Some(6.4)), joint("joint02", Some(64.6))];
+        let mut b = result("random", "hard", true, 1.0);
+        b.joints = vec![joint("joint01", Some(6.4)), joint("joint02", None)];
+        let all = [
+            ("x=0".to_string(), vec![a], 1.0),
+            ("x=1".to_string(), vec![b], 1.0),
+        ];
+        let lines = joint_comparison_lines(&all, 0);
+        assert_eq!(
+            lines,
+            [
+                "    joint01      hinge | ball       6.4    12.8     3.2 | ball       6.4    12.8     3.2",
+                "    joint02      hinge | ball      64.6   129.2    32.3 | (missed)                      ",
+            ]
+        );
+        // Each variant's block is as wide as the trial line's (" | " and 30 columns).
+        assert_eq!(lines[0].len(), 22 + 2 * 33);
+        assert!(joint_comparison_lines(&all, 1).is_empty());
     }
 
     /// Hinge-or-not is counted over joints, each trial's accuracy weighted by its matched
