@@ -54,14 +54,8 @@ pub fn run(seg: &Segmentation, fits: &PairFits, params: &Params) -> Result<Topol
         edges.push((rank, p.cost, p.a, p.b, i));
     }
     if params.composite_rotation_ratio > 0.0 || params.composite_hinge_cost_ratio > 0.0 {
-        // Pair index by segments, so each triangle costs three lookups, not three scans.
-        let mut index = vec![None; n * n];
-        for (i, p) in fits.pairs.iter().enumerate() {
-            index[p.a * n + p.b] = Some(i);
-            index[p.b * n + p.a] = Some(i);
-        }
         for e in edges.iter_mut().filter(|e| e.0 == 1) {
-            if let Some(after) = composite_of(fits, &index, n, e.2, e.3, params) {
+            if let Some(after) = composite_of(fits, n, e.2, e.3, params) {
                 e.1 = e.1.max(after);
             }
         }
@@ -269,19 +263,9 @@ fn break_near_ties(edges: &mut [(u8, f64, usize, usize, usize)], fits: &PairFits
 ///   `composite_hinge_cost_ratio` × its cost, and it turns at least as much as either:
 ///   two hinges compose to more than one axis, while in a chain through a hinge the
 ///   pair across it composes that hinge with the other joint and is no hinge itself.
-///
-/// `index[x * n + y]` is the pair of segments x and y.
-fn composite_of(
-    fits: &PairFits,
-    index: &[Option<usize>],
-    n: usize,
-    b: usize,
-    c: usize,
-    params: &Params,
-) -> Option<f64> {
+fn composite_of(fits: &PairFits, n: usize, b: usize, c: usize, params: &Params) -> Option<f64> {
     let pair = |x: usize, y: usize| {
-        index[x * n + y]
-            .map(|i| &fits.pairs[i])
+        fits.pair(x, y)
             .filter(|p| p.cost.is_finite() && p.rotation_rms_deg.is_finite())
     };
     let own = pair(b, c)?;
