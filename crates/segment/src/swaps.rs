@@ -16,6 +16,8 @@
 //! tracker confused them) is paired with the marker of another cluster nearest to where it
 //! was recorded while away, judged on whichever distances are seen, and must also jump at
 //! a window's end: an exchange is a discontinuity, skin is smooth.
+//! Every swap's window ends then move to where exchanging back joins both markers' paths
+//! again, and a swap whose undoing would leave a jump is no swap ([`joined_windows`]).
 
 use mocap_io::Trajectories;
 use rayon::prelude::*;
@@ -123,6 +125,8 @@ pub(crate) fn find_swaps(
             stride,
             false,
         );
+        let test =
+            test.and_then(|w| joined_windows(traj, [x.marker, y.marker], &w, hold_mm, stride));
         if let Some(windows) = test {
             found.push(LabelSwap {
                 markers: [x.marker, y.marker],
@@ -172,7 +176,10 @@ pub(crate) fn find_swaps(
             stride,
             true,
         );
-        if let Some(windows) = test.filter(|w| jumps_at_an_end(traj, [x.marker, y], w, hold_mm)) {
+        let test = test
+            .filter(|w| jumps_at_an_end(traj, [x.marker, y], w, hold_mm))
+            .and_then(|w| joined_windows(traj, [x.marker, y], &w, hold_mm, stride));
+        if let Some(windows) = test {
             found.push(LabelSwap {
                 markers: [x.marker, y],
                 frames: windows,
@@ -213,6 +220,108 @@ fn jumps_at_an_end(
                 })
         })
     })
+}
+
+/// `windows` with each end moved to where exchanging `markers` back joins both
+/// trajectories again, or `None` when some end cannot be joined: the distances place an
+/// end only roughly (skin, gaps; quadruped-messy-s4006: found 270-334, the exchange ends
+/// at 341), continuity places it to the frame. Each end is searched within
+/// [`JUMP_SLACK_FRAMES`] plus the search stride plus a quarter of its window's length:
+/// there each marker's corrected step across it must be within [`JUMP_FACTOR`] × its
+/// median step (and `floor_mm`); a placement where the recorded steps jump and the
+/// corrected ones do not is preferred, then the nearest. A real swap's undoing joins each
+/// marker's own path again, whether the tracker's exchange jumped (the generator's) or
+/// happened where the two passed close; undoing an exchange that never happened puts a
+/// jump of the markers' separation into both (hexapod-skin-s5001: a femur and a tibia
+/// marker 32-42 mm apart, steps of 4.5 mm, taken for a swap by their distances alone).
+/// An end where no step joins stays where it was if some step of its search is unseen
+/// (the exchange may hide in a gap).
+fn joined_windows(
+    traj: &Trajectories,
+    [a, b]: [usize; 2],
+    windows: &[[usize; 2]],
+    floor_mm: f64,
+    stride: usize,
+) -> Option<Vec<[usize; 2]>> {
+    let frames = traj.frames();
+    if frames < 2 {
+        return Some(windows.to_vec());
+    }
+    let bound = |m: usize| {
+        let mut steps: Vec<f64> = (0..frames - 1)
+            .filter_map(|f| Some(apart(traj.get(f, m)?, traj.get(f + 1, m)?)))
+            .collect();
+        if steps.is_empty() {
+            f64::INFINITY
+        } else {
+            (JUMP_FACTOR * median(&mut steps)).max(floor_mm)
+        }
+    };
+    let (bound_a, bound_b) = (bound(a), bound(b));
+    // The end placed between frames f and f + 1, `inside_first` when f is in the window (an
+    // exit), else f + 1 is (an entry): (corrected steps joined, recorded steps jump).
+    let placement = |f: usize, inside_first: bool| -> Option<(bool, bool)> {
+        let (pa, pb) = (traj.get(f, a)?, traj.get(f, b)?);
+        let (qa, qb) = (traj.get(f + 1, a)?, traj.get(f + 1, b)?);
+        // Inside the window each label holds the other marker.
+        let (step_a, step_b) = if inside_first {
+            (apart(pb, qa), apart(pa, qb))
+        } else {
+            (apart(pa, qb), apart(pb, qa))
+        };
+        let joined = step_a <= bound_a && step_b <= bound_b;
+        let jumped = apart(pa, qa) > bound_a || apart(pb, qb) > bound_b;
+        Some((joined, jumped))
+    };
+    let mut joined: Vec<[usize; 2]> = Vec::with_capacity(windows.len());
+    for &[start, end] in windows {
+        let reach = JUMP_SLACK_FRAMES + stride.max(1) + (end - start + 1) / 4;
+        // The best step f → f + 1 for one end within [lo, hi]; the nominal one when none
+        // joins but some step is unseen (the exchange may hide in a gap: robotarm-messy-
+        // s10019's begins in one); None when every step is seen and none joins.
+        let settle = |nominal: usize, lo: usize, hi: usize, inside_first: bool| {
+            let mut hidden = false;
+            let mut best: Option<(bool, usize, usize)> = None;
+            for f in lo..=hi {
+                let Some((ok, jumped)) = placement(f, inside_first) else {
+                    hidden = true;
+                    continue;
+                };
+                let key = (!jumped, f.abs_diff(nominal), f);
+                if ok && best.is_none_or(|b| key < b) {
+                    best = Some(key);
+                }
+            }
+            match best {
+                Some((_, _, f)) => Some(f),
+                None if hidden => Some(nominal),
+                None => None,
+            }
+        };
+        let start = match start.checked_sub(1) {
+            // The entry step f → f + 1 puts the window's first frame at f + 1, before its end.
+            Some(edge) => {
+                let lo = edge.saturating_sub(reach);
+                let hi = (edge + reach).min(end.saturating_sub(1)).min(frames - 2);
+                settle(edge, lo, hi.max(lo), false)? + 1
+            }
+            None => start,
+        };
+        let end = if end + 1 < frames {
+            let lo = end.saturating_sub(reach).max(start);
+            let hi = (end + reach).min(frames - 2);
+            settle(end, lo, hi.max(lo), true)?
+        } else {
+            end
+        };
+        let window = [start, end.max(start)];
+        // Moved ends may meet the previous window: one exchange, not two that cancel.
+        match joined.last_mut() {
+            Some(last) if window[0] <= last[1] + 1 => last[1] = last[1].max(window[1]),
+            _ => joined.push(window),
+        }
+    }
+    Some(joined)
 }
 
 /// A marker that leaves its usual distances to a home's markers in a minority of frames.
@@ -456,6 +565,62 @@ mod tests {
             positions.push([x, 100.0, 0.0]);
         }
         Trajectories::new(vec!["A".into(), "B".into()], 100.0, 1, frames, positions).expect("valid")
+    }
+
+    /// Two markers 4 mm a frame along x, one at y = `y(f)`, the other at −y(f), their
+    /// labels exchanged in `exchanged` and both unseen in `unseen`.
+    fn exchange(
+        y: impl Fn(usize) -> f64,
+        exchanged: std::ops::Range<usize>,
+        unseen: std::ops::Range<usize>,
+    ) -> Trajectories {
+        let frames = 100;
+        let mut positions = Vec::with_capacity(2 * frames);
+        for f in 0..frames {
+            let x = 4.0 * f as f64;
+            let (a, b) = ([x, y(f), 0.0], [x, -y(f), 0.0]);
+            let (a, b) = if exchanged.contains(&f) {
+                (b, a)
+            } else {
+                (a, b)
+            };
+            let hide = |p| {
+                if unseen.contains(&f) {
+                    mocap_io::MISSING
+                } else {
+                    p
+                }
+            };
+            positions.push(hide(a));
+            positions.push(hide(b));
+        }
+        Trajectories::new(vec!["A".into(), "B".into()], 100.0, 1, frames, positions).expect("valid")
+    }
+
+    #[test]
+    fn undoing_a_swap_must_join_both_paths_again() {
+        let far = |_| 30.0;
+        // A tracker's exchange 60 mm across: the ends found roughly settle on the jumps.
+        let swapped = exchange(far, 40..60, 0..0);
+        assert_eq!(
+            joined_windows(&swapped, [0, 1], &[[42, 57]], 10.0, 1),
+            Some(vec![[40, 59]])
+        );
+        // No exchange: undoing one would put a 60 mm jump into both paths.
+        assert_eq!(
+            joined_windows(&exchange(far, 0..0, 0..0), [0, 1], &[[40, 59]], 10.0, 1),
+            None
+        );
+        // An exchange where the two pass close (they cross at frames 40 and 60) joins too.
+        let crossing = |f: usize| 20.0 * (std::f64::consts::TAU * f as f64 / 40.0).sin();
+        let passed = exchange(crossing, 40..60, 0..0);
+        assert!(joined_windows(&passed, [0, 1], &[[40, 59]], 10.0, 1).is_some());
+        // An exchange that begins in a gap keeps the end found; its other end still settles.
+        let hidden = exchange(far, 40..60, 30..46);
+        assert_eq!(
+            joined_windows(&hidden, [0, 1], &[[46, 57]], 10.0, 1),
+            Some(vec![[46, 59]])
+        );
     }
 
     #[test]
