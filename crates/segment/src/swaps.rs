@@ -18,6 +18,8 @@
 //! a window's end: an exchange is a discontinuity, skin is smooth.
 //! Every swap's window ends then move to where exchanging back joins both markers' paths
 //! again, and a swap whose undoing would leave a jump is no swap ([`joined_windows`]).
+//! Last, two markers that jump in one step each onto the other's path, and again later,
+//! are a swap whatever the clusters made of them ([`exchanges_by_jumps`]).
 
 use mocap_io::Trajectories;
 use rayon::prelude::*;
@@ -182,6 +184,110 @@ pub(crate) fn find_swaps(
         if let Some(windows) = test {
             found.push(LabelSwap {
                 markers: [x.marker, y],
+                frames: windows,
+            });
+        }
+    }
+    // Last, exchanges the trajectories show by themselves, whatever the clusters made of
+    // them (a swap can pull a marker into its partner's cluster, and then neither is a
+    // suspect: robotarm-messy-s9001).
+    let taken: Vec<usize> = found.iter().flat_map(|s| s.markers).collect();
+    found.extend(exchanges_by_jumps(traj, hold_mm, &taken));
+    found
+}
+
+/// Label exchanges the trajectories show by themselves: two markers that jump in the same
+/// step, each landing where the other's path goes on, and (unless the capture ends first)
+/// again in a later step, which ends the exchange; undone, both paths run on without a
+/// jump. A jump is a step beyond
+/// [`JUMP_FACTOR`] × the marker's median step and `floor_mm`. A tracker that confused
+/// two markers far apart does this (the generator's swaps: steps of 95-98 mm against
+/// medians near 10); skin and noise move markers smoothly, and a glitch moves one marker,
+/// not two onto each other's paths. An exchange where the two passed close shows no jump
+/// and is left to the distances ([`swap_test`]). Each exchange step flips the labels, and
+/// the labels are as recorded in most frames: with both markers seen throughout, the
+/// windows are the runs in the minority state; with gaps, where a step may hide, the
+/// steps pair up from the start. Windows hold under half of the capture, each at least
+/// [`MIN_SWAPPED_FRAMES`] long; markers in `taken` are left alone, and each marker is in
+/// at most one swap.
+fn exchanges_by_jumps(traj: &Trajectories, floor_mm: f64, taken: &[usize]) -> Vec<LabelSwap> {
+    let (frames, markers) = (traj.frames(), traj.markers());
+    if frames < 2 {
+        return Vec::new();
+    }
+    let step = |m: usize, f: usize| Some(apart(traj.get(f, m)?, traj.get(f + 1, m)?));
+    let bounds: Vec<f64> = (0..markers)
+        .map(|m| {
+            let mut steps: Vec<f64> = (0..frames - 1).filter_map(|f| step(m, f)).collect();
+            if steps.is_empty() {
+                f64::INFINITY
+            } else {
+                (JUMP_FACTOR * median(&mut steps)).max(floor_mm)
+            }
+        })
+        .collect();
+    // Each pair's exchange steps, in step order: both jump, each onto the other's path.
+    let mut exchanges: std::collections::BTreeMap<[usize; 2], Vec<usize>> =
+        std::collections::BTreeMap::new();
+    let mut jumping = Vec::new();
+    for f in 0..frames - 1 {
+        jumping.clear();
+        jumping.extend(
+            (0..markers)
+                .filter(|m| !taken.contains(m))
+                .filter(|&m| step(m, f).is_some_and(|d| d > bounds[m])),
+        );
+        for (i, &a) in jumping.iter().enumerate() {
+            for &b in &jumping[i + 1..] {
+                let crossed = || -> Option<bool> {
+                    let (pa, pb) = (traj.get(f, a)?, traj.get(f, b)?);
+                    let (qa, qb) = (traj.get(f + 1, a)?, traj.get(f + 1, b)?);
+                    Some(apart(pa, qb) <= bounds[a] && apart(pb, qa) <= bounds[b])
+                };
+                if crossed() == Some(true) {
+                    exchanges.entry([a, b]).or_default().push(f);
+                }
+            }
+        }
+    }
+    let mut found: Vec<LabelSwap> = Vec::new();
+    for (pair, steps) in exchanges {
+        if found
+            .iter()
+            .any(|s| s.markers.iter().any(|m| pair.contains(m)))
+        {
+            continue;
+        }
+        // Each exchange step flips the labels, and the labels are as recorded in most
+        // frames. Where both markers are seen in every frame no exchange step can hide, so
+        // the runs between steps alternate and the minority's runs are the windows (a swap
+        // lasting to the capture's end has one step: robotarm-messy-s25). Otherwise steps
+        // pair up from the start, each pair a window, and a step left over says nothing
+        // (its partner may be in a gap: quadruped-messy-s52's exit is).
+        let length = |w: &[usize; 2]| w[1] + 1 - w[0];
+        let always_seen =
+            (0..frames).all(|f| traj.get(f, pair[0]).is_some() && traj.get(f, pair[1]).is_some());
+        let candidates: Vec<[usize; 2]> = if always_seen {
+            let mut runs: [Vec<[usize; 2]>; 2] = [Vec::new(), Vec::new()];
+            let mut first = 0;
+            for (k, &f) in steps.iter().chain([&(frames - 1)]).enumerate() {
+                runs[k % 2].push([first, f]);
+                first = f + 1;
+            }
+            let total = |r: &[[usize; 2]]| r.iter().map(length).sum::<usize>();
+            let minority = usize::from(total(&runs[1]) <= total(&runs[0]));
+            runs[minority].clone()
+        } else {
+            steps.chunks_exact(2).map(|w| [w[0] + 1, w[1]]).collect()
+        };
+        let swapped: usize = candidates.iter().map(length).sum();
+        let windows: Vec<[usize; 2]> = candidates
+            .into_iter()
+            .filter(|w| length(w) >= MIN_SWAPPED_FRAMES)
+            .collect();
+        if !windows.is_empty() && 2 * swapped < frames {
+            found.push(LabelSwap {
+                markers: pair,
                 frames: windows,
             });
         }
@@ -621,6 +727,30 @@ mod tests {
             joined_windows(&hidden, [0, 1], &[[46, 57]], 10.0, 1),
             Some(vec![[46, 59]])
         );
+    }
+
+    #[test]
+    fn two_markers_jumping_onto_each_others_paths_are_an_exchange() {
+        let far = |_| 30.0;
+        let found = exchanges_by_jumps(&exchange(far, 40..60, 0..0), 10.0, &[]);
+        assert_eq!(found.len(), 1);
+        assert_eq!(found[0].markers, [0, 1]);
+        assert_eq!(found[0].frames, vec![[40, 59]]);
+        // A marker already in a swap is left alone.
+        assert!(exchanges_by_jumps(&exchange(far, 40..60, 0..0), 10.0, &[1]).is_empty());
+        // Smooth paths, and one marker jumping by itself (a glitch), are no exchange.
+        assert!(exchanges_by_jumps(&exchange(far, 0..0, 0..0), 10.0, &[]).is_empty());
+        assert!(exchanges_by_jumps(&pair(true), 10.0, &[]).is_empty());
+        // Exchanged for most of the capture: the minority, before and after, is the swap.
+        let found = exchanges_by_jumps(&exchange(far, 10..90, 0..0), 10.0, &[]);
+        assert_eq!(found[0].frames, vec![[0, 9], [90, 99]]);
+        // An exchange lasting to the end has one exchange step ...
+        let found = exchanges_by_jumps(&exchange(far, 70..100, 0..0), 10.0, &[]);
+        assert_eq!(found[0].frames, vec![[70, 99]]);
+        // ... which says nothing when the exchange's other end may hide in a gap.
+        assert!(exchanges_by_jumps(&exchange(far, 70..85, 85..90), 10.0, &[]).is_empty());
+        // ... and half the capture or more is not a minority.
+        assert!(exchanges_by_jumps(&exchange(far, 50..100, 0..0), 10.0, &[]).is_empty());
     }
 
     #[test]
