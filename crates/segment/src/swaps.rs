@@ -199,8 +199,7 @@ pub(crate) fn find_swaps(
 /// Label exchanges the trajectories show by themselves: two markers that jump in the same
 /// step, each landing where the other's path goes on, and (unless the capture ends first)
 /// again in a later step, which ends the exchange; undone, both paths run on without a
-/// jump. A jump is a step beyond
-/// [`JUMP_FACTOR`] × the marker's median step and `floor_mm`. A tracker that confused
+/// jump. A jump is a step beyond [`jump_bound`]. A tracker that confused
 /// two markers far apart does this (the generator's swaps: steps of 95-98 mm against
 /// medians near 10); skin and noise move markers smoothly, and a glitch moves one marker,
 /// not two onto each other's paths. An exchange where the two passed close shows no jump
@@ -217,14 +216,7 @@ fn exchanges_by_jumps(traj: &Trajectories, floor_mm: f64, taken: &[usize]) -> Ve
     }
     let step = |m: usize, f: usize| Some(apart(traj.get(f, m)?, traj.get(f + 1, m)?));
     let bounds: Vec<f64> = (0..markers)
-        .map(|m| {
-            let mut steps: Vec<f64> = (0..frames - 1).filter_map(|f| step(m, f)).collect();
-            if steps.is_empty() {
-                f64::INFINITY
-            } else {
-                (JUMP_FACTOR * median(&mut steps)).max(floor_mm)
-            }
-        })
+        .map(|m| jump_bound(traj, m, floor_mm))
         .collect();
     // Each pair's exchange steps, in step order: both jump, each onto the other's path.
     let mut exchanges: std::collections::BTreeMap<[usize; 2], Vec<usize>> =
@@ -307,13 +299,7 @@ fn jumps_at_an_end(
     let frames = traj.frames();
     let step = |m: usize, f: usize| Some(apart(traj.get(f, m)?, traj.get(f + 1, m)?));
     markers.iter().any(|&m| {
-        let mut steps: Vec<f64> = (0..frames.saturating_sub(1))
-            .filter_map(|f| step(m, f))
-            .collect();
-        if steps.is_empty() {
-            return false;
-        }
-        let bound = (JUMP_FACTOR * median(&mut steps)).max(floor_mm);
+        let bound = jump_bound(traj, m, floor_mm);
         windows.iter().any(|&[start, end]| {
             // The step into the window (start − 1 → start) and out of it (end → end + 1).
             [start.checked_sub(1), Some(end)]
@@ -353,17 +339,7 @@ fn joined_windows(
     if frames < 2 {
         return Some(windows.to_vec());
     }
-    let bound = |m: usize| {
-        let mut steps: Vec<f64> = (0..frames - 1)
-            .filter_map(|f| Some(apart(traj.get(f, m)?, traj.get(f + 1, m)?)))
-            .collect();
-        if steps.is_empty() {
-            f64::INFINITY
-        } else {
-            (JUMP_FACTOR * median(&mut steps)).max(floor_mm)
-        }
-    };
-    let (bound_a, bound_b) = (bound(a), bound(b));
+    let (bound_a, bound_b) = (jump_bound(traj, a, floor_mm), jump_bound(traj, b, floor_mm));
     // The end placed between frames f and f + 1, `inside_first` when f is in the window (an
     // exit), else f + 1 is (an entry): (corrected steps joined, recorded steps jump).
     let placement = |f: usize, inside_first: bool| -> Option<(bool, bool)> {
@@ -428,6 +404,21 @@ fn joined_windows(
         }
     }
     Some(joined)
+}
+
+/// The largest step (mm) between two frames that is no jump for marker `m`:
+/// [`JUMP_FACTOR`] × its median frame-to-frame step, and at least `floor_mm` (what skin
+/// moves a marker: a still marker's median step is its noise); infinite for a marker never
+/// seen in two frames running.
+fn jump_bound(traj: &Trajectories, m: usize, floor_mm: f64) -> f64 {
+    let mut steps: Vec<f64> = (0..traj.frames().saturating_sub(1))
+        .filter_map(|f| Some(apart(traj.get(f, m)?, traj.get(f + 1, m)?)))
+        .collect();
+    if steps.is_empty() {
+        f64::INFINITY
+    } else {
+        (JUMP_FACTOR * median(&mut steps)).max(floor_mm)
+    }
 }
 
 /// A marker that leaves its usual distances to a home's markers in a minority of frames.
