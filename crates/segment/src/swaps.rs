@@ -229,15 +229,26 @@ fn exchanges_by_jumps(traj: &Trajectories, floor_mm: f64, taken: &[usize]) -> Ve
                 .filter(|m| !taken.contains(m))
                 .filter(|&m| step(m, f).is_some_and(|d| d > bounds[m])),
         );
-        for (i, &a) in jumping.iter().enumerate() {
-            for &b in &jumping[i + 1..] {
+        // One of the two must jump; the other may land within its bound when the two were
+        // close (snowman-messy-s10005's exit: 54 and 35 mm steps, 44 mm apart, bounds 36
+        // and 38 mm), but then the exchange must explain the steps better than no exchange.
+        for &a in &jumping {
+            for b in (0..markers).filter(|&b| b != a && !taken.contains(&b)) {
+                if jumping.contains(&b) && b < a {
+                    continue;
+                }
                 let crossed = || -> Option<bool> {
                     let (pa, pb) = (traj.get(f, a)?, traj.get(f, b)?);
                     let (qa, qb) = (traj.get(f + 1, a)?, traj.get(f + 1, b)?);
-                    Some(apart(pa, qb) <= bounds[a] && apart(pb, qa) <= bounds[b])
+                    let (cross_a, cross_b) = (apart(pa, qb), apart(pb, qa));
+                    Some(
+                        cross_a <= bounds[a]
+                            && cross_b <= bounds[b]
+                            && cross_a + cross_b < apart(pa, qa) + apart(pb, qb),
+                    )
                 };
                 if crossed() == Some(true) {
-                    exchanges.entry([a, b]).or_default().push(f);
+                    exchanges.entry([a.min(b), a.max(b)]).or_default().push(f);
                 }
             }
         }
@@ -320,8 +331,8 @@ fn jumps_at_an_end(
 /// at 341), continuity places it to the frame. Each end is searched within
 /// [`JUMP_SLACK_FRAMES`] plus the search stride plus a quarter of its window's length:
 /// there each marker's corrected step across it must be within [`JUMP_FACTOR`] × its
-/// median step (and `floor_mm`); a placement where the recorded steps jump and the
-/// corrected ones do not is preferred, then the nearest. A real swap's undoing joins each
+/// median step (and `floor_mm`); of those, the one where the corrected steps are shortest
+/// against the recorded ones. A real swap's undoing joins each
 /// marker's own path again, whether the tracker's exchange jumped (the generator's) or
 /// happened where the two passed close; undoing an exchange that never happened puts a
 /// jump of the markers' separation into both (hexapod-skin-s5001: a femur and a tibia
@@ -342,7 +353,10 @@ fn joined_windows(
     let (bound_a, bound_b) = (jump_bound(traj, a, floor_mm), jump_bound(traj, b, floor_mm));
     // The end placed between frames f and f + 1, `inside_first` when f is in the window (an
     // exit), else f + 1 is (an entry): (corrected steps joined, recorded steps jump).
-    let placement = |f: usize, inside_first: bool| -> Option<(bool, bool)> {
+    // The end placed between frames f and f + 1, `inside_first` when f is in the window (an
+    // exit), else f + 1 is (an entry): whether the corrected steps join both paths, and how
+    // many mm shorter they are than the recorded ones (what the exchange explains there).
+    let placement = |f: usize, inside_first: bool| -> Option<(bool, f64)> {
         let (pa, pb) = (traj.get(f, a)?, traj.get(f, b)?);
         let (qa, qb) = (traj.get(f + 1, a)?, traj.get(f + 1, b)?);
         // Inside the window each label holds the other marker.
@@ -352,26 +366,31 @@ fn joined_windows(
             (apart(pa, qb), apart(pb, qa))
         };
         let joined = step_a <= bound_a && step_b <= bound_b;
-        let jumped = apart(pa, qa) > bound_a || apart(pb, qb) > bound_b;
-        Some((joined, jumped))
+        let gain = apart(pa, qa) + apart(pb, qb) - step_a - step_b;
+        Some((joined, gain))
     };
     let mut joined: Vec<[usize; 2]> = Vec::with_capacity(windows.len());
     for &[start, end] in windows {
         let reach = JUMP_SLACK_FRAMES + stride.max(1) + (end - start + 1) / 4;
         // The best step f → f + 1 for one end within [lo, hi]; the nominal one when none
         // joins but some step is unseen (the exchange may hide in a gap: robotarm-messy-
-        // s10019's begins in one); None when every step is seen and none joins.
+        // s10019's begins in one); None when every step is seen and none joins. Of the
+        // steps that join, the one the exchange explains best: at the true end the
+        // recorded steps are the markers' separation and the corrected ones ordinary, on
+        // either side of it the other way round (where the two pass close several join).
         let settle = |nominal: usize, lo: usize, hi: usize, inside_first: bool| {
             let mut hidden = false;
-            let mut best: Option<(bool, usize, usize)> = None;
+            let mut best: Option<(f64, usize, usize)> = None;
             for f in lo..=hi {
-                let Some((ok, jumped)) = placement(f, inside_first) else {
+                let Some((ok, gain)) = placement(f, inside_first) else {
                     hidden = true;
                     continue;
                 };
-                let key = (!jumped, f.abs_diff(nominal), f);
-                if ok && best.is_none_or(|b| key < b) {
-                    best = Some(key);
+                let better = |(g, d, _): (f64, usize, usize)| {
+                    gain > g || (gain == g && f.abs_diff(nominal) < d)
+                };
+                if ok && best.is_none_or(better) {
+                    best = Some((gain, f.abs_diff(nominal), f));
                 }
             }
             match best {
