@@ -49,6 +49,10 @@ const MIN_SWAPPED_FRAMES: usize = 3;
 /// alone took for a swap: 2.4-5.6 mm against 4.5-5.7).
 const JUMP_FACTOR: f64 = 4.0;
 
+/// Longest gap (frames) of one marker that [`exchanges_by_jumps`] bridges to pair it with
+/// the other's jump: the generator's short holes last up to 20 frames.
+const MAX_BRIDGE_FRAMES: usize = 20;
+
 /// Frames searched on each side of a window's end for [`JUMP_FACTOR`]'s jump.
 const JUMP_SLACK_FRAMES: usize = 2;
 
@@ -237,13 +241,22 @@ fn exchanges_by_jumps(traj: &Trajectories, floor_mm: f64, taken: &[usize]) -> Ve
                 if jumping.contains(&b) && b < a {
                     continue;
                 }
+                // a is seen across the step (it jumped); b is taken at its last sample up to
+                // f and its first from f + 1, across a gap of up to MAX_BRIDGE_FRAMES (an
+                // exchange can hide in one marker's gap, and a's jump places it), each
+                // frame bridged allowing a typical step more.
                 let crossed = || -> Option<bool> {
-                    let (pa, pb) = (traj.get(f, a)?, traj.get(f, b)?);
-                    let (qa, qb) = (traj.get(f + 1, a)?, traj.get(f + 1, b)?);
+                    let (pa, qa) = (traj.get(f, a)?, traj.get(f + 1, a)?);
+                    let (before, pb) = (f.saturating_sub(MAX_BRIDGE_FRAMES)..=f)
+                        .rev()
+                        .find_map(|g| Some((g, traj.get(g, b)?)))?;
+                    let (after, qb) = (f + 1..=(f + 1 + MAX_BRIDGE_FRAMES).min(frames - 1))
+                        .find_map(|g| Some((g, traj.get(g, b)?)))?;
+                    let per_frame = |m: usize| bounds[m] / JUMP_FACTOR;
                     let (cross_a, cross_b) = (apart(pa, qb), apart(pb, qa));
                     Some(
-                        cross_a <= bounds[a]
-                            && cross_b <= bounds[b]
+                        cross_a <= bounds[a] + per_frame(a) * (after - f - 1) as f64
+                            && cross_b <= bounds[b] + per_frame(b) * (f - before) as f64
                             && cross_a + cross_b < apart(pa, qa) + apart(pb, qb),
                     )
                 };
@@ -690,6 +703,16 @@ mod tests {
         exchanged: std::ops::Range<usize>,
         unseen: std::ops::Range<usize>,
     ) -> Trajectories {
+        exchange_with_gap(y, exchanged, unseen, 0..0)
+    }
+
+    /// As [`exchange`], the second label also unseen in `second_unseen`.
+    fn exchange_with_gap(
+        y: impl Fn(usize) -> f64,
+        exchanged: std::ops::Range<usize>,
+        unseen: std::ops::Range<usize>,
+        second_unseen: std::ops::Range<usize>,
+    ) -> Trajectories {
         let frames = 100;
         let mut positions = Vec::with_capacity(2 * frames);
         for f in 0..frames {
@@ -708,7 +731,11 @@ mod tests {
                 }
             };
             positions.push(hide(a));
-            positions.push(hide(b));
+            positions.push(if second_unseen.contains(&f) {
+                mocap_io::MISSING
+            } else {
+                hide(b)
+            });
         }
         Trajectories::new(vec!["A".into(), "B".into()], 100.0, 1, frames, positions).expect("valid")
     }
@@ -757,6 +784,13 @@ mod tests {
         // An exchange lasting to the end has one exchange step ...
         let found = exchanges_by_jumps(&exchange(far, 70..100, 0..0), 10.0, &[]);
         assert_eq!(found[0].frames, vec![[70, 99]]);
+        // The second label unseen across the exchange's first step: the first's jump
+        // places it.
+        let bridged = exchange_with_gap(far, 40..60, 0..0, 35..45);
+        assert_eq!(
+            exchanges_by_jumps(&bridged, 10.0, &[])[0].frames,
+            vec![[40, 59]]
+        );
         // ... which says nothing when the exchange's other end may hide in a gap.
         assert!(exchanges_by_jumps(&exchange(far, 70..85, 85..90), 10.0, &[]).is_empty());
         // ... and half the capture or more is not a minority.
