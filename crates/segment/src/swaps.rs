@@ -345,8 +345,7 @@ fn jumps_at_an_end(
 /// [`JUMP_SLACK_FRAMES`] plus the search stride plus a quarter of its window's length:
 /// there each marker's corrected step across it must be within [`JUMP_FACTOR`] × its
 /// median step (and `floor_mm`); of those, the one where the corrected steps are shortest
-/// against the recorded ones. A real swap's undoing joins each
-/// marker's own path again, whether the tracker's exchange jumped (the generator's) or
+/// against the recorded ones. A real swap's undoing joins each marker's own path again, whether the tracker's exchange jumped (the generator's) or
 /// happened where the two passed close; undoing an exchange that never happened puts a
 /// jump of the markers' separation into both (hexapod-skin-s5001: a femur and a tibia
 /// marker 32-42 mm apart, steps of 4.5 mm, taken for a swap by their distances alone).
@@ -364,8 +363,6 @@ fn joined_windows(
         return Some(windows.to_vec());
     }
     let (bound_a, bound_b) = (jump_bound(traj, a, floor_mm), jump_bound(traj, b, floor_mm));
-    // The end placed between frames f and f + 1, `inside_first` when f is in the window (an
-    // exit), else f + 1 is (an entry): (corrected steps joined, recorded steps jump).
     // The end placed between frames f and f + 1, `inside_first` when f is in the window (an
     // exit), else f + 1 is (an entry): whether the corrected steps join both paths, and how
     // many mm shorter they are than the recorded ones (what the exchange explains there).
