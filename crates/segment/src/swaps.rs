@@ -345,9 +345,10 @@ fn jumps_at_an_end(
 /// [`JUMP_SLACK_FRAMES`] plus the search stride plus a quarter of its window's length:
 /// there each marker's corrected step across it must be within [`JUMP_FACTOR`] × its
 /// median step (and `floor_mm`); of those, the one where the corrected steps are shortest
-/// against the recorded ones. A real swap's undoing joins each marker's own path again, whether the tracker's exchange jumped (the generator's) or
-/// happened where the two passed close; undoing an exchange that never happened puts a
-/// jump of the markers' separation into both (hexapod-skin-s5001: a femur and a tibia
+/// against the recorded ones. A real swap's undoing joins each marker's own path again,
+/// whether the tracker's exchange jumped (the generator's) or happened where the two
+/// passed close; undoing an exchange that never happened puts a jump of the markers'
+/// separation into both (hexapod-skin-s5001: a femur and a tibia
 /// marker 32-42 mm apart, steps of 4.5 mm, taken for a swap by their distances alone).
 /// An end where no step joins stays where it was if some step of its search is unseen
 /// (the exchange may hide in a gap).
