@@ -99,16 +99,18 @@ pub const STAGE: &str = "segment";
 pub fn run(traj: &Trajectories, params: &Params) -> Result<Segmentation, Error> {
     params.validate()?;
     let params = &params.with_floors_scaled(traj.floor_scale());
-    segment_capture(traj, params, params.repair_swaps)
+    segment_capture(traj, params, params.repair_swaps, None)
 }
 
 /// [`run`] on parameters it has validated and scaled, looking for label swaps when
 /// `find_swaps`: when there are any, the capture is segmented again with them undone (and
-/// not looked for again).
+/// not looked for again). `spread_given`: the rigid spread a first pass read off its
+/// segments (`spread_second_pass`), used instead of the spectral clusters'.
 fn segment_capture(
     traj: &Trajectories,
     params: &Params,
     find_swaps: bool,
+    spread_given: Option<f64>,
 ) -> Result<Segmentation, Error> {
     let (frames, markers) = (traj.frames(), traj.markers());
     if frames == 0 || markers == 0 {
@@ -178,6 +180,9 @@ fn segment_capture(
         }
     };
 
+    // Whether the spectral clusters could not measure the rigid spread (too fragmented, or
+    // a sparse marker set), so the tolerance stands on the noise level.
+    let mut spread_fell_back = false;
     // Each marker's spectral cluster, before the rigidity check cut it (`pair_rejoin_ratio`).
     let mut spectral_of: Vec<Option<usize>> = vec![None; markers];
     let (mut clusters, eigenvalues, eigengap_segments, tolerance_mm) = match params.method {
@@ -201,7 +206,10 @@ fn segment_capture(
             // within the noise's: skin fakes one marker's RMS ρ, and a joint that turns little
             // keeps its cross pairs within the skin's spread; whether two posed clusters move
             // as one is the joint test's to say (`joint_merge_z`), from their rotation.
-            let spread_mm = rigidity::rigid_spread(&stats, &clusters, min_overlap)
+            let measured = rigidity::rigid_spread(&stats, &clusters, min_overlap);
+            spread_fell_back = spread_given.is_none() && measured.is_none();
+            let spread_mm = spread_given
+                .or(measured)
                 .map_or(noise_mm, |s| s.max(noise_mm));
             // Clusters that mix segments (a sparse marker set) raise it without bound.
             let spread_mm = if params.spread_max_noise_factor > 0.0 {
@@ -375,13 +383,27 @@ fn segment_capture(
         rigidity::normalise(&mut clusters);
     }
 
+    // Too fragmented to measure the spread, the spectral clusters left the tolerance on the
+    // noise; the segments it gave may measure it (`spread_second_pass`).
+    if spread_fell_back && params.spread_second_pass {
+        if let Some(spread) = rigidity::rigid_spread(&stats, &clusters, min_overlap) {
+            let bounded = if params.spread_max_noise_factor > 0.0 {
+                spread.min(params.spread_max_noise_factor * noise_mm)
+            } else {
+                spread
+            };
+            if bounded > noise_mm {
+                return segment_capture(raw, params, find_swaps, Some(bounded));
+            }
+        }
+    }
     if find_swaps {
         // A swap's bound is a typical segment's hold on its markers, as for pair_hold.
         let hold_mm = params.pair_hold.max(1.0)
             * typical_sigma(traj, &clusters, &mut sigma_memo).max(params.tolerance_min_mm);
         let swaps = swaps::find_swaps(raw, &clusters, hold_mm, reassign::stride_of(raw));
         if !swaps.is_empty() {
-            let mut again = segment_capture(&untangle(raw, &swaps), params, false)?;
+            let mut again = segment_capture(&untangle(raw, &swaps), params, false, spread_given)?;
             again.swaps = swaps;
             return Ok(again);
         }

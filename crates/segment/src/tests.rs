@@ -611,6 +611,44 @@ fn few_markers_per_segment_keep_the_tolerance_on_the_noise() {
     );
 }
 
+/// Skin under little noise (human-hard-s20005 at 0.3 mm, 480 frames): the spectral
+/// clusters come out too fragmented to measure the rigid spread, and a tolerance on the
+/// noise level cuts segments apart; the segments it gives measure the spread, and the
+/// second pass with it finds the true segments.
+#[test]
+fn a_second_pass_takes_the_spread_from_the_segments_when_the_clusters_cannot() {
+    let config = synth::SynthConfig {
+        subject: synth::Subject::Human,
+        preset: synth::Preset::Hard,
+        seed: 20005,
+        frames: 480,
+        noise_mm: 0.3,
+        ..synth::SynthConfig::default()
+    };
+    let trial = synth::generate(&config).expect("synthetic trial");
+    let truth = true_partition(&trial);
+    let one_pass = Params {
+        spread_second_pass: false,
+        ..Params::default()
+    };
+    let first = run(&trial.trajectories, &one_pass).expect("segments");
+    assert!(
+        (first.tolerance_mm - one_pass.tolerance_factor * first.noise_mm).abs() < 1e-9,
+        "one pass: tolerance {} on noise {}",
+        first.tolerance_mm,
+        first.noise_mm
+    );
+    assert_ne!(partition(&first), truth);
+    let second = run(&trial.trajectories, &Params::default()).expect("segments");
+    assert!(
+        second.tolerance_mm > 1.5 * first.tolerance_mm,
+        "{} against {}",
+        second.tolerance_mm,
+        first.tolerance_mm
+    );
+    assert_eq!(partition(&second), truth);
+}
+
 /// A quadruped's carpus under skin, noise and gaps (eval's 480 frames): the lower foreleg
 /// and the paw turn about the wrist by a joint-test score of 4.07, above the 4.0 threshold
 /// and below the 4.5 it had, where the two stayed one segment.
