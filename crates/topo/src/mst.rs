@@ -447,6 +447,21 @@ mod tests {
     }
 
     /// Pair fits over `n` segments with `cost(a, b)` for every pair (a < b).
+    /// The test fit of segments a < b.
+    fn fit_mut(f: &mut PairFits, a: usize, b: usize) -> &mut PairFit {
+        f.pairs
+            .iter_mut()
+            .find(|p| (p.a, p.b) == (a, b))
+            .expect("every pair has a fit")
+    }
+
+    /// Sets every pair's RMS relative rotation (degrees).
+    fn turning(f: &mut PairFits, degrees: impl Fn(usize, usize) -> f64) {
+        for p in &mut f.pairs {
+            p.rotation_rms_deg = degrees(p.a, p.b);
+        }
+    }
+
     fn fits(n: usize, cost: impl Fn(usize, usize) -> (f64, JointKind)) -> PairFits {
         let poses = (0..n)
             .map(|segment| SegmentPoses {
@@ -688,25 +703,15 @@ mod tests {
             (2, 3) => (3.0, JointKind::Ball),
             _ => (40.0, JointKind::Ball),
         });
-        for p in &mut f.pairs {
-            p.rotation_rms_deg = if (p.a, p.b) == (0, 1) { 50.0 } else { 30.0 };
-        }
+        turning(&mut f, |a, b| if (a, b) == (0, 1) { 50.0 } else { 30.0 });
         let t = run(&seg, &f, &Params::default()).unwrap_or_else(|e| panic!("{e}"));
         assert_eq!(edge_set(&t), [(0, 2), (1, 2), (2, 3)]);
         // Costs clearly apart are not ties: the cheaper pair wins whatever it turns.
-        for p in &mut f.pairs {
-            if (p.a, p.b) == (0, 1) {
-                p.cost = -5.0;
-            }
-        }
+        fit_mut(&mut f, 0, 1).cost = -5.0;
         let t = run(&seg, &f, &Params::default()).unwrap_or_else(|e| panic!("{e}"));
         assert!(edge_set(&t).contains(&(0, 1)));
         // With no tolerance the cheapest pair wins again.
-        for p in &mut f.pairs {
-            if (p.a, p.b) == (0, 1) {
-                p.cost = 1e-9;
-            }
-        }
+        fit_mut(&mut f, 0, 1).cost = 1e-9;
         let exact = Params {
             tie_absolute: 0.0,
             tie_relative: 0.0,
@@ -729,14 +734,12 @@ mod tests {
             (2, 3) => (5.0, JointKind::Ball),
             _ => (40.0, JointKind::Ball),
         });
-        for p in &mut f.pairs {
-            p.rotation_rms_deg = match (p.a, p.b) {
-                (0, 1) => 31.0,
-                (0, 2) => 21.0,
-                (1, 2) => 23.0,
-                _ => 30.0,
-            };
-        }
+        turning(&mut f, |a, b| match (a, b) {
+            (0, 1) => 31.0,
+            (0, 2) => 21.0,
+            (1, 2) => 23.0,
+            _ => 30.0,
+        });
         let t = run(&seg, &f, &Params::default()).unwrap_or_else(|e| panic!("{e}"));
         assert_eq!(edge_set(&t), [(0, 2), (1, 2), (2, 3)]);
         // Off, or with the two only a little apart in rotation, the cheapest pair wins.
@@ -746,11 +749,7 @@ mod tests {
         };
         let t = run(&seg, &f, &off).unwrap_or_else(|e| panic!("{e}"));
         assert!(edge_set(&t).contains(&(0, 1)));
-        for p in &mut f.pairs {
-            if (p.a, p.b) == (0, 1) {
-                p.rotation_rms_deg = 25.0;
-            }
-        }
+        fit_mut(&mut f, 0, 1).rotation_rms_deg = 25.0;
         let t = run(&seg, &f, &Params::default()).unwrap_or_else(|e| panic!("{e}"));
         assert!(edge_set(&t).contains(&(0, 1)));
     }
@@ -768,14 +767,11 @@ mod tests {
             (2, 3) => (4.0, JointKind::Ball),
             _ => (60.0, JointKind::Ball),
         });
-        for p in &mut f.pairs {
-            p.rotation_rms_deg = match (p.a, p.b) {
-                (0, 1) => 41.0,
-                (0, 2) => 38.0,
-                (1, 2) => 30.0,
-                _ => 30.0,
-            };
-        }
+        turning(&mut f, |a, b| match (a, b) {
+            (0, 1) => 41.0,
+            (0, 2) => 38.0,
+            _ => 30.0,
+        });
         let t = run(&seg, &f, &Params::default()).unwrap_or_else(|e| panic!("{e}"));
         assert_eq!(edge_set(&t), [(0, 2), (1, 2), (2, 3)]);
         let off = Params {
@@ -793,12 +789,9 @@ mod tests {
         assert!(edge_set(&t).contains(&(0, 1)));
         // A hinge, or a ball turning less than a hinge through the hub, is no composite.
         for (kind, turns) in [(JointKind::Hinge, 41.0), (JointKind::Ball, 35.0)] {
-            for p in &mut f.pairs {
-                if (p.a, p.b) == (0, 1) {
-                    p.kind = kind;
-                    p.rotation_rms_deg = turns;
-                }
-            }
+            let pair = fit_mut(&mut f, 0, 1);
+            pair.kind = kind;
+            pair.rotation_rms_deg = turns;
             let t = run(&seg, &f, &Params::default()).unwrap_or_else(|e| panic!("{e}"));
             assert!(edge_set(&t).contains(&(0, 1)), "{kind:?} {turns}");
         }
