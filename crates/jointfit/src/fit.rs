@@ -10,7 +10,7 @@ use crate::motion::{RelativeMotion, relative_motion};
 use crate::pairfits::{JointKind, PairFit, SegmentPoses};
 use crate::params::{Method, Params};
 use crate::poses::{self, Pose};
-use crate::score;
+use crate::score::{self, MarkerLine};
 
 /// What a pair fit reads about one segment.
 pub(crate) struct SegmentView<'a> {
@@ -28,6 +28,10 @@ pub(crate) struct SegmentView<'a> {
     /// scatter per coordinate (mm: the radial residual of their distances to the centre;
     /// the pose fit's own residual, with 3 degrees of freedom, hides most of it).
     pub pivot: Option<(DVec3, f64)>,
+    /// In the first pass, for a segment whose own markers fix its spin too loosely
+    /// (`Params::max_spin_deg`): the line they lie near and that spin's standard error. Its
+    /// pairs' costs then weigh the spin as noise (`Params::spin_weighted_cost`).
+    pub line: Option<MarkerLine>,
 }
 
 impl SegmentView<'_> {
@@ -203,6 +207,34 @@ pub(crate) fn fit_pair(
                     rms = rms_full;
                 }
             }
+            let mut cost = rms;
+            let loose = match (sa.line, sb.line) {
+                (Some(line), None) => Some((line, true)),
+                (None, Some(line)) => Some((line, false)),
+                _ => None,
+            };
+            if params.spin_weighted_cost
+                && let Some((line, line_a)) = loose
+                && let Some((weighted, spin_rms)) = score::solve_spin_weighted(
+                    pa,
+                    pb,
+                    &co,
+                    (sol.c_a, sol.c_b),
+                    drop,
+                    target,
+                    line,
+                    line_a,
+                )
+                && spin_rms.is_finite()
+            {
+                cost = spin_rms;
+                sol = weighted;
+                evidence.push_str(&format!(
+                    "; segment {}'s spin about its marker line weighed as noise ({:.1}°): cost {cost:.2} mm",
+                    if line_a { a } else { b },
+                    line.spin_sd_rad.to_degrees()
+                ));
+            }
             let [l0, .., l5] = sol.eigenvalues;
             evidence.push_str(&format!(
                 "; SCoRE normal-matrix eigenvalues {:.2e}..{:.2e} (condition {:.1e}), {} direction(s) set by placement{kept}",
@@ -211,7 +243,7 @@ pub(crate) fn fit_pair(
                 l0 / l5.max(f64::MIN_POSITIVE),
                 drop
             ));
-            (sol.c_a, sol.c_b, rms)
+            (sol.c_a, sol.c_b, cost)
         }
         Method::Aguiar => {
             let fixed: Vec<DVec3> = sa

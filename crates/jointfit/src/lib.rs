@@ -257,6 +257,21 @@ fn fit_all(
             p.forget();
         }
     }
+    // First pass only: the lines of segments whose own markers fix their spin too loosely
+    // (the second pass poses them through a joint instead).
+    let lines: Vec<Option<score::MarkerLine>> = poses
+        .iter()
+        .map(|p| {
+            let spin = poses::spin_error_deg(p)?.min(SPIN_UNFIXED_DEG);
+            let loose = along.is_none()
+                && params.spin_weighted_cost
+                && params.max_spin_deg > 0.0
+                && spin > params.max_spin_deg;
+            loose
+                .then(|| poses::marker_line(p, spin.to_radians()))
+                .flatten()
+        })
+        .collect();
     let anchors = anchor::anchor_segments(traj, segments, &mut poses, params, tree);
     for (s, own) in set_aside.into_iter().enumerate() {
         if let Some(own) = own
@@ -279,26 +294,30 @@ fn fit_all(
         .zip(&poses)
         .zip(&tracks)
         .zip(&anchors)
-        .map(|(((markers, poses), track), anchor)| fit::SegmentView {
-            markers,
-            poses,
-            track,
-            pivot: anchor
-                .as_ref()
-                .filter(|a| a.posed_by_anchor && markers.len() >= 2)
-                .and_then(|a| {
-                    let n_track = &tracks[a.neighbour];
-                    anchor::centre_in_segment(track, n_track, a.fit.centre, params.min_frames)
-                        .map(|c| (c, a.fit.rms_mm))
+        .zip(&lines)
+        .map(
+            |((((markers, poses), track), anchor), line)| fit::SegmentView {
+                markers,
+                line: *line,
+                poses,
+                track,
+                pivot: anchor
+                    .as_ref()
+                    .filter(|a| a.posed_by_anchor && markers.len() >= 2)
+                    .and_then(|a| {
+                        let n_track = &tracks[a.neighbour];
+                        anchor::centre_in_segment(track, n_track, a.fit.centre, params.min_frames)
+                            .map(|c| (c, a.fit.rms_mm))
+                    }),
+                filled_through: anchor.as_ref().and_then(|a| {
+                    if a.posed_by_anchor {
+                        a.secondary.as_ref().map(|(nb, f)| (*nb, f.as_slice()))
+                    } else {
+                        Some((a.neighbour, a.filled.as_slice()))
+                    }
                 }),
-            filled_through: anchor.as_ref().and_then(|a| {
-                if a.posed_by_anchor {
-                    a.secondary.as_ref().map(|(nb, f)| (*nb, f.as_slice()))
-                } else {
-                    Some((a.neighbour, a.filled.as_slice()))
-                }
-            }),
-        })
+            },
+        )
         .collect();
     let pairs: Vec<(usize, usize)> = (0..views.len())
         .flat_map(|a| ((a + 1)..views.len()).map(move |b| (a, b)))

@@ -13,6 +13,7 @@ use rayon::prelude::*;
 
 use crate::horn::{RigidFit, absolute_orientation};
 use crate::pairfits::SegmentPoses;
+use crate::score::MarkerLine;
 use crate::small::sym_eigen;
 
 /// A segment's pose at one frame as the pair fits use it: local → global.
@@ -417,6 +418,32 @@ fn scatter_mm(
     }
     sigma.sort_by(f64::total_cmp);
     Some(sigma[sigma.len() / 2])
+}
+
+/// The line a segment's reference points lie nearest (through their centroid, along their
+/// principal direction), with the given spin error; `None` for fewer than 2 points.
+pub(crate) fn marker_line(poses: &SegmentPoses, spin_sd_rad: f64) -> Option<MarkerLine> {
+    let points = reference_points(poses);
+    if points.len() < 2 {
+        return None;
+    }
+    let origin = points.iter().sum::<DVec3>() / points.len() as f64;
+    let mut cov = [[0.0; 3]; 3];
+    for r in &points {
+        let d = (*r - origin).to_array();
+        for i in 0..3 {
+            for j in 0..3 {
+                cov[i][j] += d[i] * d[j];
+            }
+        }
+    }
+    let (_, vectors) = sym_eigen(cov);
+    let dir = DVec3::from_array(vectors[0]).normalize_or_zero();
+    (dir != DVec3::ZERO).then_some(MarkerLine {
+        origin,
+        dir,
+        spin_sd_rad,
+    })
 }
 
 /// Variances of the points along their principal directions, largest first (mm²); zeros
