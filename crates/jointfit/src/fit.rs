@@ -30,7 +30,7 @@ pub(crate) struct SegmentView<'a> {
     pub pivot: Option<(DVec3, f64)>,
     /// In the first pass, for a segment whose own markers fix its spin too loosely
     /// (`Params::max_spin_deg`): the line they lie near and that spin's standard error. Its
-    /// pairs' costs then weigh the spin as noise (`Params::spin_weighted_cost`).
+    /// pairs' costs then correct the spin as noise (`Params::spin_corrected_cost`).
     pub line: Option<MarkerLine>,
 }
 
@@ -213,9 +213,9 @@ pub(crate) fn fit_pair(
                 (None, Some(line)) => Some((line, false)),
                 _ => None,
             };
-            if params.spin_weighted_cost
+            if params.spin_corrected_cost
                 && let Some((line, line_a)) = loose
-                && let Some((weighted, spin_rms)) = score::solve_spin_weighted(
+                && let Some((weighted, spin_rms)) = score::solve_spin_corrected(
                     pa,
                     pb,
                     &co,
@@ -230,7 +230,7 @@ pub(crate) fn fit_pair(
                 cost = spin_rms;
                 sol = weighted;
                 evidence.push_str(&format!(
-                    "; segment {}'s spin about its marker line weighed as noise ({:.1}°): cost {cost:.2} mm",
+                    "; segment {}'s spin about its marker line corrected as noise ({:.1}°): cost {cost:.2} mm",
                     if line_a { a } else { b },
                     line.spin_sd_rad.to_degrees()
                 ));

@@ -264,7 +264,7 @@ fn fit_all(
         .map(|p| {
             let spin = poses::spin_error_deg(p)?.min(SPIN_UNFIXED_DEG);
             let loose = along.is_none()
-                && params.spin_weighted_cost
+                && params.spin_corrected_cost
                 && params.max_spin_deg > 0.0
                 && spin > params.max_spin_deg;
             loose

@@ -65,8 +65,9 @@ pub struct Params {
     /// stay the first pass's.
     pub tree_poses: bool,
     /// First pass, `score` only: a pair with one loose segment (beyond `max_spin_deg`)
-    /// weighs that segment's spin about its marker line as noise in its centres and cost.
-    pub spin_weighted_cost: bool,
+    /// corrects that segment's spin about its marker line per frame as noise of its
+    /// predicted size, in the pair's centres and cost.
+    pub spin_corrected_cost: bool,
     /// A marker farther than this × the segment's median per-frame fit RMS from its fitted
     /// place leaves that frame's pose fit (and the reference shape), while ≥ 3 others stay
     /// (with 3 left and one still beyond, the frame has no pose); 0 = off.
@@ -132,7 +133,7 @@ impl Default for Params {
             min_spread_mm: 2.0,
             max_spin_deg: 10.0,
             tree_poses: true,
-            spin_weighted_cost: true,
+            spin_corrected_cost: true,
             pose_outlier_factor: 4.0,
             pose_outlier_floor_mm: 20.0,
             max_iters: 200,
@@ -248,24 +249,27 @@ pub const PARAM_DOCS: &[(&str, &str)] = &[
          2.11 / 2.19 → 2.13 %; clean identical); default true",
     ),
     (
-        "spin_weighted_cost",
+        "spin_corrected_cost",
         "first pass, method score: a pair with one segment whose own markers fix its spin \
-         beyond max_spin_deg (markers nearly on a line) weighs that spin as noise: a spin \
-         error moves the segment's image of the centre along one direction per frame, whose \
-         component of the disagreement is weighted by σ² / (σ² + ρ²σ_φ²) (σ² from the other \
-         two components, ρ the centre's distance from the marker line, σ_φ the predicted spin \
-         error), and the centres are refitted under those weights (3 rounds); the cost, the \
-         weighted RMS, has the mean square 3σ² of any pair's. On its own poses the spin's \
-         noise threw every pair of such a segment dear (human-hard-s20048's thorax, ±16°: \
-         head-thorax 27.3 mm against 12.3 mm for head-clavicle, so the head hung from the \
-         clavicle; now 15.0 mm, right). A free spin per frame was tried and refused: it \
-         absorbs real motion about a line along a hinge axis (hexapod-hard-s6006's femur: \
-         false femur-femur pairs fell from 30-100 mm to 9 mm). cargo xtask eval --presets \
-         hard, seeds 20001-20050 and 30001-30050: exact trees 436 -> 442/600, none lost, \
-         1.8573 -> 1.8578 %; seeds 10001-10032 hard 147 -> 148, skin 136 -> 138/192; 16 seeds \
-         (4001-4006, 6001-6006, 7001, 9001, 1001, 5001) clean, skin, hard, messy trees \
-         unchanged; --markers 2:3 hard 2.98 -> 2.95 %; --sweep 0.2:0.4 hard 10 -> 11/96; \
-         real captures' trees unchanged; default true",
+         beyond max_spin_deg (markers nearly on a line) treats that spin as noise of the \
+         predicted size σ_φ: each frame's spin about the marker line is corrected by the φ \
+         minimising |d(φ)|² + (σ²/σ_φ²) φ² (d the centres' disagreement, exact on the circle \
+         the spin sweeps, σ² the per-axis residual variance), the centres are refitted on the \
+         corrected poses, alternately until the cost settles (≤ 30 rounds), and the cost is \
+         the RMS of that objective, whose mean square is 3σ² for a true joint like any \
+         pair's. On its own poses the spin's noise made every pair of such a segment dear \
+         (human-hard-s20048's thorax, ±16°: head-thorax 27.3 mm against 12.3 mm for \
+         head-clavicle, so the head hung from the clavicle). A free spin per frame was \
+         refused: it absorbs real motion about a line along a hinge axis \
+         (hexapod-hard-s6006's femur: false femur-femur pairs fell from 30-100 mm to 9 mm); \
+         a linearised weighting (the spin's component down-weighted) gave the same trees but \
+         leaves the spin's curvature in the residual at 20° and more. cargo xtask eval \
+         --compare against false: hard on seeds 20001-20050,30001-30050 exact trees 436 -> \
+         442/600, none lost, 1.8573 -> 1.8566 %; seeds 10001-10032 hard 147 -> 148, skin \
+         136 -> 138/192; 16 seeds (4001-4006, 6001-6006, 7001, 9001, 1001, 5001) clean, \
+         skin, hard, messy trees unchanged, hard 1.7798 -> 1.7834 %; --markers 2:3 hard \
+         2.98 -> 2.95 %; --sweep 0.2:0.4 hard 10 -> 11/96; real captures' trees unchanged; \
+         default true",
     ),
     (
         "pose_outlier_factor",
