@@ -254,25 +254,25 @@ pub const PARAM_DOCS: &[(&str, &str)] = &[
          beyond max_spin_deg (markers nearly on a line) treats that spin as noise of the \
          predicted size σ_φ: each frame's spin about the marker line is corrected by the φ \
          minimising |d(φ)|² + (σ²/σ_φ²) φ² (d the centres' disagreement, exact on the circle \
-         the spin sweeps, σ² the per-axis residual variance), the centres are refitted on the \
-         corrected poses, alternately until the cost settles (≤ 30 rounds), and the cost is \
-         the RMS of that objective, whose mean square is 3σ² for a true joint like any \
-         pair's. On its own poses the spin's noise made every pair of such a segment dear \
-         (human-hard-s20048's thorax, ±16°: head-thorax 27.3 mm against 12.3 mm for \
-         head-clavicle, so the head hung from the clavicle). A free spin per frame was \
-         refused: it absorbs real motion about a line along a hinge axis \
-         (hexapod-hard-s6006's femur: false femur-femur pairs fell from 30-100 mm to 9 mm); \
-         a linearised weighting (the spin's component down-weighted) gave the same trees but \
-         leaves the spin's curvature in the residual at 20° and more. cargo xtask eval \
-         --compare against false: hard on seeds 20001-20050,30001-30050 exact trees 436 -> \
-         442/600, none lost, 1.8573 -> 1.8566 %; seeds 10001-10032 hard 147 -> 148, skin \
-         136 -> 138/192; 16 seeds (4001-4006, 6001-6006, 7001, 9001, 1001, 5001) clean, \
-         skin, hard, messy trees unchanged, hard 1.7798 -> 1.7834 %; --markers 2:3 hard \
-         2.98 -> 2.95 %; --sweep 0.2:0.4 hard 10 -> 11/96; real captures' trees unchanged. \
-         On seeds 40001-40100, never looked at before: hard 425 -> 425/600, 1.8646 -> \
-         1.8679 %: two trees gained, two lost where a loose clavicle's real turn about its \
-         own line (the sternoclavicular joint's axial rotation) was taken for spin noise and \
-         head-clavicle fell below head-thorax (human-hard-s40017). Default true",
+         the spin sweeps; σ² its variance along the line on the uncorrected poses, which no \
+         spin moves, fixed), the centres are refitted on the corrected poses, alternately \
+         until the cost settles (≤ 30 rounds), and the cost is the RMS of that objective, \
+         whose mean square is 3σ² for a true joint like any pair's. On its own poses the \
+         spin's noise made every pair of such a segment dear (human-hard-s20048's thorax, \
+         ±16°: head-thorax 27.3 mm against 12.3 mm for head-clavicle, so the head hung from \
+         the clavicle). Refused: a free spin per frame, and σ² re-estimated as the \
+         corrections shrink the residual (the prior then weakens with it): both absorb real \
+         turns about the line (hexapod-hard-s6006's femur: false femur-femur pairs 30-100 \
+         mm -> 9 mm; seeds 40001-40100: 425 -> 425 trees with two lost, a clavicle's axial \
+         rotation taken for noise); a linearised weighting of the spin's direction leaves \
+         its curvature in the residual. cargo xtask eval --compare against false: hard on \
+         seeds 20001-20050,30001-30050 exact trees 436 -> 442/600, none lost, 1.8573 -> \
+         1.8572 %; 10001-10032 hard 147 -> 147, skin 136 -> 138/192; 40001-40100 (a \
+         holdout no rule was drawn from) 425 -> 426/600, 1.8646 -> 1.8664 % \
+         (human-hard-s40017 still lost to a clavicle's axial turn); 16 seeds (4001-4006, \
+         6001-6006, 7001, 9001, 1001, 5001) clean, skin, hard, messy trees unchanged, hard \
+         1.7798 -> 1.7810 %; --markers 2:3 hard 37 -> 38/96, 2.98 -> 2.95 %; --sweep \
+         0.2:0.4 hard 10 -> 11/96; real captures' trees unchanged; default true",
     ),
     (
         "pose_outlier_factor",
