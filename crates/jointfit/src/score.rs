@@ -357,36 +357,34 @@ mod tests {
         (pa, pb, line)
     }
 
-    fn plain_rms(pa: &[Option<Pose>], pb: &[Option<Pose>], sol: &ScoreSolution) -> f64 {
-        let sq: f64 = pa
+    /// Plain SCoRE over every frame (b the loose segment) and its RMS residual, then the
+    /// spin-corrected solution and cost from it.
+    fn plain_and_corrected(
+        pa: &[Option<Pose>],
+        pb: &[Option<Pose>],
+        line: MarkerLine,
+    ) -> (f64, ScoreSolution, f64) {
+        let frames: Vec<usize> = (0..pa.len()).collect();
+        let target = (DVec3::ZERO, DVec3::ZERO);
+        let plain = solve(pa, pb, &frames, 0, target);
+        let sq: f64 = frames
             .iter()
-            .zip(pb)
-            .map(|(x, y)| {
-                let (x, y) = (x.as_ref().unwrap(), y.as_ref().unwrap());
-                (x.apply(sol.c_a) - y.apply(sol.c_b)).length_squared()
+            .map(|&f| {
+                let (x, y) = (pa[f].unwrap(), pb[f].unwrap());
+                (x.apply(plain.c_a) - y.apply(plain.c_b)).length_squared()
             })
             .sum();
-        (sq / pa.len() as f64).sqrt()
+        let plain_cost = (sq / frames.len() as f64).sqrt();
+        let start = (plain.c_a, plain.c_b);
+        let (sol, cost) =
+            solve_spin_corrected(pa, pb, &frames, start, 0, target, line, false).unwrap();
+        (plain_cost, sol, cost)
     }
 
     #[test]
     fn spin_noise_about_the_marker_line_is_corrected_out_of_a_joints_cost() {
         let (pa, pb, line) = loose_pair(20.0, 0.0, 7);
-        let frames: Vec<usize> = (0..pa.len()).collect();
-        let target = (DVec3::ZERO, DVec3::ZERO);
-        let plain = solve(&pa, &pb, &frames, 0, target);
-        let plain_cost = plain_rms(&pa, &pb, &plain);
-        let (sol, cost) = solve_spin_corrected(
-            &pa,
-            &pb,
-            &frames,
-            (plain.c_a, plain.c_b),
-            0,
-            target,
-            line,
-            false,
-        )
-        .unwrap();
+        let (plain_cost, sol, cost) = plain_and_corrected(&pa, &pb, line);
         // 90 mm lever × 20° of spin: ~30 mm along one direction, ~1 mm of noise elsewhere.
         assert!(plain_cost > 15.0, "plain SCoRE {plain_cost:.2} mm");
         // The prior's scale comes from the plain fit's residual along the line, which the
@@ -412,43 +410,23 @@ mod tests {
     #[test]
     fn real_turns_about_the_marker_line_are_not_taken_for_spin_noise() {
         let (pa, pb, line) = spun_composite(9);
-        let frames: Vec<usize> = (0..pa.len()).collect();
-        let target = (DVec3::ZERO, DVec3::ZERO);
-        let plain = solve(&pa, &pb, &frames, 0, target);
-        let (_, cost) = solve_spin_corrected(
-            &pa,
-            &pb,
-            &frames,
-            (plain.c_a, plain.c_b),
-            0,
-            target,
-            line,
-            false,
-        )
-        .unwrap();
+        let (plain_cost, _, cost) = plain_and_corrected(&pa, &pb, line);
         // Freed, the spin would absorb the ±40° and leave the ball joint at c_a: ~1 mm.
-        assert!(cost > 10.0, "corrected {cost:.2} mm");
+        assert!(
+            cost > 10.0,
+            "corrected {cost:.2} mm, plain {plain_cost:.2} mm"
+        );
     }
 
     #[test]
     fn a_pair_that_is_no_joint_stays_dear_with_the_spin_corrected() {
         let (pa, pb, line) = loose_pair(20.0, 25.0, 8);
-        let frames: Vec<usize> = (0..pa.len()).collect();
-        let target = (DVec3::ZERO, DVec3::ZERO);
-        let plain = solve(&pa, &pb, &frames, 0, target);
-        let (_, cost) = solve_spin_corrected(
-            &pa,
-            &pb,
-            &frames,
-            (plain.c_a, plain.c_b),
-            0,
-            target,
-            line,
-            false,
-        )
-        .unwrap();
+        let (plain_cost, _, cost) = plain_and_corrected(&pa, &pb, line);
         // 25 mm of uniform drift per axis is ~14 mm RMS per axis: two of three dimensions
         // keep it whatever the spin.
-        assert!(cost > 15.0, "corrected {cost:.2} mm");
+        assert!(
+            cost > 15.0,
+            "corrected {cost:.2} mm, plain {plain_cost:.2} mm"
+        );
     }
 }
