@@ -215,7 +215,7 @@ pub(crate) fn fit_pair(
             };
             if params.spin_corrected_cost
                 && let Some((line, line_a)) = loose
-                && let Some((weighted, spin_rms)) = score::solve_spin_corrected(
+                && let Some((corrected, spin_rms)) = score::solve_spin_corrected(
                     pa,
                     pb,
                     &co,
@@ -228,7 +228,7 @@ pub(crate) fn fit_pair(
                 && spin_rms.is_finite()
             {
                 cost = spin_rms;
-                sol = weighted;
+                sol = corrected;
                 evidence.push_str(&format!(
                     "; segment {}'s spin about its marker line corrected as noise ({:.1}°): cost {cost:.2} mm",
                     if line_a { a } else { b },

@@ -262,12 +262,11 @@ fn fit_all(
     let lines: Vec<Option<score::MarkerLine>> = poses
         .iter()
         .map(|p| {
+            if along.is_some() || !params.spin_corrected_cost || params.max_spin_deg <= 0.0 {
+                return None;
+            }
             let spin = poses::spin_error_deg(p)?.min(SPIN_UNFIXED_DEG);
-            let loose = along.is_none()
-                && params.spin_corrected_cost
-                && params.max_spin_deg > 0.0
-                && spin > params.max_spin_deg;
-            loose
+            (spin > params.max_spin_deg)
                 .then(|| poses::marker_line(p, spin.to_radians()))
                 .flatten()
         })

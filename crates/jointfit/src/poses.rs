@@ -427,16 +427,7 @@ pub(crate) fn marker_line(poses: &SegmentPoses, spin_sd_rad: f64) -> Option<Mark
     if points.len() < 2 {
         return None;
     }
-    let origin = points.iter().sum::<DVec3>() / points.len() as f64;
-    let mut cov = [[0.0; 3]; 3];
-    for r in &points {
-        let d = (*r - origin).to_array();
-        for i in 0..3 {
-            for j in 0..3 {
-                cov[i][j] += d[i] * d[j];
-            }
-        }
-    }
+    let (origin, cov) = centroid_covariance(points.iter().copied());
     let (_, vectors) = sym_eigen(cov);
     let dir = DVec3::from_array(vectors[0]).normalize_or_zero();
     (dir != DVec3::ZERO).then_some(MarkerLine {
@@ -446,13 +437,9 @@ pub(crate) fn marker_line(poses: &SegmentPoses, spin_sd_rad: f64) -> Option<Mark
     })
 }
 
-/// Variances of the points along their principal directions, largest first (mm²); zeros
-/// for no points.
-fn principal_variances(points: impl Iterator<Item = DVec3> + Clone) -> [f64; 3] {
+/// The points' centroid and covariance matrix (mm, mm²); `points` must not be empty.
+fn centroid_covariance(points: impl Iterator<Item = DVec3> + Clone) -> (DVec3, [[f64; 3]; 3]) {
     let n = points.clone().count() as f64;
-    if n == 0.0 {
-        return [0.0; 3];
-    }
     let c = points.clone().sum::<DVec3>() / n;
     let mut cov = [[0.0; 3]; 3];
     for r in points {
@@ -463,6 +450,16 @@ fn principal_variances(points: impl Iterator<Item = DVec3> + Clone) -> [f64; 3] 
             }
         }
     }
+    (c, cov)
+}
+
+/// Variances of the points along their principal directions, largest first (mm²); zeros
+/// for no points.
+fn principal_variances(points: impl Iterator<Item = DVec3> + Clone) -> [f64; 3] {
+    if points.clone().next().is_none() {
+        return [0.0; 3];
+    }
+    let (_, cov) = centroid_covariance(points);
     let (vals, _) = sym_eigen(cov);
     vals.map(|v| v.max(0.0))
 }
