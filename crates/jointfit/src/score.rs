@@ -60,18 +60,6 @@ pub(crate) fn solve(
             rhs[i + 3] += gb[i];
         }
     }
-    solve_normal(normal, rhs, n, drop, target)
-}
-
-/// Solves the accumulated normal equations (sums over `n` frames), leaving the `drop`
-/// least-determined directions to `target` (see [`solve`]).
-fn solve_normal(
-    mut normal: [[f64; 6]; 6],
-    mut rhs: [f64; 6],
-    n: f64,
-    drop: usize,
-    target: (DVec3, DVec3),
-) -> ScoreSolution {
     for row in normal.iter_mut() {
         for x in row.iter_mut() {
             *x /= n;
@@ -138,6 +126,17 @@ pub(crate) struct MarkerLine {
     pub spin_sd_rad: f64,
 }
 
+impl MarkerLine {
+    /// `pose` with its segment turned by `angle` (radians) about this line first.
+    pub fn spin(&self, pose: &Pose, angle: f64) -> Pose {
+        let turn = glam::DMat3::from_axis_angle(self.dir, angle);
+        Pose {
+            rot: pose.rot * turn,
+            trans: pose.trans + pose.rot * (self.origin - turn * self.origin),
+        }
+    }
+}
+
 /// SCoRE with one segment's spin about its marker line treated as noise of known size,
 /// and the pair's RMS residual (mm) on the same footing as an ordinary pair's.
 ///
@@ -190,7 +189,7 @@ pub(crate) fn solve_spin_corrected(
         } else {
             f64::INFINITY
         };
-        let (mut n, mut objective, mut across) = (0.0, 0.0, 0.0);
+        let (mut n, mut objective, mut along_sq) = (0.0, 0.0, 0.0);
         for &f in frames {
             let (Some(own), Some(other)) = (&own_loose[f], &partner[f]) else {
                 continue;
@@ -199,10 +198,10 @@ pub(crate) fn solve_spin_corrected(
             // basis, relative to the loose segment's own image of it at (along, ρ, 0).
             let q = own.inverse_apply(other.apply(c_partner)) - line.origin;
             let (x_u, x_e, x_v) = (line.dir.dot(q) - along, e.dot(q), v.dot(q));
+            n += 1.0;
             if sigma2.is_nan() {
                 // First round: σ² from the component along the line, which no spin moves.
-                across += x_u * x_u;
-                n += 1.0;
+                along_sq += x_u * x_u;
                 continue;
             }
             let phi = spin_correction(rho, x_e, x_v, lambda);
@@ -214,19 +213,13 @@ pub(crate) fn solve_spin_corrected(
                 } else {
                     0.0
                 };
-            across += x_u * x_u + (x_e - rho * cos).powi(2);
-            n += 1.0;
-            let turn = glam::DMat3::from_axis_angle(line.dir, phi);
-            loose[f] = Some(Pose {
-                rot: own.rot * turn,
-                trans: own.trans + own.rot * (line.origin - turn * line.origin),
-            });
+            loose[f] = Some(line.spin(own, phi));
         }
         if n == 0.0 {
             return None;
         }
         if sigma2.is_nan() {
-            sigma2 = across / n;
+            sigma2 = along_sq / n;
             continue;
         }
         let previous = cost;
@@ -312,13 +305,11 @@ mod tests {
             let joint = ra * c_a + ta + rng.vec3(drift_mm);
             let tb = joint - rb * c_b;
             // Its own pose: spun about its marker line by noise.
-            let spin = DMat3::from_axis_angle(line.dir, rng.gauss() * line.spin_sd_rad);
-            let rb_own = rb * spin;
-            let tb_own = tb + rb * (line.origin - spin * line.origin) + rng.vec3(1.0);
+            let own = line.spin(&Pose { rot: rb, trans: tb }, rng.gauss() * line.spin_sd_rad);
             pa.push(Some(Pose { rot: ra, trans: ta }));
             pb.push(Some(Pose {
-                rot: rb_own,
-                trans: tb_own,
+                rot: own.rot,
+                trans: own.trans + rng.vec3(1.0),
             }));
         }
         (pa, pb, line)
@@ -335,11 +326,6 @@ mod tests {
             dir: DVec3::X,
             spin_sd_rad: 10f64.to_radians(),
         };
-        // About the line through `origin` by `angle`: local point p -> o + R(p - o).
-        let about_line = |angle: f64| {
-            let turn = DMat3::from_axis_angle(line.dir, angle);
-            (turn, line.origin - turn * line.origin)
-        };
         let (mut pa, mut pb) = (Vec::new(), Vec::new());
         for f in 0..300 {
             let ra = DMat3::from_quat(rng.rotation());
@@ -349,10 +335,15 @@ mod tests {
             let tm = ra * c_a + ta - rm * c_a;
             // b: the middle segment turned about the line, smoothly over ±40°.
             let real = 40f64.to_radians() * (f as f64 * 0.05).sin();
-            let (turn, shift) = about_line(real + rng.gauss() * line.spin_sd_rad);
-            let (rb, tb) = (rm * turn, tm + rm * shift + rng.vec3(1.0));
+            let b = line.spin(
+                &Pose { rot: rm, trans: tm },
+                real + rng.gauss() * line.spin_sd_rad,
+            );
             pa.push(Some(Pose { rot: ra, trans: ta }));
-            pb.push(Some(Pose { rot: rb, trans: tb }));
+            pb.push(Some(Pose {
+                rot: b.rot,
+                trans: b.trans + rng.vec3(1.0),
+            }));
         }
         (pa, pb, line)
     }

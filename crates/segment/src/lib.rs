@@ -169,6 +169,14 @@ fn segment_capture(
     nodes.retain(|m| !lonely.contains(m));
 
     let noise_mm = rigidity::noise_level(&stats, &nodes, min_overlap);
+    // Clusters that mix segments (a sparse marker set) raise the rigid spread without bound.
+    let bound_spread = |spread_mm: f64| {
+        if params.spread_max_noise_factor > 0.0 {
+            spread_mm.min(params.spread_max_noise_factor * noise_mm)
+        } else {
+            spread_mm
+        }
+    };
     // The rigidity tolerance: given, or a multiple of how much ρ a rigid body shows here.
     let tolerance_from = |spread_mm: f64| {
         if params.tolerance_mm > 0.0 {
@@ -211,12 +219,7 @@ fn segment_capture(
             let spread_mm = spread_given
                 .or(measured)
                 .map_or(noise_mm, |s| s.max(noise_mm));
-            // Clusters that mix segments (a sparse marker set) raise it without bound.
-            let spread_mm = if params.spread_max_noise_factor > 0.0 {
-                spread_mm.min(params.spread_max_noise_factor * noise_mm)
-            } else {
-                spread_mm
-            };
+            let spread_mm = bound_spread(spread_mm);
             let tolerance_mm = tolerance_from(spread_mm);
             let noise_tolerance_mm = tolerance_from(noise_mm);
             let clusters = if params.rigidity_check && params.split_linkage {
@@ -387,11 +390,7 @@ fn segment_capture(
     // noise; the segments it gave may measure it (`spread_second_pass`).
     if spread_fell_back && params.spread_second_pass {
         if let Some(spread) = rigidity::rigid_spread(&stats, &clusters, min_overlap) {
-            let bounded = if params.spread_max_noise_factor > 0.0 {
-                spread.min(params.spread_max_noise_factor * noise_mm)
-            } else {
-                spread
-            };
+            let bounded = bound_spread(spread);
             if bounded > noise_mm {
                 return segment_capture(raw, params, find_swaps, Some(bounded));
             }

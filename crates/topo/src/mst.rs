@@ -446,7 +446,6 @@ mod tests {
         }
     }
 
-    /// Pair fits over `n` segments with `cost(a, b)` for every pair (a < b).
     /// The test fit of segments a < b.
     fn fit_mut(f: &mut PairFits, a: usize, b: usize) -> &mut PairFit {
         f.pairs
@@ -462,6 +461,7 @@ mod tests {
         }
     }
 
+    /// Pair fits over `n` segments with `cost(a, b)` for every pair (a < b).
     fn fits(n: usize, cost: impl Fn(usize, usize) -> (f64, JointKind)) -> PairFits {
         let poses = (0..n)
             .map(|segment| SegmentPoses {
