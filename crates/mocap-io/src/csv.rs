@@ -34,8 +34,8 @@
 use std::fmt::Write as _;
 
 use crate::trc::{
-    FrameColumn, GapCounts, Lines, clean_label, parse_number, sample_limit, show, units_to_mm,
-    warn_duplicates,
+    FrameColumn, GapCounts, Lines, clean_label, parse_number, sample_limit, show, unique_labels,
+    units_to_mm,
 };
 use crate::{Capture, CaptureInfo, Format, FormatError, ReadOptions, Trajectories};
 
@@ -172,7 +172,7 @@ pub fn parse(bytes: &[u8], _options: &ReadOptions) -> Result<Capture, FormatErro
         }
         labels.push(String::from_utf8_lossy(label.unwrap_or(b"")).into_owned());
     }
-    warn_duplicates(&labels, &format!("line {header_no}"), &mut warnings);
+    unique_labels(&mut labels, &format!("line {header_no}"), &mut warnings);
 
     // Data rows.
     let markers = labels.len();

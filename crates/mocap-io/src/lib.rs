@@ -31,7 +31,7 @@ pub use trajectories::{
 /// Stage name of capture artifacts.
 pub const STAGE: &str = "mocap-io";
 /// Schema version of capture artifacts ([`Capture`]).
-pub const SCHEMA_VERSION: u32 = 4;
+pub const SCHEMA_VERSION: u32 = 5;
 
 /// The file formats we read.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize)]

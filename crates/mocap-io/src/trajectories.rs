@@ -71,7 +71,8 @@ impl Trajectories {
         })
     }
 
-    /// Marker labels, in file order.
+    /// Marker labels, in file order; the readers name a repeated label's later markers
+    /// `LABEL#2`, `LABEL#3`… so each is unique.
     pub fn labels(&self) -> &[String] {
         &self.labels
     }

@@ -153,7 +153,7 @@ pub fn parse(bytes: &[u8], _options: &ReadOptions) -> Result<Capture, FormatErro
         ));
     }
     let _time_head = label_fields.next();
-    let labels: Vec<String> = label_fields
+    let mut labels: Vec<String> = label_fields
         .map(|f| String::from_utf8_lossy(f).into_owned())
         .collect();
     if labels.is_empty() {
@@ -168,7 +168,7 @@ pub fn parse(bytes: &[u8], _options: &ReadOptions) -> Result<Capture, FormatErro
             "line {labels_no}: NumMarkers says {declared} but {markers} marker labels are named; reading the {markers} named markers"
         ));
     }
-    warn_duplicates(&labels, &format!("line {labels_no}"), &mut warnings);
+    unique_labels(&mut labels, &format!("line {labels_no}"), &mut warnings);
 
     // Line 5 (optional): `X1 Y1 Z1 X2 ...`; data rows start with a frame number instead.
     let mut pending = lines.next_nonblank();
@@ -569,20 +569,40 @@ impl ExtraColumns {
     }
 }
 
-/// Adds a warning when labels repeat (downstream stages tell markers apart by index).
-pub(crate) fn warn_duplicates(labels: &[String], at: &str, warnings: &mut Vec<String>) {
-    let mut sorted: Vec<&String> = labels.iter().collect();
-    sorted.sort();
-    let mut repeated: Vec<&str> = sorted
-        .windows(2)
-        .filter(|w| w[0] == w[1])
-        .map(|w| w[0].as_str())
-        .collect();
-    repeated.dedup();
-    if !repeated.is_empty() {
+/// Renames the second and later markers of a repeated label `LABEL#2`, `LABEL#3`, … (a
+/// name no other marker has), so every output names each marker once, and says so: the
+/// stages tell markers apart by index, but a segment listing `RKNE` twice tells a person
+/// nothing (c3d.org's Sample_Jump2 repeats eleven labels, its virtual points among them).
+pub(crate) fn unique_labels(labels: &mut [String], at: &str, warnings: &mut Vec<String>) {
+    let mut taken: std::collections::BTreeSet<String> = labels.iter().cloned().collect();
+    let mut seen: std::collections::BTreeMap<String, usize> = std::collections::BTreeMap::new();
+    let mut renamed = Vec::new();
+    for label in labels.iter_mut() {
+        let count = seen.entry(label.clone()).or_insert(0);
+        *count += 1;
+        if *count == 1 {
+            continue;
+        }
+        let mut k = *count;
+        let mut name = format!("{label}#{k}");
+        while taken.contains(&name) {
+            k += 1;
+            name = format!("{label}#{k}");
+        }
+        taken.insert(name.clone());
+        renamed.push(name.clone());
+        *label = name;
+    }
+    if !renamed.is_empty() {
+        let repeated: Vec<String> = seen
+            .iter()
+            .filter(|(_, n)| **n > 1)
+            .map(|(l, n)| format!("{l} ({n}×)"))
+            .collect();
         warnings.push(format!(
-            "{at}: marker labels repeat: {}",
-            repeated.join(", ")
+            "{at}: marker labels repeat: {}; the later markers are named {} in the outputs",
+            repeated.join(", "),
+            renamed.join(", ")
         ));
     }
 }
@@ -765,6 +785,30 @@ mod tests {
         assert_eq!(t.get(1, 1), None);
         assert_eq!(c.info.declared_units.as_deref(), Some("mm"));
         assert!(c.info.warnings.is_empty(), "{:?}", c.info.warnings);
+    }
+
+    /// A repeated label's later markers get names of their own, never one the file
+    /// already uses, and the warning says which.
+    #[test]
+    fn repeated_labels_are_told_apart_and_said() {
+        let mut labels: Vec<String> = ["A", "B", "A", "A#2", "A", "B"]
+            .iter()
+            .map(|l| l.to_string())
+            .collect();
+        let mut warnings = Vec::new();
+        unique_labels(&mut labels, "line 4", &mut warnings);
+        assert_eq!(labels, ["A", "B", "A#3", "A#2", "A#4", "B#2"]);
+        assert_eq!(warnings.len(), 1);
+        assert!(
+            warnings[0].starts_with("line 4: marker labels repeat: A (3×), B (2×);")
+                && warnings[0].ends_with("named A#3, A#4, B#2 in the outputs"),
+            "{warnings:?}"
+        );
+        let text = HEADER.replace("\tB b\t", "\tA\t");
+        let rows = "5\t0.00\t1\t2\t3\t4\t5\t6\t\n6\t0.01\t1\t2\t3\t4\t5\t6\t\n";
+        let c = read(&format!("{text}{rows}")).unwrap();
+        assert_eq!(c.trajectories.labels(), ["A", "A#2"]);
+        assert_eq!(c.info.warnings.len(), 1, "{:?}", c.info.warnings);
     }
 
     #[test]

@@ -172,6 +172,8 @@ pub fn parse(bytes: &[u8], options: &ReadOptions) -> Result<Capture, FormatError
             drop_model_outputs(&params, labels, positions, seen, &mut warnings);
         drop_computed_points(labels, positions, &seen, &mut warnings)
     };
+    let mut labels = labels;
+    crate::trc::unique_labels(&mut labels, "POINT:LABELS", &mut warnings);
     let trajectories = Trajectories::new(
         labels,
         f64::from(layout.rate),
