@@ -2,7 +2,8 @@
 //! whether it is a true joint and a chosen edge, so wrong trees can be diagnosed.
 //!
 //! `cargo run --release -p export --example topo_edges [-- subject preset seed frames markers]`
-//! (`TRUE_SEGMENTS=1` gives the later stages the true segments)
+//! (`TRUE_SEGMENTS=1` gives the later stages the true segments; `JOINTFIT=JSON` sets jointfit
+//! parameters, e.g. `{"tree_poses": false}` for the first pass alone)
 //! (markers per segment as `MIN:MAX`, default the generator's).
 #![allow(clippy::print_stdout)]
 

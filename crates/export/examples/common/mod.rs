@@ -36,7 +36,12 @@ pub fn up_to_tree(
     if std::env::var_os("TRUE_SEGMENTS").is_some() {
         put_true_segments(&mut seg, &trial.true_segment_markers());
     }
-    let fits = jointfit::run(traj, &seg, &jointfit::Params::default())?;
+    // `JOINTFIT='{"tree_poses": false}'` sets jointfit parameters (JSON) for a diagnosis.
+    let params: jointfit::Params = match std::env::var("JOINTFIT") {
+        Ok(json) => serde_json::from_str(&json)?,
+        Err(_) => jointfit::Params::default(),
+    };
+    let fits = jointfit::run(traj, &seg, &params)?;
     let topology = topo::run(&seg, &fits, &topo::Params::default())?;
     Ok((seg, fits, topology))
 }
