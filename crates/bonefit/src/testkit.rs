@@ -129,6 +129,7 @@ pub fn scene(frames: usize, rate: f64) -> Scene {
                 evidence: "exact".into(),
                 centre_from_distances: false,
                 seeded: false,
+                first_pass_kind: None,
             });
         }
     }

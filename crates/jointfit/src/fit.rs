@@ -156,6 +156,7 @@ pub(crate) fn fit_pair(
             ),
             centre_from_distances: false,
             seeded: false,
+            first_pass_kind: None,
         };
     }
     let motion = relative_motion(pa, pb, &co);
@@ -320,6 +321,7 @@ pub(crate) fn fit_pair(
         evidence,
         centre_from_distances: false,
         seeded: false,
+        first_pass_kind: None,
     }
 }
 

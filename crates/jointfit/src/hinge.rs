@@ -1436,6 +1436,7 @@ mod tests {
             evidence: String::new(),
             centre_from_distances: false,
             seeded: false,
+            first_pass_kind: None,
         }
     }
 

@@ -41,9 +41,9 @@
 //! first pass's costs: such segments are posed through a tree neighbour's joint, anchors
 //! are sought among tree neighbours first, and a two-marker segment is posed from both its
 //! joints' centres (`Params::anchor_two_centres`). Its pairs keep the first pass's costs
-//! and relative rotations, so the tree topo chooses is the one the first pass's poses
-//! support. Where it would leave a pair the first pass fitted without a centre, the first
-//! pass's fits stand.
+//! and relative rotations, and the kinds topo's rules read (`PairFit::first_pass_kind`),
+//! so the tree topo chooses is the one the first pass's poses support. Where it would
+//! leave a pair the first pass fitted without a centre, the first pass's fits stand.
 //!
 //! It does not choose which pairs are joints (topo does, from the costs); hinge centres
 //! are placed on their axes from the tree by [`place_hinges_across_bones`] (or the older
@@ -149,10 +149,11 @@ pub fn run_on_segments(
         .collect();
     // Second pass along the tree the costs make: poses through the joints the topology
     // will most likely keep. The costs and relative rotations topo builds the tree from
-    // stay the first pass's, so it is the tree the segments' own poses support (only a
-    // pair turning rigid in this pass could change it). The second pass's kinds fit its
-    // centres: the first pass's kinds on these fits measured worse (cargo xtask eval
-    // --presets hard: 8101-8124 1.95 → 1.98 %, --markers 2:3 3.08 → 3.15 %).
+    // stay the first pass's (and the kinds its rules read), so it is the tree the
+    // segments' own poses support (only a pair turning rigid in this pass could change
+    // it). The second pass's kinds fit its centres and are the ones written: the first
+    // pass's kinds on these fits measured worse (cargo xtask eval --presets hard:
+    // 8101-8124 1.95 → 1.98 %, --markers 2:3 3.08 → 3.15 %).
     let tree = cheapest_tree(segments.len(), &own.fits);
     let off_tree = |(s, nb): (usize, &Option<usize>)| nb.is_some_and(|nb| !tree[s][nb]);
     // A two-marker segment with two tree neighbours to take centres from
@@ -185,6 +186,9 @@ pub fn run_on_segments(
         return Ok(own.fits);
     }
     for (fit, first) in along.pairs.iter_mut().zip(&own.fits.pairs) {
+        if fit.kind != first.kind {
+            fit.first_pass_kind = Some(first.kind);
+        }
         let same = |x: f64, y: f64| x.to_bits() == y.to_bits();
         if !same(fit.cost, first.cost) || !same(fit.rotation_rms_deg, first.rotation_rms_deg) {
             fit.cost = first.cost;

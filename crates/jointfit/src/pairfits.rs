@@ -3,7 +3,7 @@
 use serde::{Deserialize, Serialize};
 
 /// Schema version of [`PairFits`]; bump when its fields or the algorithm's output change.
-pub const SCHEMA_VERSION: u32 = 21;
+pub const SCHEMA_VERSION: u32 = 22;
 
 /// Per-frame rigid poses of every segment and the joint fitted to every segment pair.
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
@@ -116,9 +116,19 @@ pub struct PairFit {
     /// its two-marker segments was posed from both segments' markers' common centre.
     #[serde(default)]
     pub seeded: bool,
+    /// The kind the first pass (the segments' own poses) gave, where a second pass along
+    /// the tree changed it: topo's rules read it with the first pass's cost and rotation,
+    /// so the tree is the one those poses support; `kind` fits this pair's centre.
+    #[serde(default)]
+    pub first_pass_kind: Option<JointKind>,
 }
 
 impl PairFit {
+    /// The kind topo's rules read: the first pass's (see `first_pass_kind`).
+    pub fn tree_kind(&self) -> JointKind {
+        self.first_pass_kind.unwrap_or(self.kind)
+    }
+
     /// A hinge whose centre may slide along its axis: every point of the axis fits the
     /// motion, and no marker distances fixed it.
     pub fn free_hinge(&self) -> bool {

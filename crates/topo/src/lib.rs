@@ -24,7 +24,8 @@
 //!   clavicles on the sternum fit a common centre as well as each fits the thorax.
 //!   Kinds are stronger evidence than costs: a pair that is not a hinge, turning at least
 //!   as much as two hinges through a third segment, is their composite even when they
-//!   cost more (`composite_hinge_cost_ratio`): two hinges on one hub compose to two
+//!   cost more (`composite_hinge_cost_ratio`; the kinds the first pass gave, read with its
+//!   costs, see `PairFit::tree_kind`): two hinges on one hub compose to two
 //!   degrees of freedom, and were it a joint, one of those two pairs would compose its
 //!   motion with another joint's and read as no hinge.
 //! - Root: the tree's centre (minimum eccentricity in hops), ties by the smaller sum of

@@ -269,7 +269,7 @@ fn composite_of(fits: &PairFits, n: usize, b: usize, c: usize, params: &Params) 
             .filter(|p| p.cost.is_finite() && p.rotation_rms_deg.is_finite())
     };
     let own = pair(b, c)?;
-    let own_not_hinge = matches!(own.kind, JointKind::Ball | JointKind::Universal);
+    let own_not_hinge = matches!(own.tree_kind(), JointKind::Ball | JointKind::Universal);
     (0..n)
         .filter(|&a| a != b && a != c)
         .filter_map(|a| {
@@ -280,8 +280,8 @@ fn composite_of(fits: &PairFits, n: usize, b: usize, c: usize, params: &Params) 
                 && dearer <= params.composite_cost_ratio * own.cost
                 && own.rotation_rms_deg >= params.composite_rotation_ratio * turns;
             let by_kinds = own_not_hinge
-                && ab.kind == JointKind::Hinge
-                && ac.kind == JointKind::Hinge
+                && ab.tree_kind() == JointKind::Hinge
+                && ac.tree_kind() == JointKind::Hinge
                 && dearer <= params.composite_hinge_cost_ratio * own.cost
                 && own.rotation_rms_deg >= turns;
             (by_motion || by_kinds).then_some(dearer)
@@ -495,6 +495,7 @@ mod tests {
                     evidence: String::new(),
                     centre_from_distances: false,
                     seeded: false,
+                    first_pass_kind: None,
                 });
             }
         }
@@ -795,6 +796,18 @@ mod tests {
             let t = run(&seg, &f, &Params::default()).unwrap_or_else(|e| panic!("{e}"));
             assert!(edge_set(&t).contains(&(0, 1)), "{kind:?} {turns}");
         }
+        // The kinds read are the first pass's, like the costs: a hinge the second pass
+        // calls a ball still makes (0, 1) its composite, and a ball it calls a hinge not.
+        let pair = fit_mut(&mut f, 0, 1);
+        (pair.kind, pair.rotation_rms_deg) = (JointKind::Ball, 41.0);
+        let hub = fit_mut(&mut f, 1, 2);
+        (hub.kind, hub.first_pass_kind) = (JointKind::Ball, Some(JointKind::Hinge));
+        let t = run(&seg, &f, &Params::default()).unwrap_or_else(|e| panic!("{e}"));
+        assert_eq!(edge_set(&t), [(0, 2), (1, 2), (2, 3)]);
+        let hub = fit_mut(&mut f, 1, 2);
+        (hub.kind, hub.first_pass_kind) = (JointKind::Hinge, Some(JointKind::Ball));
+        let t = run(&seg, &f, &Params::default()).unwrap_or_else(|e| panic!("{e}"));
+        assert!(edge_set(&t).contains(&(0, 1)));
     }
 
     #[test]
