@@ -50,7 +50,7 @@ pub fn run(seg: &Segmentation, fits: &PairFits, params: &Params) -> Result<Topol
         if !p.cost.is_finite() {
             continue;
         }
-        let rank = u8::from(!(params.rigid_first && p.kind == JointKind::Rigid));
+        let rank = u8::from(!(params.rigid_first && p.tree_kind() == JointKind::Rigid));
         edges.push((rank, p.cost, p.a, p.b, i));
     }
     if params.composite_rotation_ratio > 0.0 || params.composite_hinge_cost_ratio > 0.0 {
@@ -75,7 +75,8 @@ pub fn run(seg: &Segmentation, fits: &PairFits, params: &Params) -> Result<Topol
         if sets.union(a, b) {
             if rank == 0 {
                 notes.push(format!(
-                    "segments {a} and {b} do not move relative to each other (pair kind rigid); \
+                    "segments {a} and {b} do not move relative to each other (pair kind rigid on their \
+                     own poses); \
                      joined first: they are probably one body split in two"
                 ));
             }
