@@ -75,9 +75,8 @@ pub fn run(seg: &Segmentation, fits: &PairFits, params: &Params) -> Result<Topol
         if sets.union(a, b) {
             if rank == 0 {
                 notes.push(format!(
-                    "segments {a} and {b} do not move relative to each other (pair kind rigid on their \
-                     own poses); \
-                     joined first: they are probably one body split in two"
+                    "segments {a} and {b} do not move relative to each other (pair kind rigid \
+                     on their own poses); joined first: they are probably one body split in two"
                 ));
             }
             accepted.push((a, b, pair, cost));
