@@ -151,14 +151,7 @@ fn fit_residual(
         (mirrored, mirror)
     };
     if group.len() >= 3 {
-        let spread = |residuals: &[FitResidual]| {
-            let mut v: Vec<f64> = residuals
-                .iter()
-                .filter(|f| f.dof > 0.0)
-                .map(|f| f.sum_sq / f.dof)
-                .collect();
-            quantile(&mut v, QUANTILE)
-        };
+        let spread = |residuals: &[FitResidual]| robust_variance(residuals.iter().copied());
         let mut variance = spread(&residuals);
         for _ in 0..shape_rounds {
             shape = procrustes_mean(traj, &group, &shape, &residuals, variance);
@@ -305,16 +298,21 @@ fn centre(v: &mut [[f64; 3]]) {
 /// Largest group [`fit_residual`] fits.
 const MAX_GROUP: usize = 64;
 
-/// Robust residual σ of per-frame fits, mm: the square root of the median over frames of
-/// each frame's sum of squares over its degrees of freedom. The median ignores a label swap
-/// or a glitch lasting a minority of the frames, while a joint moves the fit in most frames
-/// (the reference is the mean shape).
+/// Robust residual σ of per-frame fits, mm: the square root of the [`QUANTILE`] over frames
+/// of each frame's sum of squares over its degrees of freedom. A quantile ignores a label
+/// swap or a glitch lasting a minority of the frames, while a joint moves the fit in most
+/// frames (the reference is the mean shape).
 fn robust_sigma(frames: impl Iterator<Item = FitResidual>) -> f64 {
+    robust_variance(frames).sqrt()
+}
+
+/// [`robust_sigma`] squared, mm².
+fn robust_variance(frames: impl Iterator<Item = FitResidual>) -> f64 {
     let mut v: Vec<f64> = frames
         .filter(|f| f.dof > 0.0)
         .map(|f| f.sum_sq / f.dof)
         .collect();
-    quantile(&mut v, QUANTILE).sqrt()
+    quantile(&mut v, QUANTILE)
 }
 
 /// Quantile of the per-frame residual variances that stands for a fit's σ.
