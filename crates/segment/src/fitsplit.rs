@@ -375,11 +375,11 @@ fn best_bipartition(
         if a.len() < 2 || b.len() < 2 {
             continue;
         }
-        let Some(sigma) = pooled(&a, &b, 0) else {
+        let Some(parts_sigma) = pooled(&a, &b, 0) else {
             continue;
         };
-        if best.as_ref().is_none_or(|(s, _, _)| sigma < *s) {
-            best = Some((sigma, a, b));
+        if best.as_ref().is_none_or(|(s, _, _)| parts_sigma < *s) {
+            best = Some((parts_sigma, a, b));
         }
     }
     let best = best.and_then(|(_, a, b)| {
