@@ -330,7 +330,7 @@ pub const PARAM_DOCS: &[(&str, &str)] = &[
     ),
     (
         "fit_split_ratio",
-        "after clustering, each cluster of 4–10 markers is fitted as one rigid body per frame (Horn, reference shape by MDS of the median distances, then, for the whole and the best two parts, refined to the least-squares shape by Procrustes averaging: Eb015's pelvis, one creeping marker and gaps at either end, fits its MDS shape at σ 5.9 mm and its refined one at 3.1) and as the best two bodies (every bipartition into parts of ≥ 2); it splits when its residual σ (per coordinate, degrees-of-freedom corrected) exceeds fit_split_ratio × the two bodies' pooled σ and fit_split_floor × the typical cluster's σ, recursively. A fit sees a joint's rotation to first order where ρ sees it to second order near a straight limb; 0 = off; default 2.0",
+        "after clustering, each cluster of 4–10 markers is fitted as one rigid body per frame (Horn, reference shape from mean distances) and as the best two bodies (every bipartition into parts of ≥ 2); it splits when its residual σ (per coordinate, degrees-of-freedom corrected) exceeds fit_split_ratio × the two bodies' pooled σ and fit_split_floor × the typical cluster's σ, recursively. A fit sees a joint's rotation to first order where ρ sees it to second order near a straight limb; 0 = off; default 2.0",
     ),
     (
         "fit_split_floor",
