@@ -244,6 +244,9 @@ pub fn suite(args: &Args) -> Result<Vec<TrialSpec>> {
     Ok(specs)
 }
 
+/// Why a marker on no true segment is unassigned under `--true-segments`.
+const TRUTH_LEFT_OUT: &str = "on no true segment";
+
 /// Generates, runs and scores one trial. Any failure (generator, pipeline, an unreadable
 /// skeleton.json) is recorded in the result, so one bad trial does not hide the others.
 pub fn run_trial(spec: &TrialSpec, params: &Params, true_segments: bool) -> TrialResult {
@@ -294,7 +297,7 @@ fn evaluate(
     let start = Instant::now();
     let ran = pipeline::run_in_memory_with(capture, params, |seg| {
         if let Some(groups) = &truth_groups {
-            put_true_segments(seg, groups);
+            seg.regroup(groups, TRUTH_LEFT_OUT);
         }
     });
     result.seconds = start.elapsed().as_secs_f64();
@@ -415,51 +418,6 @@ fn fill_from_score(result: &mut TrialResult, score: &synth::score::Score) {
     result.worst_error_pct = nan(score.joint_error_worst_pct);
     result.known_fraction = score.known_fraction;
     result.kind_accuracy = nan(score.kind_accuracy);
-}
-
-/// Replaces the segment stage's groups with the true ones (markers on no true segment
-/// become unassigned). The per-marker diagnostics other than the segment stay the stage's.
-fn put_true_segments(seg: &mut segment::Segmentation, truth: &[Vec<usize>]) {
-    let mut groups: Vec<Vec<usize>> = truth
-        .iter()
-        .filter(|markers| !markers.is_empty())
-        .map(|markers| {
-            let mut markers = markers.clone();
-            markers.sort_unstable();
-            markers
-        })
-        .collect();
-    // The stage's order: by smallest marker index.
-    groups.sort_unstable_by_key(|markers| markers[0]);
-    seg.segments = groups
-        .into_iter()
-        .enumerate()
-        .map(|(id, markers)| segment::Segment { id, markers })
-        .collect();
-    for d in &mut seg.markers {
-        d.segment = None;
-    }
-    for s in &seg.segments {
-        for &m in &s.markers {
-            if let Some(d) = seg.markers.get_mut(m) {
-                d.segment = Some(s.id);
-            }
-        }
-    }
-    let stage_said: Vec<segment::UnassignedMarker> = std::mem::take(&mut seg.unassigned);
-    seg.unassigned = (0..seg.markers.len())
-        .filter(|&m| seg.markers[m].segment.is_none())
-        .map(|m| {
-            stage_said
-                .iter()
-                .find(|u| u.marker == m)
-                .cloned()
-                .unwrap_or_else(|| segment::UnassignedMarker {
-                    marker: m,
-                    reason: "on no true segment".into(),
-                })
-        })
-        .collect();
 }
 
 /// Runs the suite with one parameter set; results in suite order.
@@ -997,7 +955,7 @@ mod tests {
             glitches: Vec::new(),
         };
         // The truth: {3, 4} and {2, 0}; marker 1 on none; an empty segment.
-        put_true_segments(&mut seg, &[vec![3, 4], vec![2, 0], vec![]]);
+        seg.regroup(&[vec![3, 4], vec![2, 0], vec![]], super::TRUTH_LEFT_OUT);
         let groups: Vec<(usize, Vec<usize>)> = seg
             .segments
             .iter()

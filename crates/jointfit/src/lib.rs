@@ -263,10 +263,11 @@ fn fit_all(
     }
     // First pass only: the lines of segments whose own markers fix their spin too loosely
     // (the second pass poses them through a joint instead).
+    let correct_spin = along.is_none() && params.spin_corrected_cost && params.max_spin_deg > 0.0;
     let lines: Vec<Option<score::MarkerLine>> = poses
         .iter()
         .map(|p| {
-            if along.is_some() || !params.spin_corrected_cost || params.max_spin_deg <= 0.0 {
+            if !correct_spin {
                 return None;
             }
             let spin = poses::spin_error_deg(p)?.min(SPIN_UNFIXED_DEG);

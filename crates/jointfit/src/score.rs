@@ -180,7 +180,8 @@ pub(crate) fn solve_spin_corrected(
         let rho = out.length();
         // The basis (u, ê, u × ê) about the line at the centre.
         let (e, v) = if rho > 1e-9 {
-            (out / rho, line.dir.cross(out / rho))
+            let e = out / rho;
+            (e, line.dir.cross(e))
         } else {
             (DVec3::ZERO, DVec3::ZERO)
         };

@@ -57,6 +57,52 @@ pub struct LabelSwap {
 }
 
 impl Segmentation {
+    /// Replaces the segments by `groups` (marker indices; empty groups dropped), in the
+    /// stage's order (by smallest marker); a marker in none is unassigned, with the stage's
+    /// reason where it gave one and `why_left_out` otherwise. The other diagnostics stay
+    /// the stage's. For diagnostics that feed later stages other segments (the truth).
+    pub fn regroup(&mut self, groups: &[Vec<usize>], why_left_out: &str) {
+        let mut groups: Vec<Vec<usize>> = groups
+            .iter()
+            .filter(|markers| !markers.is_empty())
+            .map(|markers| {
+                let mut markers = markers.clone();
+                markers.sort_unstable();
+                markers
+            })
+            .collect();
+        groups.sort_unstable_by_key(|markers| markers[0]);
+        self.segments = groups
+            .into_iter()
+            .enumerate()
+            .map(|(id, markers)| Segment { id, markers })
+            .collect();
+        for d in &mut self.markers {
+            d.segment = None;
+        }
+        for s in &self.segments {
+            for &m in &s.markers {
+                if let Some(d) = self.markers.get_mut(m) {
+                    d.segment = Some(s.id);
+                }
+            }
+        }
+        let stage_said: Vec<UnassignedMarker> = std::mem::take(&mut self.unassigned);
+        self.unassigned = (0..self.markers.len())
+            .filter(|&m| self.markers[m].segment.is_none())
+            .map(|m| {
+                stage_said
+                    .iter()
+                    .find(|u| u.marker == m)
+                    .cloned()
+                    .unwrap_or_else(|| UnassignedMarker {
+                        marker: m,
+                        reason: why_left_out.into(),
+                    })
+            })
+            .collect();
+    }
+
     /// The capture's trajectories as segmentation read them: every label swap undone, then
     /// every glitch sample missing; borrowed unchanged when there is neither. Markers or
     /// frames out of the capture's range are left alone.

@@ -828,6 +828,17 @@ mod tests {
         };
         let t = run(&seg, &f, &p).unwrap();
         assert_eq!(edge_set(&t), vec![(0, 1), (1, 2)]);
+        // The kind read is the first pass's: rigid there, a ball in the second pass, still
+        // first; and the reverse is not.
+        let mut f = f;
+        let pair = fit_mut(&mut f, 0, 2);
+        (pair.kind, pair.first_pass_kind) = (JointKind::Ball, Some(JointKind::Rigid));
+        let t = run(&seg, &f, &Params::default()).unwrap();
+        assert_eq!(edge_set(&t), vec![(0, 1), (0, 2)]);
+        let pair = fit_mut(&mut f, 0, 2);
+        (pair.kind, pair.first_pass_kind) = (JointKind::Rigid, Some(JointKind::Ball));
+        let t = run(&seg, &f, &Params::default()).unwrap();
+        assert_eq!(edge_set(&t), vec![(0, 1), (1, 2)]);
     }
 
     #[test]

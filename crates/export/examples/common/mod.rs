@@ -34,7 +34,7 @@ pub fn up_to_tree(
     let traj = &trial.trajectories;
     let mut seg = segment::run(traj, &segment::Params::default())?;
     if std::env::var_os("TRUE_SEGMENTS").is_some() {
-        put_true_segments(&mut seg, &trial.true_segment_markers());
+        seg.regroup(&trial.true_segment_markers(), "on no true segment");
     }
     // `JOINTFIT='{"tree_poses": false}'` sets jointfit parameters (JSON) for a diagnosis.
     let params: jointfit::Params = match std::env::var("JOINTFIT") {
@@ -44,31 +44,6 @@ pub fn up_to_tree(
     let fits = jointfit::run(traj, &seg, &params)?;
     let topology = topo::run(&seg, &fits, &topo::Params::default())?;
     Ok((seg, fits, topology))
-}
-
-/// Replaces the found segments by the true ones (the `TRUE_SEGMENTS` diagnostic).
-fn put_true_segments(seg: &mut Segmentation, truth: &[Vec<usize>]) {
-    let mut groups: Vec<Vec<usize>> = truth.iter().filter(|m| !m.is_empty()).cloned().collect();
-    for g in &mut groups {
-        g.sort_unstable();
-    }
-    groups.sort_unstable_by_key(|g| g[0]);
-    for d in &mut seg.markers {
-        d.segment = None;
-    }
-    seg.segments = groups
-        .into_iter()
-        .enumerate()
-        .map(|(id, markers)| {
-            for &m in &markers {
-                if let Some(d) = seg.markers.get_mut(m) {
-                    d.segment = Some(id);
-                }
-            }
-            segment::Segment { id, markers }
-        })
-        .collect();
-    seg.unassigned.clear();
 }
 
 /// Each found segment's true segment: the one sharing most of its markers.
