@@ -15,6 +15,13 @@ pub(crate) enum JointKind {
     Ball { limits: [[f64; 2]; 3] },
     /// One rotation about `axis` (unit, parent's local frame); `limits` in degrees.
     Hinge { axis: DVec3, limits: [f64; 2] },
+    /// Two rotations about perpendicular unit axes, `R(axes[0], a)·R(axes[1], b)`: the
+    /// first fixed in the parent's frame, the second in the child's (a Hooke or Cardan
+    /// joint); `limits` in degrees, one per axis.
+    Universal {
+        axes: [DVec3; 2],
+        limits: [[f64; 2]; 2],
+    },
 }
 
 impl JointKind {
@@ -29,11 +36,28 @@ impl JointKind {
             limits,
         }
     }
-    /// "ball" or "hinge", as in the truth file.
+    /// A universal joint about `first` (parent's frame) then `second` (child's), made
+    /// perpendicular to `first`; limits in degrees.
+    pub(crate) fn universal(
+        first: [f64; 3],
+        second: [f64; 3],
+        first_limits: [f64; 2],
+        second_limits: [f64; 2],
+    ) -> Self {
+        let a = DVec3::from(first).normalize();
+        let b = DVec3::from(second);
+        let b = (b - a * a.dot(b)).normalize();
+        JointKind::Universal {
+            axes: [a, b],
+            limits: [first_limits, second_limits],
+        }
+    }
+    /// "ball", "hinge" or "universal", as in the truth file.
     pub(crate) fn name(&self) -> &'static str {
         match self {
             JointKind::Ball { .. } => "ball",
             JointKind::Hinge { .. } => "hinge",
+            JointKind::Universal { .. } => "universal",
         }
     }
     /// Range of motion per degree of freedom, degrees.
@@ -41,6 +65,7 @@ impl JointKind {
         match self {
             JointKind::Ball { limits } => limits.to_vec(),
             JointKind::Hinge { limits, .. } => vec![*limits],
+            JointKind::Universal { limits, .. } => limits.to_vec(),
         }
     }
     /// The child's rotation relative to the parent for angles in degrees (one per DOF).
@@ -59,6 +84,11 @@ impl JointKind {
                 *axis,
                 angles_deg.first().copied().unwrap_or(0.0).to_radians(),
             ),
+            JointKind::Universal { axes, .. } => {
+                let [a, b] = [0, 1].map(|i| angles_deg.get(i).copied().unwrap_or(0.0));
+                DQuat::from_axis_angle(axes[0], a.to_radians())
+                    * DQuat::from_axis_angle(axes[1], b.to_radians())
+            }
         }
     }
     /// The angles (degrees, one per DOF) of a relative rotation; inverse of [`Self::rotation`]
@@ -69,14 +99,13 @@ impl JointKind {
                 let (z, y, x) = rotation.to_euler(EulerRot::ZYX);
                 vec![x.to_degrees(), y.to_degrees(), z.to_degrees()]
             }
-            JointKind::Hinge { axis, .. } => {
-                let q = if rotation.w < 0.0 {
-                    -rotation
-                } else {
-                    rotation
-                };
-                let s = DVec3::new(q.x, q.y, q.z).dot(*axis);
-                vec![(2.0 * s.atan2(q.w)).to_degrees()]
+            JointKind::Hinge { axis, .. } => vec![angle_about(rotation, *axis).to_degrees()],
+            JointKind::Universal { axes: [a, b], .. } => {
+                // The second axis, fixed in the child, is turned only by the first rotation.
+                let turned = rotation * *b;
+                let first = a.dot(b.cross(turned)).atan2(b.dot(turned));
+                let second = angle_about(DQuat::from_axis_angle(*a, -first) * rotation, *b);
+                vec![first.to_degrees(), second.to_degrees()]
             }
         }
     }
@@ -93,8 +122,23 @@ impl JointKind {
                 axis: DVec3::new(-axis.x, axis.y, -axis.z),
                 limits: *limits,
             },
+            JointKind::Universal { axes, limits } => JointKind::Universal {
+                axes: axes.map(|a| DVec3::new(-a.x, a.y, -a.z)),
+                limits: *limits,
+            },
         }
     }
+}
+
+/// The angle (radians) of a rotation about a unit axis, for a rotation about that axis.
+fn angle_about(rotation: DQuat, axis: DVec3) -> f64 {
+    let q = if rotation.w < 0.0 {
+        -rotation
+    } else {
+        rotation
+    };
+    let s = DVec3::new(q.x, q.y, q.z).dot(axis);
+    2.0 * s.atan2(q.w)
 }
 
 /// A rigid segment: its bone (where markers go) and how far from it markers sit.
@@ -333,5 +377,32 @@ mod tests {
             vec![[-30.0, 10.0], [0.0, 1.0], [-20.0, -5.0]]
         );
         assert!(matches!(m, JointKind::Hinge { .. }));
+    }
+
+    #[test]
+    fn universal_angles_round_trip_and_its_axes_keep_their_angle() {
+        let k = JointKind::universal(
+            [1.0, 0.2, 0.0],
+            [0.0, 1.0, 0.3],
+            [-60.0, 60.0],
+            [-50.0, 50.0],
+        );
+        let JointKind::Universal { axes: [a, b], .. } = k else {
+            unreachable!("built as universal")
+        };
+        assert!(a.dot(b).abs() < 1e-12, "axes made perpendicular");
+        for angles in [[35.0, -20.0], [-55.0, 48.0], [0.0, 0.0], [10.0, 0.0]] {
+            let r = k.rotation(&angles);
+            let back = k.angles(r);
+            for (x, y) in angles.iter().zip(&back) {
+                assert!((x - y).abs() < 1e-9, "{angles:?} vs {back:?}");
+            }
+            // The child's axis stays square to the parent's: the joint's invariant.
+            assert!(a.dot(r * b).abs() < 1e-12);
+        }
+        let p = DVec3::new(10.0, 20.0, -30.0);
+        let left = k.rotation(&[25.0, -40.0]) * p;
+        let right = k.mirrored().rotation(&[25.0, -40.0]) * mirror(p);
+        assert!((mirror(left) - right).length() < 1e-9);
     }
 }

@@ -145,17 +145,21 @@ pub enum Subject {
     Hexapod,
     /// A random tree of 5–15 segments, bones 50–600 mm, ball and hinge joints.
     Random,
+    /// A mobile base and 5–7 links in a chain joined by universal joints (two axes across
+    /// each link), like a modular snake robot standing up.
+    Snake,
 }
 
 impl Subject {
     /// Every subject, in documentation order.
-    pub const ALL: [Subject; 6] = [
+    pub const ALL: [Subject; 7] = [
         Subject::Human,
         Subject::Quadruped,
         Subject::Robotarm,
         Subject::Snowman,
         Subject::Hexapod,
         Subject::Random,
+        Subject::Snake,
     ];
 
     /// Lower-case name, as on the command line and in trial names.
@@ -167,6 +171,7 @@ impl Subject {
             Subject::Snowman => "snowman",
             Subject::Hexapod => "hexapod",
             Subject::Random => "random",
+            Subject::Snake => "snake",
         }
     }
 }

@@ -21,6 +21,7 @@ pub(crate) fn build(subject: Subject, rng: &mut ChaCha8Rng) -> Body {
         Subject::Snowman => snowman(rng),
         Subject::Hexapod => hexapod(rng),
         Subject::Random => random_tree(rng),
+        Subject::Snake => snake(rng),
     }
 }
 
@@ -350,6 +351,58 @@ fn robotarm(rng: &mut ChaCha8Rng) -> Body {
         offset = v(0.0, 0.0, length);
         let turn = rng.random_range(45f64..135.0).to_radians();
         heading += if rng.random_bool(0.5) { turn } else { -turn };
+    }
+    b.set_height_from_rest_pose();
+    b
+}
+
+/// A serpentine manipulator on a mobile base: 5–7 links in a chain, each joined to the
+/// last by a universal joint whose two axes lie across the link (the first fixed in the
+/// lower link, the second in the upper), as in modular snake robots.
+fn snake(rng: &mut ChaCha8Rng) -> Body {
+    let base = 120.0;
+    let style = RootStyle {
+        height_mm: 100.0,
+        speed_mm_s: 300.0,
+        bob_mm: 0.0,
+        bob_hz: 1.0,
+        jump_mm: 0.0,
+        tilt_deg: 0.0,
+    };
+    let mut b = Body::new(
+        SegmentDef::new("base", DVec3::ZERO, v(0.0, 0.0, base), [50.0, 90.0]),
+        style,
+    );
+    let links = rng.random_range(5..=7);
+    let mut at = 0;
+    let mut offset = v(0.0, 0.0, base);
+    for k in 1..=links {
+        let length = rng.random_range(150.0..300.0);
+        let heading = rng.random_range(0.0..std::f64::consts::PI);
+        let mut range = || {
+            let width = rng.random_range(70.0..110.0);
+            let centre = rng.random_range(-15.0..15.0);
+            [centre - width / 2.0, centre + width / 2.0]
+        };
+        let (first, second) = (range(), range());
+        at = b.attach(
+            at,
+            format!("joint{k}"),
+            offset,
+            JointKind::universal(
+                [heading.cos(), heading.sin(), 0.0],
+                [-heading.sin(), heading.cos(), 0.0],
+                first,
+                second,
+            ),
+            SegmentDef::new(
+                format!("link{k}"),
+                DVec3::ZERO,
+                v(0.0, 0.0, length),
+                [30.0, 60.0],
+            ),
+        );
+        offset = v(0.0, 0.0, length);
     }
     b.set_height_from_rest_pose();
     b

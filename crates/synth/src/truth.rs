@@ -77,12 +77,13 @@ pub struct TruthJoint {
     pub child_segment: usize,
     /// Index of the parent segment's own parent joint; `None` when the parent is the root.
     pub parent_joint: Option<usize>,
-    /// "ball" (three rotations) or "hinge" (one).
+    /// "ball" (three rotations), "universal" (two) or "hinge" (one).
     pub kind: String,
-    /// Hinge axis, unit vector in the global frame at frame 0; `None` for ball joints.
+    /// Hinge axis, unit vector in the global frame at frame 0; `None` for other kinds.
     pub axis: Option<[f64; 3]>,
     /// Range of motion per rotation, degrees `[min, max]`: a hinge's one angle; a ball's
-    /// rotations about the parent's x, y, z, composed as Rz·Ry·Rx.
+    /// rotations about the parent's x, y, z, composed as Rz·Ry·Rx; a universal joint's
+    /// about its first axis (in the parent) then its second (in the child).
     pub rom_deg: Vec<[f64; 2]>,
     /// Measured sweep (max − min over the trial) of each rotation in `rom_deg`, degrees.
     pub swept_deg: Vec<f64>,
@@ -158,7 +159,7 @@ pub(crate) fn build(
                     let g = motion.rot(0, joint.parent) * axis;
                     Some(g.to_array().map(|c| round_to(c, 1e9)))
                 }
-                JointKind::Ball { .. } => None,
+                JointKind::Ball { .. } | JointKind::Universal { .. } => None,
             };
             let limits = joint.kind.limits();
             let mut lo = vec![f64::INFINITY; limits.len()];
