@@ -325,3 +325,44 @@ fn hinge_sides_are_judged_from_the_segment_that_turns_least() {
         "from the tree's root: {tree_root}"
     );
 }
+
+/// A clean synthetic snake (`cargo xtask synth --subject snake`) through the whole CLI: the
+/// tree is exact and every joint is written `universal` with its two unit axes (the one
+/// fixed in the parent's frame, then the child's) and no hinge axis.
+#[test]
+fn a_snake_robots_joints_are_written_universal_with_their_axes() {
+    let tmp = Scratch::new("accuracy-snake-clean");
+    let dir = synthesize(&tmp, "snake", "clean", 4);
+    let score = run_and_score(&tmp, &dir, "snake-clean-s4", &[]);
+    assert!(score.topology_exact, "{score}");
+    assert!(
+        score.joint_error_mean_pct.is_some_and(|e| e <= 0.1),
+        "{score}"
+    );
+    let skeleton = crate::support::read_json(&tmp.path("out").join("skeleton.json"));
+    let joints = skeleton["joints"].as_array().expect("joints");
+    assert!(joints.len() >= 5, "{} joints", joints.len());
+    for joint in joints {
+        assert_eq!(joint["kind"], "universal", "{}", joint["kind_evidence"]);
+        let axes: Vec<[f64; 3]> = joint["universal_axes"]
+            .as_array()
+            .expect("universal_axes")
+            .iter()
+            .map(|a| {
+                let v: Vec<f64> = a
+                    .as_array()
+                    .expect("axis")
+                    .iter()
+                    .map(|c| c.as_f64().expect("number"))
+                    .collect();
+                [v[0], v[1], v[2]]
+            })
+            .collect();
+        assert_eq!(axes.len(), 2);
+        for a in &axes {
+            let norm = (a[0] * a[0] + a[1] * a[1] + a[2] * a[2]).sqrt();
+            assert!((norm - 1.0).abs() < 1e-5, "{a:?}");
+        }
+        assert!(joint["hinge_axis_in_parent"].is_null());
+    }
+}

@@ -624,6 +624,11 @@ struct Aggregate {
     kinds_right: usize,
     /// Matched joints whose kind was scored.
     kinds_scored: usize,
+    /// Matched true universal joints, and those estimated universal.
+    universal_true: usize,
+    universal_found: usize,
+    /// Matched joints estimated universal that are not.
+    universal_false: usize,
     seconds: f64,
 }
 
@@ -639,6 +644,9 @@ fn aggregate<'a>(results: impl Iterator<Item = &'a TrialResult>) -> Aggregate {
         mean_known_fraction: 0.0,
         kinds_right: 0,
         kinds_scored: 0,
+        universal_true: 0,
+        universal_found: 0,
+        universal_false: 0,
         seconds: 0.0,
     };
     let mut scored = 0usize;
@@ -658,6 +666,15 @@ fn aggregate<'a>(results: impl Iterator<Item = &'a TrialResult>) -> Aggregate {
         if judged > 0 && r.kind_accuracy.is_finite() {
             a.kinds_scored += judged;
             a.kinds_right += (r.kind_accuracy * judged as f64).round() as usize;
+        }
+        for j in r.joints.iter().filter(|j| j.estimate.is_some()) {
+            let called = j.estimated_kind.as_deref() == Some("universal");
+            if j.kind == "universal" {
+                a.universal_true += 1;
+                a.universal_found += usize::from(called);
+            } else {
+                a.universal_false += usize::from(called);
+            }
         }
         if r.mean_error_pct.is_finite() {
             a.mean_error_pct += r.mean_error_pct;
@@ -751,7 +768,7 @@ fn summary_line(label: &str, results: &[TrialResult], wall: f64) -> String {
         let a = aggregate(results.iter().filter(|r| r.preset == p));
         parts.push(format!(
             "{p}: topology {}/{}{}, mean {}% (worst {}%) of height, known {}%, hinge or not \
-             right {}/{}{}",
+             right {}/{}{}{}",
             a.topology_exact,
             a.trials,
             if a.topology_equivalent > 0 {
@@ -764,6 +781,14 @@ fn summary_line(label: &str, results: &[TrialResult], wall: f64) -> String {
             fmt_f(a.mean_known_fraction * 100.0, 1),
             a.kinds_right,
             a.kinds_scored,
+            if a.universal_true + a.universal_false > 0 {
+                format!(
+                    ", universal found {}/{} (and {} not universal)",
+                    a.universal_found, a.universal_true, a.universal_false
+                )
+            } else {
+                String::new()
+            },
             if a.failed > 0 {
                 format!(", {} FAILED", a.failed)
             } else {
@@ -1209,5 +1234,41 @@ mod tests {
             summary_line("x", &[result("human", "clean", true, 0.1)], 0.0)
                 .contains("hinge or not right 0/0")
         );
+    }
+
+    #[test]
+    fn universal_joints_are_tallied_found_and_false() {
+        let joint = |kind: &str, estimated: Option<&str>| JointResult {
+            truth: "j".into(),
+            kind: kind.into(),
+            estimate: estimated.map(|_| "e".into()),
+            estimated_kind: estimated.map(String::from),
+            mean_mm: None,
+            worst_mm: None,
+            steady_mm: None,
+            steady_along_axis_mm: None,
+            varying_mm: None,
+            known_fraction: 1.0,
+        };
+        let mut r = result("snake", "hard", true, 1.0);
+        r.joints = vec![
+            joint("universal", Some("universal")),
+            joint("universal", Some("ball")),
+            joint("universal", None),
+            joint("ball", Some("universal")),
+            joint("hinge", Some("hinge")),
+        ];
+        let a = aggregate(std::iter::once(&r));
+        assert_eq!(
+            (a.universal_found, a.universal_true, a.universal_false),
+            (1, 2, 1)
+        );
+        let line = summary_line("x", &[r], 0.0);
+        assert!(
+            line.contains("universal found 1/2 (and 1 not universal)"),
+            "{line}"
+        );
+        let plain = summary_line("x", &[result("human", "clean", true, 0.1)], 0.0);
+        assert!(!plain.contains("universal"), "{plain}");
     }
 }

@@ -121,6 +121,7 @@ pub fn scene(frames: usize, rate: f64) -> Scene {
                 },
                 axis_in_a: ((a, b) == (1, 2)).then_some([1.0, 0.0, 0.0]),
                 axis_in_b: ((a, b) == (1, 2)).then_some([1.0, 0.0, 0.0]),
+                universal_axes: None,
                 residual_rms_mm: 0.0,
                 frames_used: frames,
                 rotation_rms_deg: 20.0,

@@ -121,6 +121,10 @@ pub struct JointJson {
     pub kind_evidence: String,
     /// Hinge axis in the parent segment's local frame (unit vector), for hinges.
     pub hinge_axis_in_parent: Option<[f64; 3]>,
+    /// For universal joints: the axis fixed in the parent segment's local frame, then the
+    /// axis fixed in the child's (unit vectors); the angle between them never changes.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub universal_axes: Option<[[f64; 3]; 2]>,
     /// How far bonefit slid the hinge centre along its axis towards the adjacent joints
     /// (mm); 0 when not slid.
     pub hinge_shift_mm: f64,
@@ -325,6 +329,15 @@ pub(crate) fn document(input: &Inputs<'_>) -> Result<SkeletonJson, Error> {
             pair.axis_in_b
         }
         .map(|a| a.map(|c| round(c, 6).unwrap_or(0.0)));
+        // Universal axes are stored (axis in a, axis in b); give them (parent's, child's).
+        let universal_axes = pair.universal_axes.map(|[in_a, in_b]| {
+            let (parent, child) = if pair.a == j.parent_segment {
+                (in_a, in_b)
+            } else {
+                (in_b, in_a)
+            };
+            [parent, child].map(|a| a.map(|c| round(c, 6).unwrap_or(0.0)))
+        });
         joints.push(JointJson {
             name: j.name.clone(),
             parent_segment: j.parent_segment,
@@ -342,6 +355,7 @@ pub(crate) fn document(input: &Inputs<'_>) -> Result<SkeletonJson, Error> {
             range_of_motion_deg: rom,
             kind_evidence: pair.evidence.clone(),
             hinge_axis_in_parent,
+            universal_axes,
             hinge_shift_mm: round(j.hinge_shift_mm, 3).unwrap_or(0.0),
             bone_length_mm: round(j.bone_length, 3).unwrap_or(0.0),
             offset_mm: vector(j.offset),

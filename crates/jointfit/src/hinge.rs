@@ -1428,6 +1428,7 @@ mod tests {
             kind: crate::JointKind::Ball,
             axis_in_a: None,
             axis_in_b: None,
+            universal_axes: None,
             residual_rms_mm: residual,
             frames_used: 100,
             rotation_rms_deg: 30.0,

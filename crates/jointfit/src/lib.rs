@@ -65,6 +65,7 @@ mod poses;
 mod score;
 mod seed;
 mod small;
+mod universal;
 
 pub use error::Error;
 pub use hinge::{

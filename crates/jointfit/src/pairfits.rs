@@ -3,7 +3,7 @@
 use serde::{Deserialize, Serialize};
 
 /// Schema version of [`PairFits`]; bump when its fields or the algorithm's output change.
-pub const SCHEMA_VERSION: u32 = 22;
+pub const SCHEMA_VERSION: u32 = 23;
 
 /// Per-frame rigid poses of every segment and the joint fitted to every segment pair.
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
@@ -93,6 +93,10 @@ pub struct PairFit {
     pub axis_in_a: Option<[f64; 3]>,
     /// Hinge axis in `b`'s local frame (unit vector), for hinges: the same line as `axis_in_a`.
     pub axis_in_b: Option<[f64; 3]>,
+    /// For universal joints: the axis fixed in `a`'s local frame and the axis fixed in
+    /// `b`'s (unit vectors), whose angle stays constant.
+    #[serde(default)]
+    pub universal_axes: Option<[[f64; 3]; 2]>,
     /// RMS over frames of the distance between the centre as `a` and as `b` carry it (mm).
     pub residual_rms_mm: f64,
     /// Frames in which both segments have a pose.

@@ -487,6 +487,7 @@ mod tests {
                     kind,
                     axis_in_a: None,
                     axis_in_b: None,
+                    universal_axes: None,
                     residual_rms_mm: 0.0,
                     frames_used: 0,
                     rotation_rms_deg: 30.0,
