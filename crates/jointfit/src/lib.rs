@@ -5,8 +5,8 @@
 //! [`PairFits`]: every segment's rigid pose per frame (Horn's quaternion method on the
 //! visible markers, ≥ 3, against a mean reference shape), and for every pair `a < b` a
 //! joint centre fixed in both segments' local frames, its position per frame, a cost for
-//! the topology stage, the joint kind (ball / hinge / rigid) with its evidence, and the
-//! hinge axis. Methods (`Params::method`): `score` (symmetrical centre of rotation with
+//! the topology stage, the joint kind (ball / hinge / universal / rigid) with its
+//! evidence, and the hinge axis or a universal joint's two axes. Methods (`Params::method`): `score` (symmetrical centre of rotation with
 //! SARA hinge axes, closed form; default), `aguiar` (the paper's Eq. 2 by L-BFGS) and
 //! `local` (per-marker density-weighted sphere/circle fits by Levenberg–Marquardt in the
 //! other segment's frame, averaged with weight attachment / radius; see `local.rs`).
@@ -17,7 +17,9 @@
 //! scatter and its markers' inertia: skin on a compact marker set wobbles a hinge's axis as
 //! much as a ball joint's least-used direction; a two-marker segment posed through a joint
 //! turns about that joint's centre, so its markers' moments about the centre and their
-//! radial scatter give its noise).
+//! radial scatter give its noise). A pair that is no hinge is universal when two axes, one
+//! fixed in each segment, keep their angle (`Params::universal_ratio`, see `universal.rs`);
+//! its centre is fitted as a ball joint's.
 //!
 //! Segments carried by 1 or 2 markers (or collinear ones) are posed through the joint with
 //! a posed neighbour (greedy anchoring, `Params::anchor`, see `anchor.rs`): 2 markers plus
