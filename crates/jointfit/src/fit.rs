@@ -11,7 +11,6 @@ use crate::pairfits::{JointKind, PairFit, SegmentPoses};
 use crate::params::{Method, Params};
 use crate::poses::{self, Pose};
 use crate::score::{self, MarkerLine};
-use crate::universal;
 
 /// What a pair fit reads about one segment.
 pub(crate) struct SegmentView<'a> {
@@ -169,34 +168,6 @@ pub(crate) fn fit_pair(
         kind = JointKind::Hinge;
         evidence.push_str(&note);
     }
-    let mut universal_axes = None;
-    if kind == JointKind::Ball
-        && params.universal_ratio > 0.0
-        && let Some(axes) = universal::universal_axes(pa, pb, &co)
-    {
-        let ratio = axes.third_deg / motion.rms_deg.max(f64::MIN_POSITIVE);
-        let verdict = if ratio < params.universal_ratio {
-            kind = JointKind::Universal;
-            universal_axes = Some([axes.axis_in_a.to_array(), axes.axis_in_b.to_array()]);
-            format!(
-                "universal: ratio < universal_ratio {}",
-                params.universal_ratio
-            )
-        } else {
-            format!(
-                "not universal: ratio ≥ universal_ratio {}",
-                params.universal_ratio
-            )
-        };
-        evidence.push_str(&format!(
-            "; {verdict}: the pair of axes (one fixed in each segment) whose angle changes \
-             least keeps its {:.1}° within {:.2}° RMS, {:.2}° beyond what the joint's two \
-             angles explain linearly and frame-to-frame noise ({ratio:.3} of the relative \
-             rotation)",
-            axes.angle_deg, axes.wobble_deg, axes.third_deg
-        ));
-    }
-
     // Where the data leave the centre undetermined (a hinge's axis, a rigid pair), put it
     // nearest the midpoint of the two segments' origins (their reference centroids), seen
     // from each segment. Topology-aware placement (nearest the adjacent joints) is later.
@@ -342,7 +313,7 @@ pub(crate) fn fit_pair(
         kind,
         axis_in_a: hinge.then(|| motion.axis_in_a.to_array()),
         axis_in_b: hinge.then(|| motion.axis_in_b.to_array()),
-        universal_axes,
+        universal_axes: None,
         residual_rms_mm: residual,
         frames_used: co.len(),
         rotation_rms_deg: motion.rms_deg,

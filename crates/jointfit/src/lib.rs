@@ -17,9 +17,9 @@
 //! scatter and its markers' inertia: skin on a compact marker set wobbles a hinge's axis as
 //! much as a ball joint's least-used direction; a two-marker segment posed through a joint
 //! turns about that joint's centre, so its markers' moments about the centre and their
-//! radial scatter give its noise). A pair that is no hinge is universal when two axes, one
-//! fixed in each segment, keep their angle (`Params::universal_ratio`, see `universal.rs`);
-//! its centre is fitted as a ball joint's.
+//! radial scatter give its noise). After both passes, a ball pair a tree could use is
+//! universal when two axes, one fixed in each segment, keep their angle
+//! (`Params::universal_ratio`, see `universal.rs`); its centre stays the ball joint's.
 //!
 //! Segments carried by 1 or 2 markers (or collinear ones) are posed through the joint with
 //! a posed neighbour (greedy anchoring, `Params::anchor`, see `anchor.rs`): 2 markers plus
@@ -121,6 +121,17 @@ pub const SPIN_UNFIXED_DEG: f64 = 180.0;
 /// [`run`] on bare marker lists: `segments[id]` = marker indices of segment `id` (for
 /// evaluations that start from a known segmentation rather than the segment stage's).
 pub fn run_on_segments(
+    traj: &Trajectories,
+    segments: &[Vec<usize>],
+    params: &Params,
+) -> Result<PairFits, Error> {
+    let mut fits = fit_passes(traj, segments, params)?;
+    universal::read_universal_joints(&mut fits, params);
+    Ok(fits)
+}
+
+/// Both passes of [`run_on_segments`], every kind but universal.
+fn fit_passes(
     traj: &Trajectories,
     segments: &[Vec<usize>],
     params: &Params,

@@ -223,15 +223,17 @@ pub const PARAM_DOCS: &[(&str, &str)] = &[
     ),
     (
         "universal_ratio",
-        "a pair that is neither a hinge nor rigid is a universal joint (two axes, one fixed \
-         in each segment, whose angle never changes: a Hooke or Cardan joint) when, for the \
-         pair of such axes whose angle changes least, what is left of that change beyond a \
-         linear function of the joint's two angles (skin moves the poses smoothly with them) \
-         and beyond frame-to-frame noise is under this fraction of the RMS relative \
-         rotation (true segments, seeds 20001..20050, kind_table example: below 0.03 / 0.04 \
-         / 0.05 fall, on the hard preset, 61 / 119 / 163 of the snake's 286 universal joints \
-         and 1 / 1 / 6 of the 1522 ball joints of every subject; on the noise preset 286 / \
-         289 / 292 of 293 and 0 / 0 / 1 of 1536); 0 = off; default 0.04",
+        "a pair that is neither a hinge nor rigid, and that a tree could use (cost at most 3 \
+         times the larger of its segments' cheapest pair costs, + 1 mm), is a universal joint (two \
+         axes, one fixed in each segment, whose angle never changes: a Hooke or Cardan \
+         joint) when, for the pair of such axes whose angle changes least, what is left of \
+         that change beyond a linear function of the joint's two angles (skin moves the \
+         poses smoothly with them) and beyond frame-to-frame noise is under this fraction \
+         of the RMS relative rotation (true segments, seeds 20001..20050, kind_table \
+         example: below 0.03 / 0.04 / 0.05 fall, on the hard preset, 54 / 103 / 148 of the \
+         snake's 299 universal joints and 0 / 0 / 2 of the 1548 ball joints of every \
+         subject; on the noise preset 286 / 289 / 292 of 299 and 0 / 0 / 1 of 1548); 0 = \
+         off; default 0.04",
     ),
     (
         "min_spread_mm",

@@ -15,9 +15,80 @@
 #![allow(clippy::needless_range_loop)]
 
 use glam::DVec3;
+use rayon::prelude::*;
 
-use crate::poses::Pose;
+use crate::pairfits::{JointKind, PairFits};
+use crate::params::Params;
+use crate::poses::{Pose, pose_track};
 use crate::small::sym_eigen;
+
+/// A pair is tested when its cost is at most this many times the larger of its two
+/// segments' cheapest pair costs (plus [`CANDIDATE_COST_SLACK_MM`]): only a pair a tree
+/// could use has its kind written, and topo's rules read a universal joint as a ball
+/// joint (its composite rules take a pair at up to 3 times the cost of the pairs it is
+/// weighed against).
+const CANDIDATE_COST_RATIO: f64 = 3.0;
+
+/// ... plus this (mm): noiseless joints all cost next to nothing, in any ratio.
+const CANDIDATE_COST_SLACK_MM: f64 = 1.0;
+
+/// Calls universal every ball pair a tree could use (see [`CANDIDATE_COST_RATIO`]) whose
+/// best pair of axes keeps its angle, beyond a linear function of the joint's two angles
+/// and frame-to-frame noise, within `Params::universal_ratio` of the pair's RMS relative
+/// rotation; sets its kind and axes and adds the evidence either way.
+pub(crate) fn read_universal_joints(fits: &mut PairFits, params: &Params) {
+    if params.universal_ratio <= 0.0 {
+        return;
+    }
+    let mut cheapest = vec![f64::INFINITY; fits.poses.len()];
+    for p in fits.pairs.iter().filter(|p| p.cost.is_finite()) {
+        for s in [p.a, p.b] {
+            if let Some(c) = cheapest.get_mut(s) {
+                *c = c.min(p.cost);
+            }
+        }
+    }
+    let tracks: Vec<Vec<Option<Pose>>> = fits.poses.par_iter().map(pose_track).collect();
+    fits.pairs.par_iter_mut().for_each(|fit| {
+        let (Some(&ca), Some(&cb)) = (cheapest.get(fit.a), cheapest.get(fit.b)) else {
+            return;
+        };
+        if fit.kind != JointKind::Ball
+            || !fit.cost.is_finite()
+            || fit.cost > CANDIDATE_COST_RATIO * ca.max(cb) + CANDIDATE_COST_SLACK_MM
+        {
+            return;
+        }
+        let (pa, pb) = (&tracks[fit.a], &tracks[fit.b]);
+        let frames: Vec<usize> = (0..pa.len().min(pb.len()))
+            .filter(|&f| pa[f].is_some() && pb[f].is_some())
+            .collect();
+        let Some(axes) = universal_axes(pa, pb, &frames) else {
+            return;
+        };
+        let ratio = axes.third_deg / fit.rotation_rms_deg.max(f64::MIN_POSITIVE);
+        let verdict = if ratio < params.universal_ratio {
+            fit.kind = JointKind::Universal;
+            fit.universal_axes = Some([axes.axis_in_a.to_array(), axes.axis_in_b.to_array()]);
+            format!(
+                "universal: ratio < universal_ratio {}",
+                params.universal_ratio
+            )
+        } else {
+            format!(
+                "not universal: ratio ≥ universal_ratio {}",
+                params.universal_ratio
+            )
+        };
+        fit.evidence.push_str(&format!(
+            "; {verdict}: the pair of axes (one fixed in each segment) whose angle changes \
+             least keeps its {:.1}° within {:.2}° RMS, {:.2}° beyond what the joint's two \
+             angles explain linearly and frame-to-frame noise ({ratio:.3} of the relative \
+             rotation)",
+            axes.angle_deg, axes.wobble_deg, axes.third_deg
+        ));
+    });
+}
 
 /// The best pair of axes of a segment pair read as a universal joint.
 #[derive(Clone, Copy, Debug, PartialEq)]
