@@ -624,8 +624,9 @@ struct Aggregate {
     kinds_right: usize,
     /// Matched joints whose kind was scored.
     kinds_scored: usize,
-    /// Matched true universal joints, and those estimated universal.
+    /// Matched true universal joints.
     universal_true: usize,
+    /// Of those, the ones estimated universal.
     universal_found: usize,
     /// Matched joints estimated universal that are not.
     universal_false: usize,

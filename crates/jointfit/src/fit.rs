@@ -168,6 +168,7 @@ pub(crate) fn fit_pair(
         kind = JointKind::Hinge;
         evidence.push_str(&note);
     }
+
     // Where the data leave the centre undetermined (a hinge's axis, a rigid pair), put it
     // nearest the midpoint of the two segments' origins (their reference centroids), seen
     // from each segment. Topology-aware placement (nearest the adjacent joints) is later.

@@ -8,8 +8,11 @@
 //! `C` its 9×9 covariance over the frames, the variance of `u_a · R u_b` is the quadratic
 //! form `(u_a ⊗ u_b)ᵀ C (u_a ⊗ u_b)`; for a fixed `u_b` the best `u_a` is the least
 //! eigenvector of a 3×3 matrix and vice versa. A grid over `u_b` and alternating refinement
-//! find the pair whose angle wobbles least; that wobble, against the joint's whole motion,
-//! says whether the pair turns about two axes or three.
+//! find the pair whose angle wobbles least. What of that wobble neither the joint's two
+//! angles explain linearly (skin tilts the posed segments smoothly with them) nor
+//! frame-to-frame noise does is what a third rotation would leave; against the joint's
+//! whole motion (`Params::universal_ratio`) it says whether the pair turns about two axes
+//! or three.
 
 // Index loops read like the matrix formulas they implement.
 #![allow(clippy::needless_range_loop)]
@@ -104,8 +107,9 @@ pub(crate) struct UniversalAxes {
     pub angle_deg: f64,
     /// `wobble_deg` less what the two joint angles explain linearly (skin moves the
     /// markers, and so the fitted poses, smoothly with the joint's own angles: the
-    /// artefact's rigid component) and less the frame-to-frame white noise (the variance
-    /// of successive differences, halved): the part a third rotation would leave.
+    /// artefact's rigid component) and less the frame-to-frame white noise (half the mean
+    /// square step between consecutive frames, less what a motion as rough as the joint's
+    /// own angles steps by): the part a third rotation would leave.
     pub third_deg: f64,
 }
 

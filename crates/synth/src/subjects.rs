@@ -670,7 +670,7 @@ mod tests {
     }
 
     #[test]
-    fn robot_hinge_axes_are_perpendicular_to_their_links() {
+    fn robot_and_snake_joint_axes_lie_across_their_links() {
         for seed in 0..10 {
             let arm = build(Subject::Robotarm, &mut ChaCha8Rng::seed_from_u64(seed));
             assert_eq!(arm.joints.len(), 6);
@@ -680,6 +680,20 @@ mod tests {
                 };
                 let [s, e] = arm.segments[j.child].bone;
                 assert!(axis.dot((e - s).normalize()).abs() < 1e-12);
+            }
+            // The snake: a chain of 5-7 links, each on a universal joint whose two square
+            // axes lie across its link.
+            let snake = build(Subject::Snake, &mut ChaCha8Rng::seed_from_u64(seed));
+            assert!((5..=7).contains(&snake.joints.len()));
+            for (k, j) in snake.joints.iter().enumerate() {
+                assert_eq!((j.parent, j.child), (k, k + 1));
+                let JointKind::Universal { axes: [a, b], .. } = j.kind else {
+                    panic!("{} is not universal", j.name);
+                };
+                let [s, e] = snake.segments[j.child].bone;
+                let bone = (e - s).normalize();
+                assert!(a.dot(b).abs() < 1e-12 && a.dot(bone).abs() < 1e-12);
+                assert!(b.dot(bone).abs() < 1e-12);
             }
         }
     }
