@@ -8,7 +8,7 @@ use synth::{Preset, Subject, SynthConfig};
 /// Arguments of `synth`.
 #[derive(clap::Args)]
 pub struct Args {
-    /// Subject: human, quadruped, robotarm, snowman, hexapod, random.
+    /// Subject: human, quadruped, robotarm, snowman, hexapod, random, snake.
     #[arg(long, default_value = "human")]
     pub subject: String,
     /// Degradation: clean, noise, skin, gaps, swap, hard (noise + skin + gaps), messy (hard + swap).

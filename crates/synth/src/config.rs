@@ -57,7 +57,8 @@ impl Default for SynthConfig {
 pub const CONFIG_DOCS: &[(&str, &str)] = &[
     (
         "subject",
-        "articulated subject: human, quadruped, robotarm, snowman, hexapod, random; default human",
+        "articulated subject: human, quadruped, robotarm, snowman, hexapod, random, snake; \
+         default human",
     ),
     (
         "preset",

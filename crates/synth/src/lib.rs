@@ -9,7 +9,7 @@
 //! pipeline's skeleton.json with a truth.
 //!
 //! Subjects are articulated trees (human, quadruped, robot arm, the paper's jumping
-//! snowman, hexapod, random trees) moving smoothly, every joint sweeping 70–95 % of its
+//! snowman, hexapod, random trees, a snake robot of universal joints) moving smoothly, every joint sweeping 70–95 % of its
 //! range (or the share [`SynthConfig::sweep`] asks for) while the whole body walks a circle
 //! and turns once about the vertical.
 //!
