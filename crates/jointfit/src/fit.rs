@@ -91,6 +91,39 @@ fn noisy_hinge(
     })
 }
 
+/// Why a pair the wobble ratio calls a hinge is not one, if it is not: its least-moving
+/// direction wobbles beyond `hinge_max_noise_factor` times what the two segments' pose
+/// noise tilts it by, plus [`HINGE_WOBBLE_ALLOWANCE_DEG`]. Two rotations that move
+/// together (a universal joint's, a wrist's) look like one axis to the ratio, but a true
+/// hinge's axis wobbles only by the poses' errors, whatever the ratio.
+fn not_a_hinge(
+    motion: &RelativeMotion,
+    sa: &SegmentView<'_>,
+    sb: &SegmentView<'_>,
+    params: &Params,
+) -> Option<String> {
+    if params.hinge_max_noise_factor <= 0.0 {
+        return None;
+    }
+    let w0 = motion.wobble_deg[0];
+    let noise = (sa.tilt_variance(motion.axis_in_a)? + sb.tilt_variance(motion.axis_in_b)?)
+        .sqrt()
+        .to_degrees();
+    let bound = params.hinge_max_noise_factor * noise + HINGE_WOBBLE_ALLOWANCE_DEG;
+    (w0 > bound).then(|| {
+        format!(
+            "; not a hinge after all: least wobble {w0:.2}° beyond hinge_max_noise_factor {} × \
+             the {noise:.2}° the segments' pose noise gives + {HINGE_WOBBLE_ALLOWANCE_DEG}°",
+            params.hinge_max_noise_factor
+        )
+    })
+}
+
+/// What a hinge's least wobble may exceed its poses' predicted noise by in any case
+/// (degrees): noiseless poses predict none, and a true hinge's axis still wobbles by
+/// hundredths of a degree there.
+const HINGE_WOBBLE_ALLOWANCE_DEG: f64 = 1.0;
+
 /// Fits the joint between segments `a < b`.
 pub(crate) fn fit_pair(
     traj: &Trajectories,
@@ -166,6 +199,12 @@ pub(crate) fn fit_pair(
         && let Some(note) = noisy_hinge(&motion, sa, sb, params)
     {
         kind = JointKind::Hinge;
+        evidence.push_str(&note);
+    }
+    if kind == JointKind::Hinge
+        && let Some(note) = not_a_hinge(&motion, sa, sb, params)
+    {
+        kind = JointKind::Ball;
         evidence.push_str(&note);
     }
 

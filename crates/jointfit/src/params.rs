@@ -51,6 +51,9 @@ pub struct Params {
     pub hinge_noise_ratio: f64,
     /// See `hinge_noise_ratio`; 0 = off.
     pub hinge_noise_factor: f64,
+    /// A pair the wobble ratio calls a hinge is not one when its least-moving direction
+    /// wobbles beyond this many times the two segments' pose noise (+ 1°); 0 = off.
+    pub hinge_max_noise_factor: f64,
     /// A pair that is neither hinge nor rigid is a universal joint when the pair of axes
     /// (one fixed in each segment) whose angle changes least changes it, beyond what the
     /// joint's two angles explain linearly and beyond noise, by under this fraction of the
@@ -135,6 +138,7 @@ impl Default for Params {
             hinge_ratio: 0.3,
             hinge_noise_ratio: 0.6,
             hinge_noise_factor: 1.5,
+            hinge_max_noise_factor: 4.0,
             universal_ratio: 0.04,
             min_spread_mm: 2.0,
             max_spin_deg: 10.0,
@@ -220,6 +224,17 @@ pub const PARAM_DOCS: &[(&str, &str)] = &[
         "see hinge_noise_ratio: how many times the pose-noise wobble the least-moving direction \
          may wobble (1, 1.5, 2: hard mean 1.97, 1.96, 1.97 % on the seeds above); 0 = off; \
          default 1.5",
+    ),
+    (
+        "hinge_max_noise_factor",
+        "a pair the wobble ratio calls a hinge is not one (a ball joint, or universal) when \
+         its least-moving direction wobbles beyond this many times what the two segments' \
+         pose noise tilts it by, + 1°: two rotations that move together look like one axis \
+         to the ratio, a true hinge's axis wobbles only by the poses' errors (first pass, \
+         seeds 20001..20030, every subject: true hinges reach 1.2 × on noise and 3.0 × on \
+         hard, the universal and ball joints the ratio took for hinges 4.0-10.6 × on noise \
+         and 0.8-3.8 × on hard, and 5-11° where noiseless poses predict none); 0 = off; \
+         default 4",
     ),
     (
         "universal_ratio",
@@ -504,6 +519,7 @@ impl Params {
             ("alpha", self.alpha),
             ("rigid_deg", self.rigid_deg),
             ("hinge_noise_factor", self.hinge_noise_factor),
+            ("hinge_max_noise_factor", self.hinge_max_noise_factor),
             ("universal_ratio", self.universal_ratio),
             ("min_spread_mm", self.min_spread_mm),
             ("max_spin_deg", self.max_spin_deg),
