@@ -6,8 +6,9 @@
 //! visible markers, ≥ 3, against a mean reference shape), and for every pair `a < b` a
 //! joint centre fixed in both segments' local frames, its position per frame, a cost for
 //! the topology stage, the joint kind (ball / hinge / universal / rigid) with its
-//! evidence, and the hinge axis or a universal joint's two axes. Methods (`Params::method`): `score` (symmetrical centre of rotation with
-//! SARA hinge axes, closed form; default), `aguiar` (the paper's Eq. 2 by L-BFGS) and
+//! evidence, and the hinge axis or a universal joint's two axes. Methods
+//! (`Params::method`): `score` (symmetrical centre of rotation with SARA hinge axes, closed
+//! form; default), `aguiar` (the paper's Eq. 2 by L-BFGS) and
 //! `local` (per-marker density-weighted sphere/circle fits by Levenberg–Marquardt in the
 //! other segment's frame, averaged with weight attachment / radius; see `local.rs`).
 //!
@@ -17,9 +18,12 @@
 //! scatter and its markers' inertia: skin on a compact marker set wobbles a hinge's axis as
 //! much as a ball joint's least-used direction; a two-marker segment posed through a joint
 //! turns about that joint's centre, so its markers' moments about the centre and their
-//! radial scatter give its noise). After both passes, a ball pair a tree could use is
-//! universal when two axes, one fixed in each segment, keep their angle
-//! (`Params::universal_ratio`, see `universal.rs`); its centre stays the ball joint's.
+//! radial scatter give its noise); and a pair the ratio calls a hinge is none when its
+//! least wobble exceeds that noise several times over (`Params::hinge_max_noise_factor`:
+//! two rotations moving together look like one axis to the ratio). After both passes, a
+//! ball pair a tree could use is universal when two axes, one fixed in each segment, keep
+//! their angle (`Params::universal_ratio`, see `universal.rs`); its centre stays the ball
+//! joint's.
 //!
 //! Segments carried by 1 or 2 markers (or collinear ones) are posed through the joint with
 //! a posed neighbour (greedy anchoring, `Params::anchor`, see `anchor.rs`): 2 markers plus

@@ -239,9 +239,9 @@ pub const PARAM_DOCS: &[(&str, &str)] = &[
     (
         "universal_ratio",
         "a pair that is neither a hinge nor rigid, and that a tree could use (cost at most 3 \
-         times the larger of its segments' cheapest pair costs, + 1 mm), is a universal joint (two \
-         axes, one fixed in each segment, whose angle never changes: a Hooke or Cardan \
-         joint) when, for the pair of such axes whose angle changes least, what is left of \
+         times the larger of its segments' cheapest pair costs, + 1 mm), is a universal \
+         joint (two axes, one fixed in each segment, whose angle never changes: a Hooke or \
+         Cardan joint) when, for the pair of such axes whose angle changes least, what is left of \
          that change beyond a linear function of the joint's two angles (skin moves the \
          poses smoothly with them) and beyond frame-to-frame noise is under this fraction \
          of the RMS relative rotation (true segments, seeds 20001..20050, kind_table \

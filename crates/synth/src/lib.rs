@@ -9,9 +9,9 @@
 //! pipeline's skeleton.json with a truth.
 //!
 //! Subjects are articulated trees (human, quadruped, robot arm, the paper's jumping
-//! snowman, hexapod, random trees, a snake robot of universal joints) moving smoothly, every joint sweeping 70–95 % of its
-//! range (or the share [`SynthConfig::sweep`] asks for) while the whole body walks a circle
-//! and turns once about the vertical.
+//! snowman, hexapod, random trees, a snake robot of universal joints) moving smoothly,
+//! every joint sweeping 70–95 % of its range (or the share [`SynthConfig::sweep`] asks for)
+//! while the whole body walks a circle and turns once about the vertical.
 //!
 //! It does not estimate anything (that is the pipeline) and writes files only through
 //! [`write_trial`]. Same config → byte-identical output.
