@@ -276,8 +276,8 @@ fn bad_segmentation_is_an_error() {
 }
 
 /// The synthetic snake's universal joints, clean and with 1 mm noise, from the true
-/// segmentation: each reads universal, its two axes square to each other as built; the
-/// synthetic human's ball joints, clean and noisy, stay ball.
+/// segmentation: each reads universal, its two axes square to each other as built; none
+/// of the synthetic human's ball joints, clean and noisy, reads universal.
 #[test]
 fn snake_joints_read_universal_and_human_balls_do_not() {
     for preset in [synth::Preset::Clean, synth::Preset::Noise] {
