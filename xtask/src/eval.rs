@@ -1204,18 +1204,7 @@ mod tests {
     /// joints less the re-hung coincident ones.
     #[test]
     fn kinds_are_counted_over_joints() {
-        let joint = |estimate: Option<&str>| JointResult {
-            truth: "j".into(),
-            kind: "hinge".into(),
-            estimate: estimate.map(String::from),
-            estimated_kind: estimate.map(|_| "hinge".into()),
-            mean_mm: None,
-            worst_mm: None,
-            steady_mm: None,
-            steady_along_axis_mm: None,
-            varying_mm: None,
-            known_fraction: 1.0,
-        };
+        let joint = |estimate: Option<&str>| kind_only("hinge", estimate.map(|e| (e, "hinge")));
         let mut a = result("human", "hard", true, 1.0);
         // 4 matched joints (one not found), one re-hung: 3 judged, 2 of them right.
         a.joints = vec![
@@ -1237,20 +1226,27 @@ mod tests {
         );
     }
 
-    #[test]
-    fn universal_joints_are_tallied_found_and_false() {
-        let joint = |kind: &str, estimated: Option<&str>| JointResult {
+    /// A true joint of `kind` with no errors measured, matched to `estimate` (its name and
+    /// estimated kind) if any.
+    fn kind_only(kind: &str, estimate: Option<(&str, &str)>) -> JointResult {
+        JointResult {
             truth: "j".into(),
             kind: kind.into(),
-            estimate: estimated.map(|_| "e".into()),
-            estimated_kind: estimated.map(String::from),
+            estimate: estimate.map(|(name, _)| name.into()),
+            estimated_kind: estimate.map(|(_, kind)| kind.into()),
             mean_mm: None,
             worst_mm: None,
             steady_mm: None,
             steady_along_axis_mm: None,
             varying_mm: None,
             known_fraction: 1.0,
-        };
+        }
+    }
+
+    #[test]
+    fn universal_joints_are_tallied_found_and_false() {
+        let joint =
+            |kind: &str, estimated: Option<&str>| kind_only(kind, estimated.map(|k| ("e", k)));
         let mut r = result("snake", "hard", true, 1.0);
         r.joints = vec![
             joint("universal", Some("universal")),

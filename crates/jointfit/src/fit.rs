@@ -63,6 +63,17 @@ impl SegmentView<'_> {
     }
 }
 
+/// How far (degrees, RMS) the two segments' pose noise alone tilts the pair's
+/// least-moving direction; `None` when either segment's noise is unbounded.
+fn axis_noise_deg(
+    motion: &RelativeMotion,
+    sa: &SegmentView<'_>,
+    sb: &SegmentView<'_>,
+) -> Option<f64> {
+    let variance = sa.tilt_variance(motion.axis_in_a)? + sb.tilt_variance(motion.axis_in_b)?;
+    Some(variance.sqrt().to_degrees())
+}
+
 /// Why a pair the wobble ratio calls a ball joint is a hinge after all, if it is: its
 /// ratio is under `hinge_noise_ratio` and its least-moving direction wobbles no more than
 /// `hinge_noise_factor` times what pose noise alone tilts that axis by in the two segments
@@ -79,9 +90,7 @@ fn noisy_hinge(
     }
     let [w0, w1, _] = motion.wobble_deg;
     let ratio = if w1 > 0.0 { w0 / w1 } else { 1.0 };
-    let noise = (sa.tilt_variance(motion.axis_in_a)? + sb.tilt_variance(motion.axis_in_b)?)
-        .sqrt()
-        .to_degrees();
+    let noise = axis_noise_deg(motion, sa, sb)?;
     (ratio < params.hinge_noise_ratio && w0 <= params.hinge_noise_factor * noise).then(|| {
         format!(
             "; hinge after all: ratio < hinge_noise_ratio {} and least wobble {w0:.2}° within \
@@ -106,9 +115,7 @@ fn not_a_hinge(
         return None;
     }
     let w0 = motion.wobble_deg[0];
-    let noise = (sa.tilt_variance(motion.axis_in_a)? + sb.tilt_variance(motion.axis_in_b)?)
-        .sqrt()
-        .to_degrees();
+    let noise = axis_noise_deg(motion, sa, sb)?;
     let bound = params.hinge_max_noise_factor * noise + HINGE_WOBBLE_ALLOWANCE_DEG;
     (w0 > bound).then(|| {
         format!(

@@ -20,6 +20,12 @@ fn pair(fits: &crate::PairFits, a: usize, b: usize) -> &PairFit {
         .expect("pair present")
 }
 
+/// The fit of a synthetic truth joint's two segments (fits made on the true segments).
+fn truth_pair<'a>(fits: &'a crate::PairFits, joint: &synth::TruthJoint) -> &'a PairFit {
+    let (x, y) = (joint.parent_segment, joint.child_segment);
+    pair(fits, x.min(y), x.max(y))
+}
+
 /// The placement functions' `(pair index, parent, child)` edges for the tree `links`
 /// (parent, child), each pair fitted with `a < b` as `run_on_segments` orders them.
 fn tree_edges(fits: &crate::PairFits, links: &[(usize, usize)]) -> Vec<(usize, usize, usize)> {
@@ -292,11 +298,8 @@ fn snake_joints_read_universal_and_human_balls_do_not() {
         let segments = trial.true_segment_markers();
         let fits = run_on_segments(&trial.trajectories, &segments, &Params::default()).unwrap();
         for j in &trial.truth.joints {
-            let (a, b) = (
-                j.parent_segment.min(j.child_segment),
-                j.parent_segment.max(j.child_segment),
-            );
-            let fit = pair(&fits, a, b);
+            let fit = truth_pair(&fits, j);
+            let (a, b) = (fit.a, fit.b);
             assert_eq!(
                 fit.kind,
                 JointKind::Universal,
@@ -331,11 +334,7 @@ fn snake_joints_read_universal_and_human_balls_do_not() {
         let segments = human.true_segment_markers();
         let fits = run_on_segments(&human.trajectories, &segments, &Params::default()).unwrap();
         for j in human.truth.joints.iter().filter(|j| j.kind == "ball") {
-            let (a, b) = (
-                j.parent_segment.min(j.child_segment),
-                j.parent_segment.max(j.child_segment),
-            );
-            let fit = pair(&fits, a, b);
+            let fit = truth_pair(&fits, j);
             assert_ne!(
                 fit.kind,
                 JointKind::Universal,

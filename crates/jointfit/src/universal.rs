@@ -153,38 +153,32 @@ pub(crate) fn universal_axes(
             cov[j][i] = c;
         }
     }
-    // Variance of u·R v as a quadratic form in u (rows of R) for fixed v, and in v for
-    // fixed u. Entry (i, j) of R sits at 3i + j.
-    let form_in_a = |v: DVec3| -> [[f64; 3]; 3] {
+    // Variance of u·R v as a quadratic form in u (R's row index) for fixed v, and in v
+    // (its column index) for fixed u. Entry (i, j) of R sits at 3i + j.
+    let form = |fixed: DVec3, free_is_row: bool| -> [[f64; 3]; 3] {
+        let at = |free: usize, other: usize| {
+            if free_is_row {
+                3 * free + other
+            } else {
+                3 * other + free
+            }
+        };
         let mut m = [[0.0; 3]; 3];
-        for i in 0..3 {
-            for k in 0..3 {
+        for p in 0..3 {
+            for q in 0..3 {
                 let mut s = 0.0;
-                for j in 0..3 {
-                    for l in 0..3 {
-                        s += cov[3 * i + j][3 * k + l] * v[j] * v[l];
+                for x in 0..3 {
+                    for y in 0..3 {
+                        s += cov[at(p, x)][at(q, y)] * fixed[x] * fixed[y];
                     }
                 }
-                m[i][k] = s;
+                m[p][q] = s;
             }
         }
         m
     };
-    let form_in_b = |u: DVec3| -> [[f64; 3]; 3] {
-        let mut m = [[0.0; 3]; 3];
-        for j in 0..3 {
-            for l in 0..3 {
-                let mut s = 0.0;
-                for i in 0..3 {
-                    for k in 0..3 {
-                        s += cov[3 * i + j][3 * k + l] * u[i] * u[k];
-                    }
-                }
-                m[j][l] = s;
-            }
-        }
-        m
-    };
+    let form_in_a = |v: DVec3| form(v, true);
+    let form_in_b = |u: DVec3| form(u, false);
     let mean_rotation = glam::DMat3::from_cols_array(&std::array::from_fn(|k| {
         // Column-major: element k is (row k % 3, column k / 3), stored at 3·row + column.
         mean[3 * (k % 3) + k / 3] / n

@@ -312,9 +312,9 @@ fn quadruped(rng: &mut ChaCha8Rng) -> Body {
     b
 }
 
-/// A six-link arm on a mobile base; every hinge axis is horizontal at rest, perpendicular
-/// to the vertical links, and turns 45–135° from the previous one.
-fn robotarm(rng: &mut ChaCha8Rng) -> Body {
+/// A robot's mobile base (a 120 mm upright segment gliding level, no bob or tilt), and
+/// its height (mm), where the first link attaches.
+fn mobile_base() -> (Body, f64) {
     let base = 120.0;
     let style = RootStyle {
         height_mm: 100.0,
@@ -324,10 +324,17 @@ fn robotarm(rng: &mut ChaCha8Rng) -> Body {
         jump_mm: 0.0,
         tilt_deg: 0.0,
     };
-    let mut b = Body::new(
+    let body = Body::new(
         SegmentDef::new("base", DVec3::ZERO, v(0.0, 0.0, base), [50.0, 90.0]),
         style,
     );
+    (body, base)
+}
+
+/// A six-link arm on a mobile base; every hinge axis is horizontal at rest, perpendicular
+/// to the vertical links, and turns 45–135° from the previous one.
+fn robotarm(rng: &mut ChaCha8Rng) -> Body {
+    let (mut b, base) = mobile_base();
     let mut heading = rng.random_range(0.0..std::f64::consts::TAU);
     let mut at = 0;
     let mut offset = v(0.0, 0.0, base);
@@ -360,19 +367,7 @@ fn robotarm(rng: &mut ChaCha8Rng) -> Body {
 /// last by a universal joint whose two axes lie across the link (the first fixed in the
 /// lower link, the second in the upper), as in modular snake robots.
 fn snake(rng: &mut ChaCha8Rng) -> Body {
-    let base = 120.0;
-    let style = RootStyle {
-        height_mm: 100.0,
-        speed_mm_s: 300.0,
-        bob_mm: 0.0,
-        bob_hz: 1.0,
-        jump_mm: 0.0,
-        tilt_deg: 0.0,
-    };
-    let mut b = Body::new(
-        SegmentDef::new("base", DVec3::ZERO, v(0.0, 0.0, base), [50.0, 90.0]),
-        style,
-    );
+    let (mut b, base) = mobile_base();
     let links = rng.random_range(5..=7);
     let mut at = 0;
     let mut offset = v(0.0, 0.0, base);
