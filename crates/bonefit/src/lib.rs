@@ -59,7 +59,9 @@
 //!   `hinge_max_shift_ratio` of the bone. Every slide is kept only if it barely changes
 //!   the pair's residual (`hinge_residual_increase`), or if it ends at a point two other
 //!   segments' pair fit measured (`jointfit::HingePlacements::at_composite_point`: two
-//!   joints on one tip), where skin's tilt of the axis, not doubt, grows the residual.
+//!   joints on one tip), where skin's tilt of the axis, not doubt, grows the residual, or
+//!   if the pair's rotation leaves its axis a free line and the residual at most doubles
+//!   (`hinge_free_gain`): sliding along a wobbling axis grows the residual by the wobble.
 //!   Measured (`cargo xtask eval --seeds
 //!   4001,4002,4003,7001,9001,1001,5001,5002 --compare
 //!   bonefit.hinge_placement=child,bone`): clean 0.34 % → 0.10 % of height, hard 1.83 % →
@@ -165,6 +167,13 @@ pub struct Params {
     /// A hinge keeps its slid centre only if the pair's residual (the centre as the two
     /// segments carry it) grows by at most this fraction (+0.1 mm) (default 0.1).
     pub hinge_residual_increase: f64,
+    /// ... or by at most `hinge_free_residual_increase` where a pose error moves the
+    /// pair's centre along its axis at least this many times as far
+    /// (`jointfit::centre_gain`): the rotation leaves that line free, and a slide along it
+    /// raises the residual by the axis's wobble (default 20; 0 = never).
+    pub hinge_free_gain: f64,
+    /// See `hinge_free_gain` (default 1: the residual may double).
+    pub hinge_free_residual_increase: f64,
     /// A `tree` slide (also `child`'s fallback) is kept only if it is at most this
     /// fraction of the bone from the parent joint (default 0.1).
     pub hinge_max_shift_ratio: f64,
@@ -184,6 +193,8 @@ impl Default for Params {
             max_gap_s: 0.1,
             place_hinges: true,
             hinge_residual_increase: 0.1,
+            hinge_free_gain: 20.0,
+            hinge_free_residual_increase: 1.0,
             hinge_max_shift_ratio: 0.1,
             hinge_placement: HingePlacement::Bone,
             hinge_sides_from_steadiest: true,
@@ -227,6 +238,31 @@ pub const PARAM_DOCS: &[(&str, &str)] = &[
          pair fit's centre stays (the axis is not a line of equally good centres); a \
          slide to a point two neighbouring segments' own fit measured (two joints on one \
          tip) is kept regardless; default 0.1",
+    ),
+    (
+        "hinge_free_gain",
+        "a slid hinge centre refused by hinge_residual_increase is kept when a pose error \
+         moves the pair's centre along its axis at least this many times as far \
+         (jointfit::centre_gain, 1 / sqrt(2 x the least eigenvalue of the SCoRE normal \
+         matrix)) and the residual grows by at most hinge_free_residual_increase: the \
+         rotation leaves that line free, so sliding along it grows the residual by the \
+         axis's own wobble times the slide, not because the data place the centre elsewhere \
+         (random-hard-s30034's joint06, 117 mm along its axis, was refused a 116 mm slide \
+         for 10.0 -> 11.2 mm of residual at a gain of 43; 6 mm off with it). A ball joint \
+         turning every way has a gain of 2-6. Measured (cargo xtask eval --presets hard, \
+         seeds 20001-20050,30001-30050, every subject, against 0): mean 1.722 -> 1.715 % of \
+         height (random trees 2.140 -> 2.085, robot arm 1.088 -> 1.094, hexapod 4.403 -> \
+         4.407, the rest within 0.001), trees unchanged; 12 and 30 did no better; ratio; 0 = \
+         off; default 20",
+    ),
+    (
+        "hinge_free_residual_increase",
+        "see hinge_free_gain: how much a slide along a free axis may grow the pair's residual \
+         RMS (fraction, plus 0.1 mm); a several-fold growth means the data do place the \
+         centre (CMU 02_01's elbows, which turn little and not quite about one axis in a \
+         walk: 1.0 -> 5.8 and 2.3 -> 5.3 mm for slides of 121 and 100 mm that shortened the \
+         upper arms by 9-12 %); W hard as for hinge_free_gain: 0.5 gave 1.716, unbounded \
+         1.714 % with those upper arms 8.7 / 12.3 % short; default 1",
     ),
     (
         "hinge_max_shift_ratio",

@@ -75,7 +75,7 @@ mod universal;
 
 pub use error::Error;
 pub use hinge::{
-    EdgeDirection, HingePlacements, place_hinge_centres, place_hinges_across_bones,
+    EdgeDirection, HingePlacements, centre_gain, place_hinge_centres, place_hinges_across_bones,
     slide_hinge_centre, steadiest_orientation,
 };
 pub use horn::{RigidFit, absolute_orientation, rotation_from_cross_covariance};
