@@ -167,10 +167,11 @@ pub struct Params {
     /// A hinge keeps its slid centre only if the pair's residual (the centre as the two
     /// segments carry it) grows by at most this fraction (+0.1 mm) (default 0.1).
     pub hinge_residual_increase: f64,
-    /// ... or by at most `hinge_free_residual_increase` where a pose error moves the
-    /// pair's centre along its axis at least this many times as far
-    /// (`jointfit::centre_gain`): the rotation leaves that line free, and a slide along it
-    /// raises the residual by the axis's wobble (default 20; 0 = never).
+    /// A slid hinge centre is also kept where a pose error moves the pair's centre along
+    /// its axis at least this many times as far (`jointfit::centre_gain`) and the residual
+    /// grows by at most `hinge_free_residual_increase`: the rotation leaves that line
+    /// free, and a slide along it grows the residual by the axis's wobble (default 20;
+    /// 0 = never).
     pub hinge_free_gain: f64,
     /// See `hinge_free_gain` (default 1: the residual may double).
     pub hinge_free_residual_increase: f64,
@@ -252,8 +253,8 @@ pub const PARAM_DOCS: &[(&str, &str)] = &[
          turning every way has a gain of 2-6. Measured (cargo xtask eval --presets hard, \
          seeds 20001-20050,30001-30050, every subject, against 0): mean 1.722 -> 1.715 % of \
          height (random trees 2.140 -> 2.085, robot arm 1.088 -> 1.094, hexapod 4.403 -> \
-         4.407, the rest within 0.001), trees unchanged; 12 and 30 did no better; ratio; 0 = \
-         off; default 20",
+         4.407, the rest within 0.001), trees unchanged; with no bound on the residual, 12, \
+         20 and 30 gave 1.715, 1.714 and 1.719; ratio; 0 = off; default 20",
     ),
     (
         "hinge_free_residual_increase",
