@@ -253,8 +253,8 @@ pub const PARAM_DOCS: &[(&str, &str)] = &[
          turning every way has a gain of 2-6. Measured (cargo xtask eval --presets hard, \
          seeds 20001-20050,30001-30050, every subject, against 0): mean 1.722 -> 1.715 % of \
          height (random trees 2.140 -> 2.085, robot arm 1.088 -> 1.094, hexapod 4.403 -> \
-         4.407, the rest within 0.001), trees unchanged; with no bound on the residual, 12, \
-         20 and 30 gave 1.715, 1.714 and 1.719; ratio; 0 = off; default 20",
+         4.407, the rest within 0.001), trees unchanged; 12, 15, 25 and 30 gave 1.721, 1.718, \
+         1.717 and 1.719; ratio; 0 = off; default 20",
     ),
     (
         "hinge_free_residual_increase",
