@@ -16,6 +16,11 @@ const LOW_RANGE_OF_MOTION_DEG: f64 = 20.0;
 /// across goes further: 1.7 % of the hard preset's true joints (16 seeds) are above it.
 const CENTRE_MISFIT_WARN_DEG: f64 = 8.0;
 
+/// Above this [`jointfit::centre_gain`] a ball or universal joint turned mostly about one
+/// axis and its centre along that axis is poorly fixed: the synthetic hard trials' ball
+/// joints turning every way are at 2–6, hinges at 8–50.
+const LOOSE_CENTRE_GAIN: f64 = 10.0;
+
 /// The whole of skeleton.json. Field order is the byte order of the file.
 ///
 /// Contract fields (DESIGN.md): `units` … `joints`. Everything else is added quality
@@ -115,6 +120,11 @@ pub struct JointJson {
     /// distance of their markers from the centre (degrees). A few degrees of skin on a
     /// joint; far more where the segments do not turn about one point.
     pub centre_misfit_deg: Option<f64>,
+    /// How far an error in the two segments' poses can move the centre along the
+    /// direction their relative rotation fixes least, in times that error
+    /// (`jointfit::centre_gain`): 2–6 for a ball joint turning every way, large for a hinge
+    /// (along its axis the centre is placed, see `hinge_shift_mm`, not measured).
+    pub centre_gain: Option<f64>,
     /// Range of motion of the child segment relative to the parent (degrees).
     pub range_of_motion_deg: Option<f64>,
     /// Why `kind` was chosen, in words.
@@ -315,6 +325,18 @@ pub(crate) fn document(input: &Inputs<'_>) -> Result<SkeletonJson, Error> {
                  about one point (a segment between them without markers, or a wrong pair)"
             ));
         }
+        let gain = jointfit::centre_gain(fits, j.pair).filter(|g| g.is_finite());
+        let loose = matches!(
+            pair.kind,
+            jointfit::JointKind::Ball | jointfit::JointKind::Universal
+        );
+        if let Some(g) = gain.filter(|&g| loose && g > LOOSE_CENTRE_GAIN) {
+            warnings.push(format!(
+                "it turned mostly about one axis: a pose error moves its centre up to {g:.0} \
+                 times as far along that axis (above {LOOSE_CENTRE_GAIN}), so the centre's \
+                 place along it is uncertain"
+            ));
+        }
         if pair.seeded {
             warnings.push(
                 "every pose starts here: no segment has three markers of its own, so one of \
@@ -352,6 +374,7 @@ pub(crate) fn document(input: &Inputs<'_>) -> Result<SkeletonJson, Error> {
             residual_rms_mm: round(pair.residual_rms_mm, 3),
             fk_residual_rms_mm: round(j.fit_rms_mm, 3),
             centre_misfit_deg: misfit.and_then(|m| round(m, 3)),
+            centre_gain: gain.and_then(|g| round(g, 1)),
             range_of_motion_deg: rom,
             kind_evidence: pair.evidence.clone(),
             hinge_axis_in_parent,

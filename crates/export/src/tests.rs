@@ -960,3 +960,26 @@ fn glb_forward_kinematics_and_skinned_bones_reproduce_the_json() {
         }
     }
 }
+
+/// A ball joint that turns about one axis only (the scene's nodding head) warns that its
+/// centre along that axis is uncertain, with its `centre_gain`; the hip, turning about two
+/// axes, does not, and neither does the knee, a hinge, whose gain is as large as the head's.
+#[test]
+fn a_ball_joint_turning_about_one_axis_warns() {
+    let s = scene(120, 60.0);
+    let doc = json(&files(&s, &Params::default()));
+    let joint = |child: u64| {
+        doc["joints"]
+            .as_array()
+            .into_iter()
+            .flatten()
+            .find(|j| j["child_segment"].as_u64() == Some(child))
+            .unwrap_or_else(|| panic!("a joint into segment {child}: {doc}"))
+    };
+    let warned = |j: &Value| j["warnings"].to_string().contains("one axis");
+    let gain = |j: &Value| j["centre_gain"].as_f64().expect("a centre gain");
+    let (hip, head, knee) = (joint(1), joint(3), joint(2));
+    assert!(warned(head) && gain(head) > 10.0, "{head}");
+    assert!(!warned(hip) && gain(hip) < 10.0, "{hip}");
+    assert!(!warned(knee) && gain(knee) > 10.0, "{knee}");
+}
