@@ -143,10 +143,14 @@ pub fn run(
             // The residual grows along any axis by its wobble times the slide; where the
             // rotation barely fixes the centre along it, that growth says little, unless
             // it is several-fold (CMU 02_01's elbows, 1.0 -> 5.8 mm for a 121 mm slide).
-            let free = params.hinge_free_gain > 0.0
-                && r1 <= r0 * (1.0 + params.hinge_free_residual_increase.max(0.0)) + 0.1
-                && jointfit::centre_gain(fits, pair).is_some_and(|g| g >= params.hinge_free_gain);
-            if short && (steady || measured_point[e] || free) {
+            // (Its gain, a pass over the frames, only for a slide the residual refused.)
+            let free = || {
+                params.hinge_free_gain > 0.0
+                    && r1 <= r0 * (1.0 + params.hinge_free_residual_increase.max(0.0)) + 0.1
+                    && jointfit::centre_gain(fits, pair)
+                        .is_some_and(|g| g >= params.hinge_free_gain)
+            };
+            if short && (steady || measured_point[e] || free()) {
                 *h = s;
             } else {
                 copy.pairs[pair] = before.clone();

@@ -287,14 +287,17 @@ fn bad_segmentation_is_an_error() {
 #[test]
 fn snake_joints_read_universal_and_human_balls_do_not() {
     for preset in [synth::Preset::Clean, synth::Preset::Noise] {
-        let trial = synth::generate(&synth::SynthConfig {
-            subject: synth::Subject::Snake,
-            preset,
-            frames: 480,
-            seed: 5,
-            ..synth::SynthConfig::default()
-        })
-        .expect("synthetic trial");
+        let generate = |subject| {
+            synth::generate(&synth::SynthConfig {
+                subject,
+                preset,
+                frames: 480,
+                seed: 5,
+                ..synth::SynthConfig::default()
+            })
+            .expect("synthetic trial")
+        };
+        let trial = generate(synth::Subject::Snake);
         let segments = trial.true_segment_markers();
         let fits = run_on_segments(&trial.trajectories, &segments, &Params::default()).unwrap();
         for j in &trial.truth.joints {
@@ -324,13 +327,7 @@ fn snake_joints_read_universal_and_human_balls_do_not() {
                 j.name
             );
         }
-        let human = synth::generate(&synth::SynthConfig {
-            preset,
-            frames: 480,
-            seed: 5,
-            ..synth::SynthConfig::default()
-        })
-        .expect("synthetic trial");
+        let human = generate(synth::Subject::Human);
         let segments = human.true_segment_markers();
         let fits = run_on_segments(&human.trajectories, &segments, &Params::default()).unwrap();
         for j in human.truth.joints.iter().filter(|j| j.kind == "ball") {

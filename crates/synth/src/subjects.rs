@@ -331,6 +331,16 @@ fn mobile_base() -> (Body, f64) {
     (body, base)
 }
 
+/// Link `k` of a robot's chain: a straight upright bone `length` mm long.
+fn link(k: usize, length: f64) -> SegmentDef {
+    SegmentDef::new(
+        format!("link{k}"),
+        DVec3::ZERO,
+        v(0.0, 0.0, length),
+        [30.0, 60.0],
+    )
+}
+
 /// A six-link arm on a mobile base; every hinge axis is horizontal at rest, perpendicular
 /// to the vertical links, and turns 45–135° from the previous one.
 fn robotarm(rng: &mut ChaCha8Rng) -> Body {
@@ -348,12 +358,7 @@ fn robotarm(rng: &mut ChaCha8Rng) -> Body {
             format!("joint{k}"),
             offset,
             JointKind::hinge(axis, [centre - width / 2.0, centre + width / 2.0]),
-            SegmentDef::new(
-                format!("link{k}"),
-                DVec3::ZERO,
-                v(0.0, 0.0, length),
-                [30.0, 60.0],
-            ),
+            link(k, length),
         );
         offset = v(0.0, 0.0, length);
         let turn = rng.random_range(45f64..135.0).to_radians();
@@ -390,12 +395,7 @@ fn snake(rng: &mut ChaCha8Rng) -> Body {
                 first,
                 second,
             ),
-            SegmentDef::new(
-                format!("link{k}"),
-                DVec3::ZERO,
-                v(0.0, 0.0, length),
-                [30.0, 60.0],
-            ),
+            link(k, length),
         );
         offset = v(0.0, 0.0, length);
     }
