@@ -3,7 +3,7 @@
 use serde::{Deserialize, Serialize};
 
 /// Schema version of [`Skeleton`]; bump when its fields or the algorithm's output change.
-pub const SCHEMA_VERSION: u32 = 14;
+pub const SCHEMA_VERSION: u32 = 15;
 
 /// A hierarchy with constant offsets and per-frame rotations, ready for animation files.
 ///

@@ -741,8 +741,8 @@ pub struct HingePlacements {
 ///   (seed 8101's clean trials: human 0.75, hexapod 0.84, quadruped 0.87, robot arm 0.91,
 ///   snowman 0.93, random tree 0.23). A parent-side joint on the axis itself (a sibling
 ///   on the same tip) is taken as it is: it is the centre;
-/// - two free hinges of one segment whose axes meet there, within what their fits leave
-///   and where both hinges' child sides allow: both centres at the meeting point
+/// - two free hinges one segment carries whose axes meet there, within what their fits
+///   leave and where both hinges' child sides allow: both centres at the meeting point
 ///   ([`meeting_rows`]; hinges hung on one tip, where markers alone place each only to the
 ///   limb's radius);
 /// - the point the hinge's far segment and a neighbouring joint's far segment turn about,
@@ -1040,7 +1040,7 @@ pub fn place_hinges_across_bones(
     // Hinges of one segment whose axes meet there share that point (two hinges on one
     // tip), which pins both far better than their markers.
     let axes = free_axes(edges, &unknown, &seen_from, segments);
-    rows.extend(meeting_rows(&axes, &residual, &tilt, &solution));
+    rows.extend(meeting_rows(&axes, edges, &residual, &tilt, &solution));
     let composite = composite_point_rows(
         fits, edges, &unknown, &seen_from, &residual, &tilt, &solution,
     );
@@ -1214,11 +1214,16 @@ fn free_axes(
 /// to the meeting point), and at shifts the child sides' own evidence (`first`) allows
 /// within the same bound. Two hinges hung on one tip (a random tree's branches, a robot's
 /// stacked axes) meet there; their markers alone place each only to the limb's radius.
+/// Only hinges the segment carries (it is their parent in `edges`): the segment's own
+/// joint and a joint it carries are the two ends of its bone, so their axes crossing is
+/// chance (random-hard-s20032: the crossing of seg04's own hinge and its leaf's, 145 mm
+/// apart, pulled the leaf's centre 80 mm along its axis, 22 → 102 mm off).
 /// Axes within ~11.5° of parallel are left alone: where they meet is ill-defined. The two
 /// rows are the closest-point conditions `u_e·d = 0`, `u_g·d = 0` for
 /// `d = c_e + s_e u_e − c_g − s_g u_g`.
 fn meeting_rows(
     axes: &[FreeAxis],
+    edges: &[(usize, usize, usize)],
     residual: &dyn Fn(usize) -> f64,
     tilt: &dyn Fn(usize) -> f64,
     first: &FirstSolve,
@@ -1230,6 +1235,10 @@ fn meeting_rows(
                 let Some(&(_, cg, ug)) = g.views.iter().find(|v| v.0 == x) else {
                     continue;
                 };
+                let carried = |axis: &FreeAxis| edges.get(axis.edge).is_some_and(|e| e.1 == x);
+                if !(carried(e) && carried(g)) {
+                    continue;
+                }
                 let normal = ue.cross(ug);
                 if normal.length() < MEETING_MIN_SINE {
                     continue;
