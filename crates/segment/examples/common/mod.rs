@@ -37,6 +37,14 @@ pub fn generate(subject: Subject, preset: Preset, frames: usize, seed: u64) -> T
         .ok()
         .and_then(|n| n.parse().ok())
         .unwrap_or(defaults.noise_mm);
+    // `SWEEP=MIN:MAX` sets the share of each joint's range the trial sweeps.
+    let sweep = std::env::var("SWEEP")
+        .ok()
+        .and_then(|m| {
+            let (a, b) = m.split_once(':')?;
+            Some((a.parse().ok()?, b.parse().ok()?))
+        })
+        .unwrap_or(defaults.sweep);
     synth::generate(&SynthConfig {
         subject,
         preset,
@@ -44,6 +52,7 @@ pub fn generate(subject: Subject, preset: Preset, frames: usize, seed: u64) -> T
         seed,
         markers_per_segment,
         noise_mm,
+        sweep,
         ..defaults
     })
     .expect("synthetic trial")
