@@ -1037,8 +1037,8 @@ pub fn place_hinges_across_bones(
             rows.push(row);
         }
     }
-    // Hinges of one segment whose axes meet there share that point (two hinges on one
-    // tip), which pins both far better than their markers.
+    // Hinges one segment carries whose axes meet there share that point (two hinges on
+    // one tip), which pins both far better than their markers.
     let axes = free_axes(edges, &unknown, &seen_from, segments);
     rows.extend(meeting_rows(&axes, edges, &residual, &tilt, &solution));
     let composite = composite_point_rows(
@@ -1212,8 +1212,8 @@ fn free_axes(
 /// from that segment, when they meet: closer than [`PARENT_JOINT_TEST_SIGMAS`] standard
 /// deviations of what the fits leave (the residuals, and the axes' tilt times the distance
 /// to the meeting point), and at shifts the child sides' own evidence (`first`) allows
-/// within the same bound. Two hinges hung on one tip (a random tree's branches, a robot's
-/// stacked axes) meet there; their markers alone place each only to the limb's radius.
+/// within the same bound. Two hinges hung on one tip (a random tree's branches) meet
+/// there; their markers alone place each only to the limb's radius.
 /// Only hinges the segment carries (it is their parent in `edges`): the segment's own
 /// joint and a joint it carries are the two ends of its bone, so their axes crossing is
 /// chance (random-hard-s20032: the crossing of seg04's own hinge and its leaf's, 145 mm
@@ -1235,7 +1235,11 @@ fn meeting_rows(
                 let Some(&(_, cg, ug)) = g.views.iter().find(|v| v.0 == x) else {
                     continue;
                 };
-                let carried = |axis: &FreeAxis| edges.get(axis.edge).is_some_and(|e| e.1 == x);
+                let carried = |axis: &FreeAxis| {
+                    edges
+                        .get(axis.edge)
+                        .is_some_and(|&(_, parent, _)| parent == x)
+                };
                 if !(carried(e) && carried(g)) {
                     continue;
                 }
