@@ -23,6 +23,16 @@ const CENTRE_MISFIT_WARN_DEG: f64 = 8.0;
 /// walks, at 10–20 for three in four (129 of 174 above 10), which the warning would drown.
 const LOOSE_CENTRE_GAIN: f64 = 20.0;
 
+/// Above this share of the capture's size ([`capture_extent_mm`]), a joint centre's
+/// distance to the nearest marker of its two segments means the data did not place it: a
+/// real joint sits among its segments' markers (the synthetic subjects' joints within
+/// ~150 mm of one, a human's extent ~1.8 m). A segment of one marker posed through a pair
+/// that turned 2° put a knee 3.3 m off (human-hard-s20002 with `--markers 1:3`).
+const FAR_CENTRE_SHARE: f64 = 0.5;
+
+/// Frames sampled, evenly strided, for the distances behind [`FAR_CENTRE_SHARE`].
+const FAR_CENTRE_FRAMES: usize = 200;
+
 /// The whole of skeleton.json. Field order is the byte order of the file.
 ///
 /// Contract fields (DESIGN.md): `units` … `joints`. Everything else is added quality
@@ -272,6 +282,12 @@ pub(crate) fn document(input: &Inputs<'_>) -> Result<SkeletonJson, Error> {
         })
         .collect::<Result<Vec<_>, Error>>()?;
 
+    let sampled: Vec<usize> = {
+        let frames = traj.frames();
+        let stride = frames.div_ceil(FAR_CENTRE_FRAMES).max(1);
+        (0..frames).step_by(stride).collect()
+    };
+    let extent = capture_extent_mm(traj, &sampled);
     let mut joints = Vec::with_capacity(skel.joints.len());
     for j in &skel.joints {
         let pair = fits.pairs.get(j.pair).ok_or_else(|| {
@@ -337,6 +353,24 @@ pub(crate) fn document(input: &Inputs<'_>) -> Result<SkeletonJson, Error> {
                 "it turned about one axis almost only: a pose error moves its centre up to {g:.0} \
                  times as far along that axis (above {LOOSE_CENTRE_GAIN}), so the centre's \
                  place along it is uncertain"
+            ));
+        }
+        let markers_of = |segment: usize| {
+            seg.segments
+                .iter()
+                .find(|x| x.id == segment)
+                .map_or(&[][..], |x| &x.markers[..])
+        };
+        let near = [markers_of(j.parent_segment), markers_of(j.child_segment)].concat();
+        if let (Some(d), Some(e)) = (
+            nearest_marker_mm(traj, &j.positions, &near, &sampled),
+            extent,
+        ) && d > FAR_CENTRE_SHARE * e
+        {
+            warnings.push(format!(
+                "its centre lies {d:.0} mm from the nearest marker of its two segments, more \
+                 than {FAR_CENTRE_SHARE} of the capture's size ({e:.0} mm): the data did not \
+                 place it (too little turn, or a segment posed only through this joint)"
             ));
         }
         if pair.seeded {
@@ -439,6 +473,58 @@ pub(crate) fn to_bytes(document: &SkeletonJson) -> Result<Vec<u8>, Error> {
     let mut bytes = serde_json::to_vec(document)?;
     bytes.push(b'\n');
     Ok(bytes)
+}
+
+/// The capture's size (mm): the median over `frames` of the diagonal of the box holding
+/// every marker seen in that frame; `None` when no frame has two markers.
+fn capture_extent_mm(traj: &mocap_io::Trajectories, frames: &[usize]) -> Option<f64> {
+    let mut diagonals: Vec<f64> = frames
+        .iter()
+        .filter_map(|&f| {
+            let mut seen = (0..traj.markers()).filter_map(|m| traj.get(f, m));
+            let first = glam::DVec3::from_array(seen.next()?);
+            let (lo, hi, count) = seen.fold((first, first, 1), |(lo, hi, n), p| {
+                let p = glam::DVec3::from_array(p);
+                (lo.min(p), hi.max(p), n + 1)
+            });
+            (count > 1).then(|| (hi - lo).length())
+        })
+        .collect();
+    median(&mut diagonals)
+}
+
+/// The median over `frames` of a joint's distance (mm) to the nearest of `markers` seen
+/// in that frame, where its position is known; `None` when no such frame.
+fn nearest_marker_mm(
+    traj: &mocap_io::Trajectories,
+    positions: &[[f64; 3]],
+    markers: &[usize],
+    frames: &[usize],
+) -> Option<f64> {
+    let mut nearest: Vec<f64> = frames
+        .iter()
+        .filter_map(|&f| {
+            let joint = glam::DVec3::from_array(*positions.get(f)?);
+            if !joint.is_finite() {
+                return None;
+            }
+            markers
+                .iter()
+                .filter_map(|&m| traj.get(f, m))
+                .map(|p| glam::DVec3::from_array(p).distance(joint))
+                .min_by(f64::total_cmp)
+        })
+        .collect();
+    median(&mut nearest)
+}
+
+/// The median of `values` (reordered); `None` when empty.
+fn median(values: &mut [f64]) -> Option<f64> {
+    if values.is_empty() {
+        return None;
+    }
+    values.sort_by(f64::total_cmp);
+    Some(values[values.len() / 2])
 }
 
 /// A pair fit's residual as an angle seen from its two segments' markers (degrees): the

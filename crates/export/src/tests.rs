@@ -423,6 +423,42 @@ fn a_joint_its_segments_disagree_about_warns() {
     }
 }
 
+/// A joint whose centre lies far from every marker of its two segments (more than half the
+/// capture's size) says the data did not place it; the scene's others, among their
+/// markers, do not.
+#[test]
+fn a_joint_far_from_its_segments_markers_warns() {
+    let s = scene(60, 60.0);
+    let mut skeleton = bonefit::run(
+        &s.trajectories,
+        &s.segmentation,
+        &s.fits,
+        &s.topology,
+        &bonefit::Params::default(),
+    )
+    .unwrap_or_else(|e| panic!("{e}"));
+    let head = skeleton
+        .joints
+        .iter()
+        .position(|j| j.child_segment == 3)
+        .expect("a joint into the head");
+    for p in &mut skeleton.joints[head].positions {
+        p[0] += 5000.0;
+    }
+    let input = Inputs {
+        trajectories: &s.trajectories,
+        segmentation: &s.segmentation,
+        fits: &s.fits,
+        topology: &s.topology,
+        skeleton: &skeleton,
+    };
+    let doc = json(&run(&input, &Params::default()).unwrap_or_else(|e| panic!("{e}")));
+    for joint in doc["joints"].as_array().into_iter().flatten() {
+        let warned = joint["warnings"].to_string().contains("did not place it");
+        assert_eq!(warned, joint["child_segment"] == 3, "{joint}");
+    }
+}
+
 /// A joint every pose started from (no segment with three markers of its own) says so, and
 /// only that one.
 #[test]
