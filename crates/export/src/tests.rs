@@ -132,20 +132,29 @@ fn bvh_fk(bvh: &Bvh, frame: usize) -> Vec<DVec3> {
 }
 
 fn files(s: &Scene, params: &Params) -> crate::Outputs {
-    let skeleton = bonefit::run(
+    files_of(s, &skeleton(s), params)
+}
+
+/// The scene's skeleton (bonefit's defaults).
+fn skeleton(s: &Scene) -> bonefit::Skeleton {
+    bonefit::run(
         &s.trajectories,
         &s.segmentation,
         &s.fits,
         &s.topology,
         &bonefit::Params::default(),
     )
-    .unwrap_or_else(|e| panic!("{e}"));
+    .unwrap_or_else(|e| panic!("{e}"))
+}
+
+/// The files of the scene with `skeleton` in place of its own.
+fn files_of(s: &Scene, skeleton: &bonefit::Skeleton, params: &Params) -> crate::Outputs {
     let input = Inputs {
         trajectories: &s.trajectories,
         segmentation: &s.segmentation,
         fits: &s.fits,
         topology: &s.topology,
-        skeleton: &skeleton,
+        skeleton,
     };
     run(&input, params).unwrap_or_else(|e| panic!("{e}"))
 }
@@ -429,14 +438,7 @@ fn a_joint_its_segments_disagree_about_warns() {
 #[test]
 fn a_joint_far_from_its_segments_markers_warns() {
     let s = scene(60, 60.0);
-    let mut skeleton = bonefit::run(
-        &s.trajectories,
-        &s.segmentation,
-        &s.fits,
-        &s.topology,
-        &bonefit::Params::default(),
-    )
-    .unwrap_or_else(|e| panic!("{e}"));
+    let mut skeleton = skeleton(&s);
     let head = skeleton
         .joints
         .iter()
@@ -445,14 +447,7 @@ fn a_joint_far_from_its_segments_markers_warns() {
     for p in &mut skeleton.joints[head].positions {
         p[0] += 5000.0;
     }
-    let input = Inputs {
-        trajectories: &s.trajectories,
-        segmentation: &s.segmentation,
-        fits: &s.fits,
-        topology: &s.topology,
-        skeleton: &skeleton,
-    };
-    let doc = json(&run(&input, &Params::default()).unwrap_or_else(|e| panic!("{e}")));
+    let doc = json(&files_of(&s, &skeleton, &Params::default()));
     for joint in doc["joints"].as_array().into_iter().flatten() {
         let warned = joint["warnings"].to_string().contains("did not place it");
         assert_eq!(warned, joint["child_segment"] == 3, "{joint}");

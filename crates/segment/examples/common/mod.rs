@@ -25,26 +25,14 @@ pub fn trial_from_args(args: &[String], frames: usize) -> Trial {
 pub fn generate(subject: Subject, preset: Preset, frames: usize, seed: u64) -> Trial {
     let defaults = SynthConfig::default();
     // `MARKERS=MIN:MAX` in the environment sets the markers per segment.
-    let markers_per_segment = std::env::var("MARKERS")
-        .ok()
-        .and_then(|m| {
-            let (a, b) = m.split_once(':')?;
-            Some((a.parse().ok()?, b.parse().ok()?))
-        })
-        .unwrap_or(defaults.markers_per_segment);
+    let markers_per_segment = env_range("MARKERS").unwrap_or(defaults.markers_per_segment);
     // `NOISE=MM` sets the noise σ of the noise, hard and messy presets.
     let noise_mm = std::env::var("NOISE")
         .ok()
         .and_then(|n| n.parse().ok())
         .unwrap_or(defaults.noise_mm);
     // `SWEEP=MIN:MAX` sets the share of each joint's range the trial sweeps.
-    let sweep = std::env::var("SWEEP")
-        .ok()
-        .and_then(|m| {
-            let (a, b) = m.split_once(':')?;
-            Some((a.parse().ok()?, b.parse().ok()?))
-        })
-        .unwrap_or(defaults.sweep);
+    let sweep = env_range("SWEEP").unwrap_or(defaults.sweep);
     synth::generate(&SynthConfig {
         subject,
         preset,
@@ -56,6 +44,13 @@ pub fn generate(subject: Subject, preset: Preset, frames: usize, seed: u64) -> T
         ..defaults
     })
     .expect("synthetic trial")
+}
+
+/// The environment variable `name` read as `MIN:MAX`; `None` when unset or malformed.
+fn env_range<T: std::str::FromStr>(name: &str) -> Option<(T, T)> {
+    let value = std::env::var(name).ok()?;
+    let (a, b) = value.split_once(':')?;
+    Some((a.parse().ok()?, b.parse().ok()?))
 }
 
 /// Each marker's true segment (`usize::MAX` for a marker on none).
