@@ -81,6 +81,18 @@ fn run_and_score(
     synth::score::score(&truth, &estimate)
 }
 
+/// The mean error (mm) of the true joint `name` in `score`; panics, with the score, when
+/// no estimated joint matched it or it was never known.
+fn mean_error_mm(score: &synth::score::Score, name: &str) -> f64 {
+    score
+        .joints
+        .iter()
+        .find(|j| j.truth == name)
+        .unwrap_or_else(|| panic!("{name} matched\n{score}"))
+        .mean_mm
+        .unwrap_or_else(|| panic!("{name} known in some frame\n{score}"))
+}
+
 /// Three joints on one tip of the root segment (random-clean-s30044) are one point, and one
 /// point fits any plane: they must not read as a parent side crossing a leaf hinge's axis
 /// squarely. Seen across that axis from where the sibling hinges are placed (not from their
@@ -377,12 +389,7 @@ fn a_noisy_knee_is_placed_by_its_hip() {
     let dir = synthesize(&tmp, "human", "noise", 20001);
     let score = run_and_score(&tmp, &dir, "human-noise-s20001", &[]);
     for knee in ["l_knee", "r_knee"] {
-        let joint = score
-            .joints
-            .iter()
-            .find(|j| j.truth == knee)
-            .unwrap_or_else(|| panic!("{knee} matched\n{score}"));
-        let error = joint.mean_mm.expect("known frames");
+        let error = mean_error_mm(&score, knee);
         assert!(error < 5.0, "{knee}: {error:.1} mm\n{score}");
     }
 }
@@ -397,12 +404,7 @@ fn a_free_hinge_axis_slides_despite_its_wobble() {
     let tmp = Scratch::new("accuracy-random-hard-free-axis");
     let dir = synthesize(&tmp, "random", "hard", 30034);
     let score = run_and_score(&tmp, &dir, "random-hard-s30034", &[]);
-    let joint = score
-        .joints
-        .iter()
-        .find(|j| j.truth == "joint06")
-        .unwrap_or_else(|| panic!("joint06 matched\n{score}"));
-    let error = joint.mean_mm.expect("known frames");
+    let error = mean_error_mm(&score, "joint06");
     assert!(error < 20.0, "joint06: {error:.1} mm\n{score}");
 }
 
@@ -416,11 +418,6 @@ fn a_segments_own_hinge_and_the_hinge_it_carries_do_not_meet() {
     let tmp = Scratch::new("accuracy-random-hard-chain-axes");
     let dir = synthesize(&tmp, "random", "hard", 20032);
     let score = run_and_score(&tmp, &dir, "random-hard-s20032", &[]);
-    let joint = score
-        .joints
-        .iter()
-        .find(|j| j.truth == "joint07")
-        .unwrap_or_else(|| panic!("joint07 matched\n{score}"));
-    let error = joint.mean_mm.expect("known frames");
+    let error = mean_error_mm(&score, "joint07");
     assert!(error < 40.0, "joint07: {error:.1} mm\n{score}");
 }
