@@ -50,6 +50,10 @@ pub struct Args {
     /// (0, 1] [default: the generator's, 0.7:0.95; a walk is nearer 0.2:0.4].
     #[arg(long, value_name = "MIN:MAX")]
     pub sweep: Option<String>,
+    /// Arc of directions around each bone the markers sit in, degrees, one side per segment
+    /// [default: the generator's, 360 = all round; real limb sets nearer 90–120].
+    #[arg(long, value_name = "DEG")]
+    pub marker_arc: Option<f64>,
     /// Set a stage parameter for every trial (STAGE.PARAM=VALUE). Repeatable.
     #[arg(long = "set", value_name = "STAGE.PARAM=VALUE")]
     pub set: Vec<String>,
@@ -233,9 +237,10 @@ pub fn suite(args: &Args) -> Result<Vec<TrialSpec>> {
                     noise_mm: args.noise.unwrap_or(defaults.noise_mm),
                     rate: args.rate.unwrap_or(defaults.rate),
                     sweep,
+                    marker_arc_deg: args.marker_arc.unwrap_or(defaults.marker_arc_deg),
                 };
                 config.validate().context(
-                    "--frames, --markers, --noise, --rate or --sweep: not a trial the generator makes",
+                    "--frames, --markers, --noise, --rate, --sweep or --marker-arc: not a trial the generator makes",
                 )?;
                 specs.push(TrialSpec { config });
             }
@@ -478,6 +483,7 @@ fn generator_settings(specs: &[TrialSpec]) -> serde_json::Value {
             "noise_mm": c.noise_mm,
             "markers_per_segment": [c.markers_per_segment.0, c.markers_per_segment.1],
             "sweep": [c.sweep.0, c.sweep.1],
+            "marker_arc_deg": c.marker_arc_deg,
         })
     })
 }
@@ -1095,13 +1101,22 @@ mod tests {
         let specs = suite(&parse(&base)).unwrap();
         assert_eq!(specs[0].config.sweep, SynthConfig::default().sweep);
         let mut line = base.to_vec();
-        line.extend(["--sweep", "0.2:0.4", "--noise", "0.5"]);
+        line.extend([
+            "--sweep",
+            "0.2:0.4",
+            "--noise",
+            "0.5",
+            "--marker-arc",
+            "120",
+        ]);
         let specs = suite(&parse(&line)).unwrap();
         assert_eq!(specs[0].config.sweep, (0.2, 0.4));
+        assert_eq!(specs[0].config.marker_arc_deg, 120.0);
         // The report says what the trials were made with.
         let settings = generator_settings(&specs);
         assert_eq!(settings["sweep"], json!([0.2, 0.4]));
         assert_eq!(settings["noise_mm"], json!(0.5));
+        assert_eq!(settings["marker_arc_deg"], json!(120.0));
         assert_eq!(settings["frames"], json!(480));
         for bad in ["0.5:0.2", "0:0.3", "0.3:1.5"] {
             let mut line = base.to_vec();
@@ -1112,6 +1127,13 @@ mod tests {
                 "{bad}: {err}"
             );
         }
+        let mut line = base.to_vec();
+        line.extend(["--marker-arc", "400"]);
+        let err = format!("{:#}", suite(&parse(&line)).unwrap_err());
+        assert!(
+            err.contains("--marker-arc") && err.contains("marker_arc_deg"),
+            "{err}"
+        );
     }
 
     fn result(subject: &str, preset: &str, exact: bool, mean_pct: f64) -> TrialResult {

@@ -33,6 +33,10 @@ pub struct Args {
     /// [default: 0.7:0.95; a walk is nearer 0.2:0.4].
     #[arg(long, value_name = "MIN:MAX")]
     pub sweep: Option<String>,
+    /// Arc of directions around each bone the markers sit in, degrees, one side per segment
+    /// [default: 360 = all round; real limb sets nearer 90–120].
+    #[arg(long, value_name = "DEG")]
+    pub marker_arc: Option<f64>,
     /// Also write a TRC file.
     #[arg(long)]
     pub trc: bool,
@@ -57,6 +61,7 @@ pub fn config(args: &Args) -> Result<SynthConfig> {
         noise_mm: args.noise_mm.unwrap_or(defaults.noise_mm),
         markers_per_segment,
         sweep,
+        marker_arc_deg: args.marker_arc.unwrap_or(defaults.marker_arc_deg),
     };
     config.validate()?;
     Ok(config)

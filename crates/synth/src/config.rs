@@ -1,5 +1,5 @@
-//! What to generate: subject, degradation preset, length, rate, seed, noise, marker counts,
-//! how much of its range each joint sweeps.
+//! What to generate: subject, degradation preset, length, rate, seed, noise, marker counts
+//! and placement, how much of its range each joint sweeps.
 
 use std::fmt;
 use std::str::FromStr;
@@ -36,6 +36,11 @@ pub struct SynthConfig {
     /// degree of freedom draws its share in it. Default (0.7, 0.95); a walk moves most
     /// joints through far less, (0.2, 0.4) or so.
     pub sweep: (f64, f64),
+    /// Arc of directions around each segment's bone its markers sit in, degrees
+    /// (0 < arc ≤ 360), centred on a random side per segment. Default 360 (all round); real
+    /// limb marker sets sit on one side (CMU's thigh, knee, shin and ankle markers are all
+    /// lateral), nearer 90–120.
+    pub marker_arc_deg: f64,
 }
 
 impl Default for SynthConfig {
@@ -49,6 +54,7 @@ impl Default for SynthConfig {
             noise_mm: 1.0,
             markers_per_segment: (3, 6),
             sweep: (0.7, 0.95),
+            marker_arc_deg: 360.0,
         }
     }
 }
@@ -78,6 +84,10 @@ pub const CONFIG_DOCS: &[(&str, &str)] = &[
     (
         "sweep",
         "[min, max] share of each joint's range swept over the trial, drawn per degree of freedom (0 < min <= max <= 1); default [0.7, 0.95]",
+    ),
+    (
+        "marker_arc_deg",
+        "arc of directions around each segment's bone its markers sit in, degrees, centred on a random side per segment (0 < arc <= 360); default 360 (all round; one-sided real limb sets nearer 90-120)",
     ),
 ];
 
@@ -112,6 +122,13 @@ impl SynthConfig {
             return bad(
                 "sweep",
                 format!("is ({lo}, {hi}), must satisfy 0 < min <= max <= 1"),
+            );
+        }
+        let arc = self.marker_arc_deg;
+        if !(arc.is_finite() && 0.0 < arc && arc <= 360.0) {
+            return bad(
+                "marker_arc_deg",
+                format!("is {arc}, must satisfy 0 < arc <= 360"),
             );
         }
         Ok(())

@@ -99,6 +99,7 @@ pub fn generate(config: &SynthConfig) -> Result<Trial, Error> {
     let markers = markers::place(
         &body,
         config.markers_per_segment,
+        config.marker_arc_deg,
         &mut rng(config.seed, Stream::Markers),
     );
     let motion = motion::animate(

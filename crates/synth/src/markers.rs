@@ -26,8 +26,15 @@ pub(crate) struct MarkerSet {
 /// Places `count.0..=count.1` markers on every segment from the marker random stream.
 ///
 /// A marker sits at a random point of the middle 80 % of its segment's bone, pushed
-/// out perpendicular to the bone by a random distance in the segment's radius range.
-pub(crate) fn place(body: &Body, count: (usize, usize), rng: &mut ChaCha8Rng) -> MarkerSet {
+/// out perpendicular to the bone by a random distance in the segment's radius range, in
+/// a direction within `arc_deg` degrees centred on a side drawn per segment (all round at
+/// 360, which draws no side, so the stream is the same as before the arc existed).
+pub(crate) fn place(
+    body: &Body,
+    count: (usize, usize),
+    arc_deg: f64,
+    rng: &mut ChaCha8Rng,
+) -> MarkerSet {
     let mut segment = Vec::new();
     let mut local: Vec<DVec3> = Vec::new();
     // Rest-pose positions of the markers placed so far (rest rotations are identity).
@@ -39,12 +46,23 @@ pub(crate) fn place(body: &Body, count: (usize, usize), rng: &mut ChaCha8Rng) ->
         let axis = (end - start).try_normalize().unwrap_or(DVec3::Z);
         let e1 = axis.any_orthonormal_vector();
         let e2 = axis.cross(e1);
+        let all_round = arc_deg >= 360.0;
+        let side = if all_round {
+            0.0
+        } else {
+            rng.random_range(0.0..std::f64::consts::TAU)
+        };
+        let half = 0.5 * arc_deg.to_radians();
         for _ in 0..n {
             let mut p = start;
             // Re-draw a few times when too close to a marker already placed.
             for _ in 0..50 {
                 let along = rng.random_range(0.1..0.9);
-                let angle = rng.random_range(0.0..std::f64::consts::TAU);
+                let angle = if all_round {
+                    rng.random_range(0.0..std::f64::consts::TAU)
+                } else {
+                    side + rng.random_range(-half..=half)
+                };
                 let r = rng.random_range(seg.radius[0]..=seg.radius[1]);
                 p = start + (end - start) * along + (e1 * angle.cos() + e2 * angle.sin()) * r;
                 let at_rest = rest.origin[s] + p;

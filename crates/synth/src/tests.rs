@@ -677,3 +677,59 @@ fn coincident_joints_make_equivalent_trees_exact() {
     let s = score(&t.truth, &wrong);
     assert!(!s.topology_exact && s.equivalent_joints == 0, "{s}");
 }
+
+/// Widest angle (degrees) between two markers' directions from the bone, over the
+/// segments of `subject` (seed 3) with markers placed within `arc_deg`.
+fn widest_marker_angle(subject: Subject, arc_deg: f64) -> f64 {
+    let body = crate::subjects::build(subject, &mut crate::rng(3, crate::Stream::Body));
+    let set = crate::markers::place(
+        &body,
+        (3, 6),
+        arc_deg,
+        &mut crate::rng(3, crate::Stream::Markers),
+    );
+    let mut widest: f64 = 0.0;
+    for (s, seg) in body.segments.iter().enumerate() {
+        let [start, end] = seg.bone;
+        let Some(axis) = (end - start).try_normalize() else {
+            continue;
+        };
+        let directions: Vec<DVec3> = set
+            .local
+            .iter()
+            .zip(&set.segment)
+            .filter(|&(_, &g)| g == s)
+            .filter_map(|(p, _)| (*p - start).reject_from_normalized(axis).try_normalize())
+            .collect();
+        for a in &directions {
+            for b in &directions {
+                widest = widest.max(a.angle_between(*b).to_degrees());
+            }
+        }
+    }
+    widest
+}
+
+/// `marker_arc_deg` keeps each segment's markers on one side of its bone (real limb sets
+/// sit laterally), all round by default; an arc outside (0, 360] is refused.
+#[test]
+fn a_marker_arc_puts_each_segments_markers_on_one_side_of_its_bone() {
+    for subject in Subject::ALL {
+        let widest = widest_marker_angle(subject, 90.0);
+        assert!(
+            widest <= 90.0 + 1e-6,
+            "{subject:?}: markers {widest:.1}° apart around a bone"
+        );
+        assert!(
+            widest_marker_angle(subject, 360.0) > 120.0,
+            "{subject:?}: all round, some segment's markers should be far apart"
+        );
+    }
+    for arc in [0.0, -10.0, 361.0, f64::NAN] {
+        let bad = SynthConfig {
+            marker_arc_deg: arc,
+            ..SynthConfig::default()
+        };
+        assert!(bad.validate().is_err(), "{arc}");
+    }
+}
