@@ -8,3 +8,4 @@ mod cli;
 mod expect;
 mod real;
 mod support;
+mod vicon;

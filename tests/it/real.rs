@@ -28,7 +28,10 @@ fn asf_lengths(path: &Path) -> std::collections::BTreeMap<String, f64> {
 
 /// The shared data folder and the skeleton.json the pipeline makes of `file` (relative to
 /// it); `None`, having said SKIPPED for `what`, without the folder.
-fn real_skeleton(what: &str, file: &str) -> Option<(std::path::PathBuf, serde_json::Value)> {
+pub(crate) fn real_skeleton(
+    what: &str,
+    file: &str,
+) -> Option<(std::path::PathBuf, serde_json::Value)> {
     let data = mocap_io::testdata::shared_data_dir(what)?;
     let tmp = Scratch::new(what);
     let out = tmp.run(&data.join(file));
@@ -48,7 +51,7 @@ fn segment_of(skeleton: &serde_json::Value, suffix: &str) -> Option<u64> {
 }
 
 /// The joint between the segments of two markers, if the tree has one.
-fn joint_between<'a>(
+pub(crate) fn joint_between<'a>(
     skeleton: &'a serde_json::Value,
     a: &str,
     b: &str,
