@@ -14,17 +14,7 @@ fn main() {
     let labels = traj.labels();
     let n = traj.markers();
     let truth = common::true_segment_of(&trial);
-    // ρ by brute force (this is a diagnostic, not the stage).
-    let rho = |i: usize, j: usize| {
-        let d: Vec<f64> = (0..traj.frames())
-            .filter_map(|f| {
-                let (a, b) = (traj.get(f, i)?, traj.get(f, j)?);
-                Some(((a[0] - b[0]).powi(2) + (a[1] - b[1]).powi(2) + (a[2] - b[2]).powi(2)).sqrt())
-            })
-            .collect();
-        let m = d.iter().sum::<f64>() / d.len() as f64;
-        (d.iter().map(|x| (x - m).powi(2)).sum::<f64>() / d.len() as f64).sqrt()
-    };
+    let rho = |i: usize, j: usize| common::rho_mm(traj, i, j);
     let seg = segment::run(traj, &params).expect("segmentation");
     println!(
         "{}: noise {:.2} mm, tolerance {:.2} mm, eigen-gap k {}, {} segments (truth {})",

@@ -152,3 +152,16 @@ pub fn union_ratio(
     segment::fit_split_sigmas(traj, &[a, b].concat())
         .map_or(f64::NAN, |(sigma, _)| sigma / typical_sigma_mm)
 }
+
+/// ρ of markers `i` and `j` by brute force: the standard deviation of their distance over
+/// the frames both are seen in (mm; NaN when they never are). A diagnostic, not the stage's.
+pub fn rho_mm(traj: &mocap_io::Trajectories, i: usize, j: usize) -> f64 {
+    let d: Vec<f64> = (0..traj.frames())
+        .filter_map(|f| {
+            let (a, b) = (traj.get(f, i)?, traj.get(f, j)?);
+            Some(((a[0] - b[0]).powi(2) + (a[1] - b[1]).powi(2) + (a[2] - b[2]).powi(2)).sqrt())
+        })
+        .collect();
+    let m = d.iter().sum::<f64>() / d.len() as f64;
+    (d.iter().map(|x| (x - m).powi(2)).sum::<f64>() / d.len() as f64).sqrt()
+}
