@@ -1,12 +1,13 @@
 //! Joint centres of real captures against the skeleton Vicon's software made for the same
-//! subject, frame by frame: CMU 02_01 (its ASF skeleton driven by its AMC motion) and CMU
-//! 49_04 (the file's own model outputs, every bone's end point per frame).
+//! subject, frame by frame: CMU 02_01, a walk (its ASF skeleton driven by its AMC motion),
+//! and CMU 49_04, 5 m in 2 s with the pelvis rising and falling 440 mm (the file's own
+//! model outputs, every bone's end point per frame).
 //!
 //! Vicon's centres come from an anatomical model scaled to the subject's measured widths;
-//! ours from how the segments turn. In a walk nearly every joint turns about one
+//! ours from how the segments turn. In a walk or a run nearly every joint turns about one
 //! side-to-side axis, and where along that axis a centre sits is what such data fixes
-//! least: the centres below sit 25–120 mm from Vicon's, most of it sideways (see the
-//! README's real-capture section). These tests hold that agreement where it is and say the
+//! least: the centres below sit 23–121 mm from Vicon's, in 02_01 mostly sideways (see
+//! the README's real-capture section). These tests hold that agreement where it is and say the
 //! figures; they are not a claim that Vicon's centres are the truth.
 
 use std::collections::BTreeMap;
