@@ -2,7 +2,8 @@
 //! trials, labelled by the truth: `split` (both mostly the same true segment: a rigid body
 //! cut in two) or `joint` (mostly two segments a true joint joins); other pairs are left
 //! out. What a rule merging segments back (`segment.joint_merge_z`) would weigh, with the
-//! smallest ρ between their markers over the tolerance (`rhotol`).
+//! smallest ρ between their markers over the tolerance (`rhotol`), and the joint test's own
+//! best cut of their union (`uz`, `utz`; `same` when it is their partition).
 //!
 //! `cargo run --release -p segment --example merge_table SUBJECTS PRESET FRAMES SEEDS...`
 #![allow(clippy::print_stdout)]
@@ -72,8 +73,24 @@ fn main() {
                         continue;
                     }
                     if let Some(e) = segment::joint_evidence(traj, a, b, sigma) {
+                        // What the joint test itself weighs on the union: its own cut.
+                        let union = [a.as_slice(), b.as_slice()].concat();
+                        let cut = segment::joint_split_candidate(traj, &union, sigma, &params)
+                            .map_or("uz - utz - same -".to_owned(), |(ca, _, u)| {
+                                let mut x = ca.clone();
+                                x.sort_unstable();
+                                let (mut y, mut z) = (a.clone(), b.clone());
+                                y.sort_unstable();
+                                z.sort_unstable();
+                                format!(
+                                    "uz {:.2} utz {:.2} same {}",
+                                    u.rotation_z,
+                                    u.translation_z,
+                                    x == y || x == z
+                                )
+                            });
                         out.push(format!(
-                            "{label:5} {:24} {i}+{j} na {} nb {} rhotol {:.2} {}",
+                            "{label:5} {:24} {i}+{j} na {} nb {} rhotol {:.2} {} {cut}",
                             trial.name,
                             a.len(),
                             b.len(),
