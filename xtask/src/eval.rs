@@ -1089,7 +1089,7 @@ mod tests {
     }
 
     #[test]
-    fn sweep_reaches_the_generator_and_is_checked() {
+    fn sweep_and_marker_arc_reach_the_generator_and_are_checked() {
         let base = [
             "--subjects",
             "snowman",
