@@ -8,22 +8,12 @@ use std::path::Path;
 
 use crate::support::{Scratch, mean_distance, read_json, xtask_ok};
 
-/// One ASF length unit in millimetres for CMU files (`:units length 0.45`, inches).
-const ASF_UNIT_MM: f64 = 25.4 / 0.45;
-
 /// Bone lengths (mm) by ASF bone name.
 fn asf_lengths(path: &Path) -> std::collections::BTreeMap<String, f64> {
-    let text = std::fs::read_to_string(path).unwrap();
-    let mut out = std::collections::BTreeMap::new();
-    let mut name = None;
-    for line in text.lines().map(str::trim) {
-        if let Some(n) = line.strip_prefix("name ") {
-            name = Some(n.trim().to_owned());
-        } else if let (Some(l), Some(n)) = (line.strip_prefix("length "), name.as_ref()) {
-            out.insert(n.clone(), l.trim().parse::<f64>().unwrap() * ASF_UNIT_MM);
-        }
-    }
-    out
+    crate::vicon::parse_asf(&std::fs::read_to_string(path).unwrap())
+        .into_iter()
+        .map(|(name, bone)| (name, bone.length_mm))
+        .collect()
 }
 
 /// The shared data folder and the skeleton.json the pipeline makes of `file` (relative to

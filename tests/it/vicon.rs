@@ -43,13 +43,13 @@ const JOINTS: [(&str, &str, &str, &str, &str); 10] = [
 ];
 
 /// A bone of an ASF skeleton.
-struct AsfBone {
+pub(crate) struct AsfBone {
     /// Its parent bone (`root` for the first ones).
     parent: String,
     /// Unit direction from its start to its end in the rest pose.
     direction: DVec3,
     /// Length, mm.
-    length_mm: f64,
+    pub(crate) length_mm: f64,
     /// Orientation of its local axes (the `axis` line).
     axis: DMat3,
     /// Its rotational degrees of freedom in AMC order, as axis indices (x 0, y 1, z 2).
@@ -67,8 +67,8 @@ fn numbers(words: &[&str]) -> Vec<f64> {
     words.iter().skip(1).map(|w| w.parse().unwrap()).collect()
 }
 
-/// The bones of an ASF file by name.
-fn parse_asf(text: &str) -> BTreeMap<String, AsfBone> {
+/// The bones of an ASF file by name (CMU's: lengths in `:units length 0.45`, axes XYZ).
+pub(crate) fn parse_asf(text: &str) -> BTreeMap<String, AsfBone> {
     let mut bones = BTreeMap::new();
     let mut section = "";
     let mut current: Option<(String, AsfBone)> = None;
