@@ -303,7 +303,7 @@ fn cmu_49_04_joint_centres_against_the_files_own_vicon_model() {
         traj.get(f, index[k]).map(DVec3::from_array)
     });
     // Measured at 2026-11-27: hips 38 / 75, knees 111 / 87, ankles 41 / 31, right shoulder
-    // 60, elbows 80 / 121 mm; the left upper arm's segment holds CLAV and LSHO as well, so
-    // no joint joins it to the sternum's.
+    // 60, elbows 80 / 91 mm; the left upper arm (LUPA alone) hangs from a segment of CLAV,
+    // C7 and LSHO, not from the sternum's (that joint is 55 mm from LCL0).
     check("CMU 49_04", &got, 50.0, 150.0, 9);
 }

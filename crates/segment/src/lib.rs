@@ -11,7 +11,8 @@
 //! complete linkage on ρ / √(s_i s_j) (s = a marker's ρ to its nearest marker, floored at
 //! the noise), so a two-marker segment whose pair is each
 //! other's nearest stays whole; orphans rejoin only a group they slide on no more than
-//! they slide on anything; then markers move and rigid neighbours merge within a tolerance
+//! they slide on anything, and not one that lacks a partner of theirs far steadier than
+//! the group's markers (orphaned at a joint; `rejoin_orphans`); then markers move and rigid neighbours merge within a tolerance
 //! on the noise, and pieces of one or two markers within one on the spread of ρ inside the
 //! spectral clusters (skin widens it beyond the noise; see `rigidity::rigid_spread`).
 //! A marker still alone takes an ambiguous partner (rigid with it and with its own group,
@@ -227,7 +228,15 @@ fn segment_capture(
                     .iter()
                     .flat_map(|c| linkage_groups(&stats, &nodes, c, noise_mm, tolerance_mm, params))
                     .collect();
-                rejoin_orphans(&mut groups, &stats, &nodes, noise_mm, tolerance_mm, params);
+                rejoin_orphans(
+                    &mut groups,
+                    &stats,
+                    &nodes,
+                    noise_mm,
+                    spread_mm,
+                    tolerance_mm,
+                    params,
+                );
                 rigidity::repair(
                     groups,
                     &stats,
@@ -253,7 +262,15 @@ fn segment_capture(
         Method::Linkage => {
             let tolerance_mm = tolerance_from(noise_mm);
             let mut groups = linkage_groups(&stats, &nodes, &nodes, noise_mm, tolerance_mm, params);
-            rejoin_orphans(&mut groups, &stats, &nodes, noise_mm, tolerance_mm, params);
+            rejoin_orphans(
+                &mut groups,
+                &stats,
+                &nodes,
+                noise_mm,
+                noise_mm,
+                tolerance_mm,
+                params,
+            );
             (groups, Vec::new(), 0, tolerance_mm)
         }
         Method::Cliques => {
@@ -613,17 +630,29 @@ fn linkage_groups(
     }
 }
 
+/// How much steadier than every marker of a group a lone marker's steadiest partner in
+/// another group must be for the lone marker to be orphaned at a joint rather than
+/// sliding: CMU 49_04's LUPA keeps ρ 4.6 mm to LELB (which went to the forearm) and 15.0
+/// mm at best to CLAV, C7 and LSHO (rigid spread 4.4 mm), and joined them under the 22 mm
+/// tolerance; a synthetic marker near a joint keeps 1.6 mm across it and 3.8 mm to its own
+/// segment (spread 2.3 mm) and belongs with its own.
+const STEADIER_ELSEWHERE: f64 = 2.0;
+
 /// Groups smaller than `min_segment_markers` join the group they are most rigid with when
 /// their RMS ρ to it is within the tolerance, or within `rejoin_factor` × their own scale
 /// (ρ to their nearest marker, floored at the noise). A marker sliding on the skin moves
 /// against every marker alike, so its RMS ρ to its true segment is close to its own scale;
 /// a marker orphaned at a joint (LSHN once LANK went to the foot) has a steady partner
-/// (its own scale is small) and ρ of tens of mm to the rest, so it stays out.
+/// (its own scale is small) and ρ of tens of mm to the rest, so it stays out. Under a
+/// tolerance that skin has widened, such a marker can still pass for sliding: it joins no
+/// group that lacks its steadiest partner unless some marker of the group keeps ρ to it
+/// within [`STEADIER_ELSEWHERE`] × its own scale (floored at the rigid spread).
 fn rejoin_orphans(
     groups: &mut Vec<Vec<usize>>,
     stats: &PairStats,
     nodes: &[usize],
     noise_mm: f64,
+    spread_mm: f64,
     tolerance_mm: f64,
     params: &Params,
 ) {
@@ -636,10 +665,27 @@ fn rejoin_orphans(
             .fold(noise_mm, f64::max);
         tolerance_mm.max(params.rejoin_factor * own)
     };
+    // A lone marker held far more steadily by a marker of another group than by any of
+    // this one is orphaned at a joint, not sliding: it waits for `pair_orphans`.
+    let admit = |small: &[usize], other: &[usize]| {
+        let [m] = small else { return true };
+        let Some((steadiest, partner)) = steadiest_rho(stats, *m, min_overlap) else {
+            return true;
+        };
+        if other.contains(&partner) {
+            return true;
+        }
+        let scale = steadiest.max(spread_mm);
+        other
+            .iter()
+            .filter_map(|&j| stats.rho(*m, j, min_overlap))
+            .any(|r| r <= STEADIER_ELSEWHERE * scale)
+    };
     rigidity::rejoin_small(
         groups,
         stats,
         bound,
+        admit,
         min_overlap,
         params.min_segment_markers,
     );

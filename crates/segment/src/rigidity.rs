@@ -210,6 +210,7 @@ pub(crate) fn split(
         &mut groups,
         stats,
         |_| REJOIN_FACTOR * tol,
+        |_, _| true,
         min_overlap,
         min_group,
     );
@@ -217,8 +218,9 @@ pub(crate) fn split(
 }
 
 /// Groups smaller than `min_group` (a sliding or orphaned marker), smallest marker first,
-/// join the big group they are most rigid with (RMS ρ over their markers) when that RMS is
-/// within `bound(small group)` (mm) and so are most of their cross pairs; the others stay
+/// join the big group `admit(small, big)` lets them that they are most rigid with (RMS ρ
+/// over their markers) when that RMS is within `bound(small group)` (mm) and so are most
+/// of their cross pairs; the others stay
 /// as they are. The RMS alone lets a marker near a joint bridge two bodies: CMU 49_04's
 /// shin marker kept ρ 4.0 mm to the knee marker and 29.2 mm to the thigh marker (the knee
 /// flexes 7-109°), RMS 20.8 mm under a 22 mm bound, and went into the thigh.
@@ -226,6 +228,7 @@ pub(crate) fn rejoin_small(
     groups: &mut Vec<Vec<usize>>,
     stats: &PairStats,
     bound: impl Fn(&[usize]) -> f64,
+    admit: impl Fn(&[usize], &[usize]) -> bool,
     min_overlap: usize,
     min_group: usize,
 ) {
@@ -243,7 +246,7 @@ pub(crate) fn rejoin_small(
         let best = groups
             .iter()
             .enumerate()
-            .filter(|(h, other)| *h != g && other.len() >= min_group)
+            .filter(|(h, other)| *h != g && other.len() >= min_group && admit(small, other))
             .filter_map(|(h, other)| {
                 let (mut sum, mut count) = (0.0, 0usize);
                 let (mut pairs, mut within) = (0usize, 0usize);
@@ -411,11 +414,11 @@ pub(crate) fn pair_orphans(
 }
 
 #[cfg(test)]
-mod tests {
+pub(crate) mod tests {
     use super::*;
 
     /// ρ between markers given as (i, j, ρ), every pair seen together in 100 frames.
-    fn stats(n: usize, pairs: &[(usize, usize, f64)]) -> PairStats {
+    pub(crate) fn stats(n: usize, pairs: &[(usize, usize, f64)]) -> PairStats {
         let mut std = vec![0.0; n * n];
         for &(i, j, r) in pairs {
             std[i * n + j] = r;
@@ -436,12 +439,12 @@ mod tests {
         // and 29.2 to the thigh: RMS 20.8 within a 22 mm bound, one pair of two within it.
         let bridge = stats(3, &[(0, 1, 2.1), (1, 2, 4.0), (0, 2, 29.2)]);
         let mut groups = vec![vec![0, 1], vec![2]];
-        rejoin_small(&mut groups, &bridge, |_| 22.0, 10, 2);
+        rejoin_small(&mut groups, &bridge, |_| 22.0, |_, _| true, 10, 2);
         assert_eq!(groups, vec![vec![0, 1], vec![2]]);
         // Both of its pairs within the bound: it joins.
         let rigid = stats(3, &[(0, 1, 2.1), (1, 2, 4.0), (0, 2, 12.0)]);
         let mut groups = vec![vec![0, 1], vec![2]];
-        rejoin_small(&mut groups, &rigid, |_| 22.0, 10, 2);
+        rejoin_small(&mut groups, &rigid, |_| 22.0, |_, _| true, 10, 2);
         assert_eq!(groups, vec![vec![0, 1, 2]]);
     }
 }

@@ -1238,3 +1238,59 @@ fn mixed_clusters_do_not_inflate_the_tolerance() {
     let seg = run(&trial.trajectories, &unbounded).expect("segments");
     assert!(seg.tolerance_mm > 10.0, "{}", seg.tolerance_mm);
 }
+
+/// ρ among eight markers as CMU 49_04's left arm and upper thorax left them after the
+/// rigidity check's split (mm): 0 = LUPA, alone; 1–4 = LELB, LFRM, LWRA, LWRB (forearm);
+/// 5–7 = CLAV, C7, LSHO. Pairs not listed move freely (60 mm).
+fn orphaned_upper_arm() -> pairstats::PairStats {
+    let listed = [
+        (0, 1, 4.6),
+        (0, 5, 17.6),
+        (0, 6, 24.9),
+        (0, 7, 15.0),
+        (1, 2, 2.5),
+        (1, 3, 4.2),
+        (1, 4, 3.5),
+        (2, 3, 3.5),
+        (2, 4, 2.6),
+        (3, 4, 1.4),
+        (1, 5, 27.5),
+        (1, 6, 29.5),
+        (1, 7, 17.6),
+        (5, 6, 4.5),
+        (5, 7, 11.3),
+        (6, 7, 17.3),
+    ];
+    let mut pairs = Vec::new();
+    for i in 0..8 {
+        for j in i + 1..8 {
+            let r = listed
+                .iter()
+                .find(|p| (p.0, p.1) == (i, j))
+                .map_or(60.0, |p| p.2);
+            pairs.push((i, j, r));
+        }
+    }
+    rigidity::tests::stats(8, &pairs)
+}
+
+#[test]
+fn a_marker_orphaned_at_a_joint_waits_instead_of_joining_a_loose_group() {
+    let stats = orphaned_upper_arm();
+    let nodes: Vec<usize> = (0..8).collect();
+    let params = Params::default();
+    let split = || vec![vec![1, 2, 3, 4], vec![0], vec![5, 6, 7]];
+    // 49_04's noise 3.31 mm, spread 4.4 mm, tolerance 22 mm: LUPA's RMS ρ to the upper
+    // thorax (19.6 mm) passes the tolerance, but LELB holds it three times steadier.
+    let mut groups = split();
+    rejoin_orphans(&mut groups, &stats, &nodes, 3.31, 4.4, 22.0, &params);
+    assert!(groups.contains(&vec![0]), "{groups:?}");
+    // Were skin to leave 8 mm of ρ on rigid bodies, 15 mm would be within twice that: it
+    // joins, as a sliding marker does.
+    let mut groups = split();
+    rejoin_orphans(&mut groups, &stats, &nodes, 3.31, 8.0, 22.0, &params);
+    assert!(
+        groups.iter().any(|g| g.contains(&0) && g.contains(&7)),
+        "{groups:?}"
+    );
+}
