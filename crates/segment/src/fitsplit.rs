@@ -303,7 +303,7 @@ pub(crate) fn split_sigmas(traj: &Trajectories, cluster: &[usize]) -> Option<(f6
 }
 
 /// Robust fit σ of `a` ∪ `b` as one body, mm.
-fn union_sigma(traj: &Trajectories, a: &[usize], b: &[usize]) -> Option<f64> {
+pub(crate) fn union_sigma(traj: &Trajectories, a: &[usize], b: &[usize]) -> Option<f64> {
     let mut union = a.to_vec();
     union.extend(b);
     let dist = median_distances(traj, &union);

@@ -35,7 +35,8 @@
 //! body holds rejoins it when the rigidity check had cut it from that body's spectral
 //! cluster and it sits there as still as the body's own markers (`pair_rejoin_ratio`: skin
 //! alike on two markers), and a pair only one of whose markers a body holds re-pairs when
-//! the other has a steadier partner next door (`pair_repartner`); pieces of one or two
+//! the other has a steadier partner next door or fits with a steadier pair as one segment
+//! (`pair_repartner`); pieces of one or two
 //! markers from one spectral cluster join where together they fit like one segment
 //! (`join_small`). Last, label swaps (two markers' trajectories exchanged for a while; see
 //! `swaps`) are looked for on the result; any found are undone and the capture segmented
@@ -365,8 +366,8 @@ fn segment_capture(
     }
     // Bodies are posed only when there is a lone marker or a pair to hold.
     if params.pair_hold > 0.0 && clusters.iter().any(|c| c.len() <= 2) {
-        let hold_mm = params.pair_hold
-            * typical_sigma(traj, &clusters, &mut sigma_memo).max(params.tolerance_min_mm);
+        let typical = typical_sigma(traj, &clusters, &mut sigma_memo);
+        let hold_mm = params.pair_hold * typical.max(params.tolerance_min_mm);
         if reassign::dissolve_small_clusters(
             traj,
             &mut clusters,
@@ -379,6 +380,7 @@ fn segment_capture(
             params.pair_repartner.then_some(reassign::LoosePairs {
                 stats: &stats,
                 tol_mm: tolerance_mm,
+                segment_sigma_mm: segment_sigma_mm(typical),
             }),
         ) > 0
         {

@@ -585,10 +585,10 @@ pub(crate) fn dissolve_small_clusters(
             // its partner (an elbow marker the forearm holds loosely stays with the arm).
             let to_holder = rms_rho(repair.stats, held, &clusters[holder], min_overlap);
             let bond = repair.stats.rho(held, free, min_overlap);
-            if !to_holder.zip(bond).is_some_and(|(h, b)| h < b) {
-                continue;
-            }
-            if repair.take_partner(clusters, c, held, free, min_overlap) {
+            let rehomed = (to_holder.zip(bond).is_some_and(|(h, b)| h < b)
+                && repair.take_partner(clusters, c, held, free, min_overlap))
+                || repair.join_pair(traj, clusters, c, held, free, min_overlap);
+            if rehomed {
                 clusters[holder].push(held);
                 dissolved += 1;
             }
@@ -615,13 +615,22 @@ type SmallClusterFate = (Vec<(usize, usize)>, Option<[usize; 3]>);
 /// with, and the held marker joins its holder if its RMS ρ to the holder's markers is
 /// below the pair's ρ too. A true two-marker segment with one marker near a joint keeps
 /// it: a knee marker the shank holds, whose thigh marker has no steadier partner; an elbow
-/// marker the forearm holds more loosely than the upper-arm marker does.
+/// marker the forearm holds more loosely than the upper-arm marker does. Failing a
+/// partner, the free marker joins a two-marker cluster it is steadier with than with the
+/// marker it is paired with, when the three fit as one ordinary segment, and the held
+/// marker, alone then, joins its holder as a lone held marker does: a three-marker
+/// segment cut into a pair and a marker paired across a joint (snake-hard-s20040, whose
+/// link4 and link5 markers near their joint kept ρ 3.1 mm, the link5 marker 1.5 and 3.6
+/// mm to its own pair).
 #[derive(Clone, Copy, Debug)]
 pub(crate) struct LoosePairs<'a> {
     /// Every pair's distance statistics.
     pub stats: &'a PairStats,
     /// Largest ρ of a new pair, mm (the rigidity tolerance).
     pub tol_mm: f64,
+    /// Largest rigid-fit σ of a pair and the free marker joined into one segment, mm (the
+    /// fit split's floor: what an ordinary segment fits within).
+    pub segment_sigma_mm: f64,
 }
 
 impl LoosePairs<'_> {
@@ -665,6 +674,48 @@ impl LoosePairs<'_> {
         };
         clusters[d].retain(|&y| y != x);
         clusters[c] = vec![free, x];
+        true
+    }
+
+    /// Moves `free` (paired with `held` in cluster `c`) into a two-marker cluster it keeps
+    /// its distances to better than to `held` (RMS ρ) and fits with as one segment (rigid
+    /// σ within `segment_sigma_mm`), the best-fitting such; `held` leaves cluster `c`.
+    /// Where a three-marker segment lost one marker to a cross-joint pair its remaining
+    /// pair has no marker to spare for [`Self::take_partner`]. Whether it did.
+    fn join_pair(
+        &self,
+        traj: &Trajectories,
+        clusters: &mut [Vec<usize>],
+        c: usize,
+        held: usize,
+        free: usize,
+        min_overlap: usize,
+    ) -> bool {
+        if clusters[c] != [held, free] && clusters[c] != [free, held] {
+            return false;
+        }
+        let Some(bond) = self.stats.rho(held, free, min_overlap) else {
+            return false;
+        };
+        let best = clusters
+            .iter()
+            .enumerate()
+            .filter(|&(q, pair)| {
+                q != c
+                    && pair.len() == 2
+                    && rms_rho(self.stats, free, pair, min_overlap).is_some_and(|r| r < bond)
+            })
+            .filter_map(|(q, pair)| {
+                crate::fitsplit::union_sigma(traj, &[free], pair)
+                    .filter(|&sigma| sigma <= self.segment_sigma_mm)
+                    .map(|sigma| (sigma, q))
+            })
+            .min_by(|x, y| x.0.total_cmp(&y.0).then(x.1.cmp(&y.1)));
+        let Some((_, q)) = best else {
+            return false;
+        };
+        clusters[q].push(free);
+        clusters[c].clear();
         true
     }
 }
@@ -997,6 +1048,7 @@ mod tests {
             let repair = LoosePairs {
                 stats: &stats,
                 tol_mm: 5.0,
+                segment_sigma_mm: 1.0,
             };
             let n = dissolve_small_clusters(traj, &mut clusters, 3.0, 10, None, Some(repair));
             clusters.iter_mut().for_each(|c| c.sort_unstable());
@@ -1009,6 +1061,57 @@ mod tests {
         assert_eq!(
             run(&scene(false)),
             (0, vec![vec![0, 1, 2, 3, 4], vec![5, 6]])
+        );
+    }
+
+    /// An arm of three markers swinging ±20° about x against a fixed 4-marker body: its two
+    /// far markers 4 and 5 are a pair, and marker 6, 45 mm from the axis, is paired with
+    /// body marker 7, 18 mm from it (ρ a few mm). The body holds 7; no cluster has a marker
+    /// to spare for 6, but the arm's pair is steadier with it than 7 is and the three fit as
+    /// one body: 6 joins the pair, 7 the body. Where 4 and 5 turn on a body of their own
+    /// (another phase), 6 fits with neither and the pair stays.
+    #[test]
+    fn loose_pair_marker_joins_a_pair_it_fits_with_as_one_segment() {
+        let scene = |pair_on_arm: bool| {
+            let points: Vec<[f64; 3]> = PARENT
+                .iter()
+                .copied()
+                .chain([
+                    [20.0, 25.0, -200.0],
+                    [-30.0, -20.0, -280.0],
+                    [0.0, 20.0, -40.0],
+                    [40.0, 15.0, 10.0],
+                ])
+                .collect();
+            moving_capture(points.len(), 300, 0.3, |t, k| {
+                let swing = 20f64.to_radians() * (0.7 * t).sin();
+                let other = 30f64.to_radians() * (1.3 * t).sin();
+                match k {
+                    4 | 5 if !pair_on_arm => hinge_x(other, points[k], 0.0),
+                    4..=6 => hinge_x(swing, points[k], 0.0),
+                    _ => points[k],
+                }
+            })
+        };
+        let run = |traj: &mocap_io::Trajectories| {
+            let stats = pair_stats(traj);
+            let mut clusters = vec![vec![0, 1, 2, 3], vec![4, 5], vec![6, 7]];
+            let repair = LoosePairs {
+                stats: &stats,
+                tol_mm: 5.0,
+                segment_sigma_mm: 1.0,
+            };
+            let n = dissolve_small_clusters(traj, &mut clusters, 3.0, 10, None, Some(repair));
+            clusters.iter_mut().for_each(|c| c.sort_unstable());
+            (n, clusters)
+        };
+        assert_eq!(
+            run(&scene(true)),
+            (1, vec![vec![0, 1, 2, 3, 7], vec![4, 5, 6]])
+        );
+        assert_eq!(
+            run(&scene(false)),
+            (0, vec![vec![0, 1, 2, 3], vec![4, 5], vec![6, 7]])
         );
     }
 }
