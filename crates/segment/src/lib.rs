@@ -9,12 +9,13 @@
 //! normalised spectral clustering with the eigen-gap segment count and seeded k-means
 //! (Aguiar et al. 2006, Sect. 3), then a rigidity check: each cluster is re-split by
 //! complete linkage on ρ / √(s_i s_j) (s = a marker's ρ to its nearest marker, floored at
-//! the noise), so a two-marker segment whose pair is each
-//! other's nearest stays whole; orphans rejoin only a group they slide on no more than
-//! they slide on anything, and not one that lacks a partner of theirs far steadier than
-//! the group's markers (orphaned at a joint; `rejoin_orphans`); then markers move and rigid neighbours merge within a tolerance
-//! on the noise, and pieces of one or two markers within one on the spread of ρ inside the
-//! spectral clusters (skin widens it beyond the noise; see `rigidity::rigid_spread`).
+//! the noise), so a two-marker segment whose pair is each other's nearest stays whole;
+//! orphans rejoin only a group they slide on no more than they slide on anything, and not
+//! one that lacks a partner of theirs far steadier than the group's markers (orphaned at a
+//! joint; `rejoin_orphans`); then markers move and rigid neighbours merge within a
+//! tolerance on the noise, and pieces of one or two markers within one on the spread of ρ
+//! inside the spectral clusters (skin widens it beyond the noise; see
+//! `rigidity::rigid_spread`).
 //! A marker still alone takes an ambiguous partner (rigid with it and with its own group,
 //! near a joint axis) from a group that keeps three, so both sides stay poseable.
 //! Before that, a rigid-fit check: each cluster of 4–10 markers is fitted as one rigid body
@@ -36,9 +37,8 @@
 //! cluster and it sits there as still as the body's own markers (`pair_rejoin_ratio`: skin
 //! alike on two markers), and a pair only one of whose markers a body holds re-pairs when
 //! the other has a steadier partner next door or fits with a steadier pair as one segment
-//! (`pair_repartner`); pieces of one or two
-//! markers from one spectral cluster join where together they fit like one segment
-//! (`join_small`). Last, label swaps (two markers' trajectories exchanged for a while; see
+//! (`pair_repartner`); pieces of one or two markers from one spectral cluster join where
+//! together they fit like one segment (`join_small`). Last, label swaps (two markers' trajectories exchanged for a while; see
 //! `swaps`) are looked for on the result; any found are undone and the capture segmented
 //! again, and listed in [`Segmentation::swaps`] (`repair_swaps`).
 //! After all the rest, a marker whose steadiest ρ in its group exceeds `loose_marker_factor`

@@ -218,10 +218,9 @@ pub(crate) fn split(
 }
 
 /// Groups smaller than `min_group` (a sliding or orphaned marker), smallest marker first,
-/// join the big group `admit(small, big)` lets them that they are most rigid with (RMS ρ
-/// over their markers) when that RMS is within `bound(small group)` (mm) and so are most
-/// of their cross pairs; the others stay
-/// as they are. The RMS alone lets a marker near a joint bridge two bodies: CMU 49_04's
+/// join, of the big groups `admit(small, big)` allows, the one they are most rigid with
+/// (RMS ρ over their markers) when that RMS is within `bound(small group)` (mm) and so are
+/// most of their cross pairs; the others stay as they are. The RMS alone lets a marker near a joint bridge two bodies: CMU 49_04's
 /// shin marker kept ρ 4.0 mm to the knee marker and 29.2 mm to the thigh marker (the knee
 /// flexes 7-109°), RMS 20.8 mm under a 22 mm bound, and went into the thigh.
 pub(crate) fn rejoin_small(

@@ -1239,38 +1239,23 @@ fn mixed_clusters_do_not_inflate_the_tolerance() {
     assert!(seg.tolerance_mm > 10.0, "{}", seg.tolerance_mm);
 }
 
-/// ρ among eight markers as CMU 49_04's left arm and upper thorax left them after the
-/// rigidity check's split (mm): 0 = LUPA, alone; 1–4 = LELB, LFRM, LWRA, LWRB (forearm);
-/// 5–7 = CLAV, C7, LSHO. Pairs not listed move freely (60 mm).
+/// ρ among eight markers of CMU 49_04 (mm, numpy over the frames each pair is seen): 0 =
+/// LUPA, which the rigidity check's split left alone; 1–4 = LELB, LFRM, LWRA, LWRB (its
+/// forearm group); 5–7 = CLAV, C7, LSHO.
 fn orphaned_upper_arm() -> pairstats::PairStats {
-    let listed = [
-        (0, 1, 4.6),
-        (0, 5, 17.6),
-        (0, 6, 24.9),
-        (0, 7, 15.0),
-        (1, 2, 2.5),
-        (1, 3, 4.2),
-        (1, 4, 3.5),
-        (2, 3, 3.5),
-        (2, 4, 2.6),
-        (3, 4, 1.4),
-        (1, 5, 27.5),
-        (1, 6, 29.5),
-        (1, 7, 17.6),
-        (5, 6, 4.5),
-        (5, 7, 11.3),
-        (6, 7, 17.3),
+    let rho = [
+        [0.0, 4.6, 18.5, 55.0, 34.5, 17.6, 24.9, 15.0],
+        [4.6, 0.0, 2.5, 4.2, 3.5, 27.5, 29.5, 17.6],
+        [18.5, 2.5, 0.0, 3.5, 2.7, 54.7, 26.8, 29.3],
+        [55.0, 4.2, 3.5, 0.0, 1.4, 133.1, 86.3, 84.8],
+        [34.5, 3.5, 2.7, 1.4, 0.0, 92.7, 51.6, 55.8],
+        [17.6, 27.5, 54.7, 133.1, 92.7, 0.0, 4.5, 11.3],
+        [24.9, 29.5, 26.8, 86.3, 51.6, 4.5, 0.0, 17.3],
+        [15.0, 17.6, 29.3, 84.8, 55.8, 11.3, 17.3, 0.0],
     ];
-    let mut pairs = Vec::new();
-    for i in 0..8 {
-        for j in i + 1..8 {
-            let r = listed
-                .iter()
-                .find(|p| (p.0, p.1) == (i, j))
-                .map_or(60.0, |p| p.2);
-            pairs.push((i, j, r));
-        }
-    }
+    let pairs: Vec<(usize, usize, f64)> = (0..8)
+        .flat_map(|i| (i + 1..8).map(move |j| (i, j, rho[i][j])))
+        .collect();
     rigidity::tests::stats(8, &pairs)
 }
 
