@@ -583,11 +583,17 @@ pub(crate) fn dissolve_small_clusters(
         for (c, [held, holder, free]) in loose {
             // The held marker keeps its distances to the holder's markers better than to
             // its partner (an elbow marker the forearm holds loosely stays with the arm).
+            // An earlier re-pairing may have taken one of the two already.
+            if clusters[c] != [held, free] && clusters[c] != [free, held] {
+                continue;
+            }
+            let Some(bond) = repair.stats.rho(held, free, min_overlap) else {
+                continue;
+            };
             let to_holder = rms_rho(repair.stats, held, &clusters[holder], min_overlap);
-            let bond = repair.stats.rho(held, free, min_overlap);
-            let rehomed = (to_holder.zip(bond).is_some_and(|(h, b)| h < b)
-                && repair.take_partner(clusters, c, held, free, min_overlap))
-                || repair.join_pair(traj, clusters, c, held, free, min_overlap);
+            let rehomed = (to_holder.is_some_and(|h| h < bond)
+                && repair.take_partner(clusters, c, free, bond, min_overlap))
+                || repair.join_pair(traj, clusters, c, free, bond, min_overlap);
             if rehomed {
                 clusters[holder].push(held);
                 dissolved += 1;
@@ -634,23 +640,17 @@ pub(crate) struct LoosePairs<'a> {
 }
 
 impl LoosePairs<'_> {
-    /// Gives `free` (paired with `held` in cluster `c`) its steadiest partner from a
-    /// cluster that keeps [`DONOR_KEEPS`] markers without it, when steadier than `held`;
-    /// `held` leaves cluster `c`. Whether it did.
+    /// Gives `free` (paired in cluster `c` with a marker it keeps ρ `bond` to) its
+    /// steadiest partner from a cluster that keeps [`DONOR_KEEPS`] markers without it, when
+    /// steadier than `bond`; the other marker leaves cluster `c`. Whether it did.
     fn take_partner(
         &self,
         clusters: &mut [Vec<usize>],
         c: usize,
-        held: usize,
         free: usize,
+        bond: f64,
         min_overlap: usize,
     ) -> bool {
-        if clusters[c] != [held, free] && clusters[c] != [free, held] {
-            return false;
-        }
-        let Some(bond) = self.stats.rho(held, free, min_overlap) else {
-            return false;
-        };
         let mut best: Option<(f64, usize, usize)> = None;
         for (d, donor) in clusters.iter().enumerate() {
             if d == c || donor.len() <= DONOR_KEEPS {
@@ -677,26 +677,20 @@ impl LoosePairs<'_> {
         true
     }
 
-    /// Moves `free` (paired with `held` in cluster `c`) into a two-marker cluster it keeps
-    /// its distances to better than to `held` (RMS ρ) and fits with as one segment (rigid
-    /// σ within `segment_sigma_mm`), the best-fitting such; `held` leaves cluster `c`.
-    /// Where a three-marker segment lost one marker to a cross-joint pair its remaining
-    /// pair has no marker to spare for [`Self::take_partner`]. Whether it did.
+    /// Moves `free` (paired in cluster `c` with a marker it keeps ρ `bond` to) into a
+    /// two-marker cluster it keeps its distances to better than that (RMS ρ) and fits with
+    /// as one segment (rigid σ within `segment_sigma_mm`), the best-fitting such; cluster
+    /// `c` is emptied. Where a three-marker segment lost one marker to a cross-joint pair
+    /// its remaining pair has no marker to spare for [`Self::take_partner`]. Whether it did.
     fn join_pair(
         &self,
         traj: &Trajectories,
         clusters: &mut [Vec<usize>],
         c: usize,
-        held: usize,
         free: usize,
+        bond: f64,
         min_overlap: usize,
     ) -> bool {
-        if clusters[c] != [held, free] && clusters[c] != [free, held] {
-            return false;
-        }
-        let Some(bond) = self.stats.rho(held, free, min_overlap) else {
-            return false;
-        };
         let best = clusters
             .iter()
             .enumerate()
