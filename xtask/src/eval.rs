@@ -624,6 +624,9 @@ struct Aggregate {
     /// Of the exact trees, those exact only up to coincident true joints.
     topology_equivalent: usize,
     mean_error_pct: f64,
+    /// The same trials' mean joint error in mm: skin artefact is 5–15 mm whatever the
+    /// subject's size, so a small subject's percentage says more about its height.
+    mean_error_mm: f64,
     worst_error_pct: f64,
     mean_known_fraction: f64,
     /// Matched joints (re-hung coincident ones aside) whose kind is right, hinge or not.
@@ -646,6 +649,7 @@ fn aggregate<'a>(results: impl Iterator<Item = &'a TrialResult>) -> Aggregate {
         topology_exact: 0,
         topology_equivalent: 0,
         mean_error_pct: 0.0,
+        mean_error_mm: 0.0,
         // NaN until a trial is scored: f64::max ignores NaN.
         worst_error_pct: f64::NAN,
         mean_known_fraction: 0.0,
@@ -685,15 +689,19 @@ fn aggregate<'a>(results: impl Iterator<Item = &'a TrialResult>) -> Aggregate {
         }
         if r.mean_error_pct.is_finite() {
             a.mean_error_pct += r.mean_error_pct;
+            a.mean_error_mm += r.mean_error_mm;
             scored += 1;
         }
         a.worst_error_pct = a.worst_error_pct.max(r.worst_error_pct);
     }
     let ok = a.trials - a.failed;
-    a.mean_error_pct = if scored > 0 {
-        a.mean_error_pct / scored as f64
+    (a.mean_error_pct, a.mean_error_mm) = if scored > 0 {
+        (
+            a.mean_error_pct / scored as f64,
+            a.mean_error_mm / scored as f64,
+        )
     } else {
-        f64::NAN
+        (f64::NAN, f64::NAN)
     };
     a.mean_known_fraction = if ok > 0 {
         a.mean_known_fraction / ok as f64
@@ -757,10 +765,11 @@ fn subject_lines(results: &[TrialResult]) -> Vec<String> {
                 .map(|s| {
                     let a = aggregate(results.iter().filter(|r| r.preset == p && &r.subject == s));
                     format!(
-                        "{s} {}/{} {}%",
+                        "{s} {}/{} {}% ({} mm)",
                         a.topology_exact,
                         a.trials,
-                        fmt_f(a.mean_error_pct, 2)
+                        fmt_f(a.mean_error_pct, 2),
+                        fmt_f(a.mean_error_mm, 1)
                     )
                 })
                 .collect();
@@ -1174,8 +1183,8 @@ mod tests {
         assert_eq!(
             subject_lines(&results),
             [
-                "  clean by subject: human 1/2 0.20%, snowman 1/1 0.00%",
-                "  hard by subject: human 1/1 1.00%, snowman 0/1 2.00%",
+                "  clean by subject: human 1/2 0.20% (2.0 mm), snowman 1/1 0.00% (0.0 mm)",
+                "  hard by subject: human 1/1 1.00% (10.0 mm), snowman 0/1 2.00% (20.0 mm)",
             ]
         );
         let json = summary_json(&results);
