@@ -698,6 +698,67 @@ struct MarkerEvidence {
     across: DVec3,
 }
 
+/// A segment's markers' scatter along a hinge axis about the bone (mm²): their own
+/// spread, or the spread pooled over every hinge's child (`pooled`) if larger, and at
+/// least [`MARKER_SPREAD_FLOOR_MM`] squared.
+fn marker_scatter(m: &MarkerEvidence, pooled: f64) -> f64 {
+    let own = if m.count > 1 {
+        m.squares / (m.count - 1) as f64
+    } else {
+        0.0
+    };
+    own.max(pooled).max(MARKER_SPREAD_FLOOR_MM.powi(2))
+}
+
+/// How far (variance, mm²) the midpoint of a hinge child's markers misses its bone's plane
+/// beyond their scatter, read off this capture: on each hinge whose child also carries a
+/// point joint (which its bone, and so the plane, passes through), the squared miss
+/// between the markers' midpoint and that joint less the markers' scatter along the axis
+/// (`scatter`, not over √n: a few markers' midpoint misses by chance about that much) and
+/// the joint's own variance; the median over those hinges, at least 0, and 0 with fewer
+/// than [`MIN_BIAS_HINGES`] of them (one hinge's few markers can miss by chance: a
+/// random tree's two-marker leaf missed by 93 mm on hard).
+///
+/// Markers all round a bone (the generator's default) put the midpoint on the plane; a
+/// limb marked on one side only (a gait marker set's lateral markers, or the generator's
+/// `--marker-arc 120`) puts every midpoint off to that side by about the limb's radius,
+/// and more markers do not bring it back. Taken as precise, the one-sided markers of a
+/// shank and foot outweighed the hip that the femur's square crossing puts on the knee's
+/// axis, and the rows that would have corrected it failed the test against the child
+/// side: knees and ankles 17-24 mm out along their axes on clean walking-like trials
+/// (`--sweep 0.2:0.4 --marker-arc 120`), the elbows, whose forearms carry the wrists,
+/// missing by 30-58 mm from their forearms' midpoints. The median over the hinges is 0
+/// on every default trial measured (markers all round, clean or hard).
+fn marker_bias_variance<'a>(
+    children: impl Iterator<Item = (MarkerEvidence, &'a [ShiftRow])>,
+    scatter: impl Fn(&MarkerEvidence) -> f64,
+) -> f64 {
+    let mut excess = Vec::new();
+    for (markers, joints) in children {
+        // The point joints' own precision-weighted value for the shift.
+        let (mut precision, mut sum) = (0.0, 0.0);
+        for row in joints.iter().filter(|row| row.terms.len() == 1) {
+            precision += row.weight;
+            sum += row.weight * row.b;
+        }
+        if precision <= 0.0 || !precision.is_finite() {
+            continue;
+        }
+        let miss = markers.mid - sum / precision;
+        excess.push(miss * miss - scatter(&markers) - 1.0 / precision);
+    }
+    if excess.len() < MIN_BIAS_HINGES {
+        return 0.0;
+    }
+    excess.sort_by(f64::total_cmp);
+    let n = excess.len();
+    (0.5 * (excess[(n - 1) / 2] + excess[n / 2])).max(0.0)
+}
+
+/// Fewest hinges with a point joint on their child that [`marker_bias_variance`] reads:
+/// one hinge's few markers can miss by chance.
+const MIN_BIAS_HINGES: usize = 2;
+
 /// Where [`place_hinges_across_bones`] moved each tree edge's hinge centre.
 #[derive(Clone, Debug, Default, PartialEq)]
 pub struct HingePlacements {
@@ -727,8 +788,10 @@ pub struct HingePlacements {
 ///   by 13.6 mm on average where their mean misses by 16.1, and by less at every marker
 ///   count from 3 to 6), σ = their scatter about the bone / √n (the larger of their own
 ///   and the scatter pooled over every hinge's child, and at least
-///   `MARKER_SPREAD_FLOOR_MM` (10 mm), with the tilt's share). A hinge whose child ends
-///   the chain (a hand, a foot, a robot's last link) has only this;
+///   `MARKER_SPREAD_FLOOR_MM` (10 mm), with the tilt's share), plus how far this
+///   capture's markers miss their bones beyond that ([`marker_bias_variance`]: markers on
+///   one side of a limb). A hinge whose child ends the chain (a hand, a foot, a robot's
+///   last link) has only this;
 /// - each joint on the parent side (its own parent joint, its siblings), and the parent's
 ///   markers, taken as for the child where each agrees with the child side's solution
 ///   within `PARENT_JOINT_TEST_SIGMAS` (3) (that solution's variance and the row's own),
@@ -911,22 +974,21 @@ pub fn place_hinges_across_bones(
         .filter_map(|(_, child, _)| child.markers)
         .fold((0.0, 0usize), |(q, d), m| (q + m.squares, d + m.count - 1));
     let pooled = if dof > 0 { squares / dof as f64 } else { 0.0 };
+    // Markers on one side of their limbs miss its plane by more than √n shrinks.
+    let bias = marker_bias_variance(
+        hinges
+            .iter()
+            .filter_map(|(_, child, _)| Some((child.markers?, child.joints.as_slice()))),
+        |m| marker_scatter(m, pooled),
+    );
     let marker_row = |k: usize, evidence: &SideEvidence| {
-        evidence.markers.map(|m| {
-            let own = if m.count > 1 {
-                m.squares / (m.count - 1) as f64
-            } else {
-                0.0
-            };
-            let spread = own.max(pooled).max(MARKER_SPREAD_FLOOR_MM.powi(2));
-            ShiftRow {
-                terms: vec![(k, 1.0)],
-                b: m.mid,
-                weight: 1.0 / (spread / m.count as f64 + m.tilt_variance),
-                lever: m.lever,
-                across: m.across,
-                sibling: None,
-            }
+        evidence.markers.map(|m| ShiftRow {
+            terms: vec![(k, 1.0)],
+            b: m.mid,
+            weight: 1.0 / (marker_scatter(&m, pooled) / m.count as f64 + m.tilt_variance + bias),
+            lever: m.lever,
+            across: m.across,
+            sibling: None,
         })
     };
     let with_markers = |k: usize, evidence: &SideEvidence| {
@@ -1423,6 +1485,60 @@ fn normal_equations(rows: &[ShiftRow], count: usize) -> (Vec<Vec<f64>>, Vec<f64>
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    /// A child's markers seen along its hinge axis: midpoint `mid`, scatter 10 mm.
+    fn markers(mid: f64) -> MarkerEvidence {
+        MarkerEvidence {
+            mid,
+            squares: 3.0 * 100.0,
+            count: 4,
+            tilt_variance: 0.0,
+            lever: 200.0,
+            across: DVec3::new(0.0, 0.0, -200.0),
+        }
+    }
+
+    /// A point joint the child carries, on the axis at `value` with σ 2 mm.
+    fn point(value: f64) -> Vec<ShiftRow> {
+        vec![ShiftRow {
+            terms: vec![(0, 1.0)],
+            b: value,
+            weight: 0.25,
+            lever: 400.0,
+            across: DVec3::new(0.0, 0.0, -400.0),
+            sibling: None,
+        }]
+    }
+
+    #[test]
+    fn markers_on_one_side_of_their_bones_count_as_far_off_as_they_miss() {
+        let scatter = |m: &MarkerEvidence| m.squares / (m.count - 1) as f64;
+        let bias = |cases: &[(f64, f64)]| {
+            let rows: Vec<(MarkerEvidence, Vec<ShiftRow>)> = cases
+                .iter()
+                .map(|&(mid, at)| (markers(mid), point(at)))
+                .collect();
+            marker_bias_variance(rows.iter().map(|(m, j)| (*m, j.as_slice())), scatter)
+        };
+        // Two forearms whose markers sit 45 and 55 mm to one side of the wrists' plane:
+        // the median squared miss less the scatter (100) and the joint's (4).
+        let one_sided = bias(&[(45.0, 0.0), (-55.0, 0.0)]);
+        assert!(
+            (one_sided - (0.5 * (2025.0 + 3025.0) - 104.0)).abs() < 1e-9,
+            "{one_sided}"
+        );
+        // Markers round their bones miss by about their scatter: nothing to add.
+        assert_eq!(bias(&[(8.0, 0.0), (-6.0, 2.0), (3.0, -1.0)]), 0.0);
+        // One hinge alone may miss by chance; one wild miss among three is outvoted.
+        assert_eq!(bias(&[(90.0, 0.0)]), 0.0);
+        assert_eq!(bias(&[(110.0, 0.0), (5.0, 0.0), (-4.0, 0.0)]), 0.0);
+        // A child with no point joint says nothing.
+        let none = [(markers(50.0), Vec::new()), (markers(60.0), Vec::new())];
+        assert_eq!(
+            marker_bias_variance(none.iter().map(|(m, j)| (*m, j.as_slice())), scatter),
+            0.0
+        );
+    }
 
     fn row(value: f64, lever: f64) -> (ShiftRow, f64, f64) {
         let row = ShiftRow {

@@ -714,6 +714,44 @@ fn a_leaf_hinge_sits_midway_between_its_outermost_markers() {
     assert!(err < 3.0, "{err} mm from the joint ({})", fit.evidence);
 }
 
+/// A limb marked on one side only (a gait marker set's lateral markers): every segment's
+/// markers sit 40–60 mm to one side along the hinge axes (y). Two hinges' children carry
+/// ball joints, which put them on their bones' planes, 50 mm from their markers'
+/// midpoints; that miss says the markers are one-sided, so the leaf hinge, which has only
+/// its own markers and its parent's ball joint (its parent's bone crosses its axis
+/// squarely), goes to the joint rather than halfway between its markers.
+#[test]
+fn a_leaf_hinge_marked_on_one_side_goes_to_its_parents_bone() {
+    let mut rng = TestRng(37);
+    let mut bodies = chain(
+        &mut rng,
+        &[
+            Articulation::Ball(40.0),
+            Articulation::Hinge(DVec3::Y, 50.0),
+            Articulation::Ball(40.0),
+            Articulation::Hinge(DVec3::Y, 50.0),
+            Articulation::Ball(40.0),
+            Articulation::Hinge(DVec3::Y, 50.0),
+        ],
+        4,
+    );
+    for body in &mut bodies {
+        for (k, m) in body.markers.iter_mut().enumerate() {
+            let side = if k % 2 == 0 { 1.0 } else { -1.0 };
+            *m = DVec3::new(35.0 * side, 40.0 + 6.0 * k as f64, -100.0 * (k + 1) as f64);
+        }
+    }
+    let trial = generate(&mut rng, &bodies, 300, 0.0, |_, _, _| false);
+    let mut fits = run_on_segments(&trial.traj, &trial.segments, &Params::default()).unwrap();
+    let edges = tree_edges(&fits, &[(0, 1), (1, 2), (2, 3), (3, 4), (4, 5), (5, 6)]);
+    crate::place_hinges_across_bones(&mut fits, &edges, crate::EdgeDirection::TreeRoot);
+    let leaf = pair(&fits, 5, 6);
+    assert_eq!(leaf.kind, JointKind::Hinge);
+    let err = mean_error(leaf, &trial.joints[6]);
+    // Its markers' midpoint along the axis is 49 mm off the joint.
+    assert!(err < 5.0, "{err} mm from the joint ({})", leaf.evidence);
+}
+
 /// Chain 0–1–2 whose middle segment shows only 2 of its 4 markers in frames 100..220:
 /// those frames are filled through the 0–1 joint, so they carry that joint by
 /// construction. The 1–2 fit must learn from the other frames only (its centre, kind and
