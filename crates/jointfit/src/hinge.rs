@@ -716,8 +716,8 @@ fn marker_scatter(m: &MarkerEvidence, pooled: f64) -> f64 {
 /// between the markers' midpoint and that joint less the markers' scatter along the axis
 /// (`scatter`, not over √n: a few markers' midpoint misses by chance about that much) and
 /// the joint's own variance; the median over those hinges, at least 0, and 0 with fewer
-/// than [`MIN_BIAS_HINGES`] of them (one hinge's few markers can miss by chance: a
-/// random tree's two-marker leaf missed by 93 mm on hard).
+/// than [`MIN_BIAS_HINGES`] of them (one hinge's few markers can miss by chance: on hard,
+/// the two markers of a random tree's hinge child missed its ball joint by 93 mm).
 ///
 /// Markers all round a bone (the generator's default) put the midpoint on the plane; a
 /// limb marked on one side only (a gait marker set's lateral markers, or the generator's
@@ -727,8 +727,8 @@ fn marker_scatter(m: &MarkerEvidence, pooled: f64) -> f64 {
 /// axis, and the rows that would have corrected it failed the test against the child
 /// side: knees and ankles 17-24 mm out along their axes on clean walking-like trials
 /// (`--sweep 0.2:0.4 --marker-arc 120`), the elbows, whose forearms carry the wrists,
-/// missing by 30-58 mm from their forearms' midpoints. The median over the hinges is 0
-/// on every default trial measured (markers all round, clean or hard).
+/// missing by 30-58 mm from their forearms' midpoints. With markers all round it is 0 on
+/// all but a few trials (W hard: five of 700 trials move, both ways).
 fn marker_bias_variance<'a>(
     children: impl Iterator<Item = (MarkerEvidence, &'a [ShiftRow])>,
     scatter: impl Fn(&MarkerEvidence) -> f64,
@@ -974,7 +974,7 @@ pub fn place_hinges_across_bones(
         .filter_map(|(_, child, _)| child.markers)
         .fold((0.0, 0usize), |(q, d), m| (q + m.squares, d + m.count - 1));
     let pooled = if dof > 0 { squares / dof as f64 } else { 0.0 };
-    // Markers on one side of their limbs miss its plane by more than √n shrinks.
+    // Markers on one side of a limb miss its bone by more than their count averages away.
     let bias = marker_bias_variance(
         hinges
             .iter()

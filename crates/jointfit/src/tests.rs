@@ -715,8 +715,8 @@ fn a_leaf_hinge_sits_midway_between_its_outermost_markers() {
 }
 
 /// A limb marked on one side only (a gait marker set's lateral markers): every segment's
-/// markers sit 40–60 mm to one side along the hinge axes (y). Two hinges' children carry
-/// ball joints, which put them on their bones' planes, 50 mm from their markers'
+/// markers sit 40–58 mm to one side along the hinge axes (y). Two hinges' children carry
+/// ball joints, which put them on their bones' planes, 49 mm from their markers'
 /// midpoints; that miss says the markers are one-sided, so the leaf hinge, which has only
 /// its own markers and its parent's ball joint (its parent's bone crosses its axis
 /// squarely), goes to the joint rather than halfway between its markers.
