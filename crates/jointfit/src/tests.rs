@@ -752,6 +752,44 @@ fn a_leaf_hinge_marked_on_one_side_goes_to_its_parents_bone() {
     assert!(err < 5.0, "{err} mm from the joint ({})", leaf.evidence);
 }
 
+/// As [`a_leaf_hinge_marked_on_one_side_goes_to_its_parents_bone`] for a robot arm: four
+/// hinges whose axes alternate between x and y (each link carries the next joint at right
+/// angles, which its own slide does not move along this one's axis), every link's markers
+/// 40–58 mm to one side along both. No ball joint anywhere; the next joints say how far
+/// the markers miss.
+#[test]
+fn a_robot_arm_marked_on_one_side_keeps_its_last_hinge_on_its_parents_bone() {
+    let mut rng = TestRng(38);
+    let mut bodies = chain(
+        &mut rng,
+        &[
+            Articulation::Hinge(DVec3::X, 50.0),
+            Articulation::Hinge(DVec3::Y, 50.0),
+            Articulation::Hinge(DVec3::X, 50.0),
+            Articulation::Hinge(DVec3::Y, 50.0),
+        ],
+        4,
+    );
+    for body in &mut bodies {
+        for (k, (m, y)) in body
+            .markers
+            .iter_mut()
+            .zip([50.0, 40.0, 58.0, 46.0])
+            .enumerate()
+        {
+            *m = DVec3::new(40.0 + 6.0 * k as f64, y, -100.0 * (k + 1) as f64);
+        }
+    }
+    let trial = generate(&mut rng, &bodies, 300, 0.0, |_, _, _| false);
+    let mut fits = run_on_segments(&trial.traj, &trial.segments, &Params::default()).unwrap();
+    let edges = tree_edges(&fits, &[(0, 1), (1, 2), (2, 3), (3, 4)]);
+    crate::place_hinges_across_bones(&mut fits, &edges, crate::EdgeDirection::TreeRoot);
+    let leaf = pair(&fits, 3, 4);
+    assert_eq!(leaf.kind, JointKind::Hinge);
+    let err = mean_error(leaf, &trial.joints[4]);
+    assert!(err < 5.0, "{err} mm from the joint ({})", leaf.evidence);
+}
+
 /// Chain 0–1–2 whose middle segment shows only 2 of its 4 markers in frames 100..220:
 /// those frames are filled through the 0–1 joint, so they carry that joint by
 /// construction. The 1–2 fit must learn from the other frames only (its centre, kind and
