@@ -718,7 +718,8 @@ fn marker_scatter(m: &MarkerEvidence, pooled: f64) -> f64 {
 /// (`scatter`, not over √n: a few markers' midpoint misses by chance about that much) and
 /// the joint's own variance; the median over those hinges, at least 0, and 0 with fewer
 /// than [`MIN_BIAS_HINGES`] of them (one hinge's few markers can miss by chance: on hard,
-/// the two markers of a random tree's hinge child missed its ball joint by 93 mm).
+/// the two markers of a random tree's hinge child missed its ball joint by 93 mm). The
+/// segments whose bone two point joints fix add theirs (`bones`, see [`bone_excess`]).
 ///
 /// Markers all round a bone (the generator's default) put the midpoint on the plane; a
 /// limb marked on one side only (a gait marker set's lateral markers, or the generator's
@@ -729,13 +730,14 @@ fn marker_scatter(m: &MarkerEvidence, pooled: f64) -> f64 {
 /// side: knees and ankles 17-24 mm out along their axes on clean walking-like trials
 /// (`--sweep 0.2:0.4 --marker-arc 120`), the elbows, whose forearms carry the wrists,
 /// missing by 30-58 mm from their forearms' midpoints. With markers all round it is 0 on
-/// all but a few trials (seeds 20001–20050, 30001–30050: ten of 700 hard trials and six
-/// clean move, both ways, every subject's mean within 0.004 % of height).
+/// most trials (seeds 20001–20050, 30001–30050: 40 of 700 trials move on clean and 40 on
+/// hard, both ways, every subject's mean within 0.01 % of height).
 fn marker_bias_variance<'a>(
     children: impl Iterator<Item = (MarkerEvidence, &'a [ShiftRow])>,
     scatter: impl Fn(&MarkerEvidence) -> f64,
+    bones: impl Iterator<Item = f64>,
 ) -> f64 {
-    let mut excess = Vec::new();
+    let mut excess: Vec<f64> = bones.collect();
     for (markers, joints) in children {
         // The joints' own precision-weighted value for the shift: points, and hinges whose
         // own slide hardly moves them along this axis (a robot's next joint at right angles).
@@ -767,6 +769,46 @@ fn marker_bias_variance<'a>(
 /// Fewest hinges with a point joint on their child that [`marker_bias_variance`] reads:
 /// one hinge's few markers can miss by chance.
 const MIN_BIAS_HINGES: usize = 2;
+
+/// How far a segment's markers (`markers`, its frame, ≥ 3) sit off its bone beyond their
+/// scatter, mm², for [`marker_bias_variance`]: the bone runs through two point joints `a`
+/// and `b`; the squared distance of the markers' centroid from that line less their
+/// scatter in that direction. Markers all round a bone centre on it well within their
+/// scatter; markers on one side sit off it by most of the limb's radius and scatter less
+/// than that. `None` when the joints coincide, a marker lies beyond them along the bone,
+/// or the bone is shorter than [`BONE_SPAN_RADII`] of its markers' distances from it.
+fn bone_excess(markers: &[DVec3], a: DVec3, b: DVec3) -> Option<f64> {
+    let along = (b - a).try_normalize()?;
+    let length = a.distance(b);
+    if markers.len() < 3
+        || markers
+            .iter()
+            .any(|m| !(0.0..=length).contains(&(*m - a).dot(along)))
+    {
+        return None;
+    }
+    let across: Vec<DVec3> = markers
+        .iter()
+        .map(|m| (*m - a).reject_from_normalized(along))
+        .collect();
+    let n = across.len() as f64;
+    let centroid = across.iter().sum::<DVec3>() / n;
+    // Along the side they sit on, as a hinge's markers along its axis: a limb's markers
+    // spread round it as well, which says nothing about where its bone is.
+    let side = centroid.normalize_or_zero();
+    let scatter = across
+        .iter()
+        .map(|o| (*o - centroid).dot(side).powi(2))
+        .sum::<f64>()
+        / (n - 1.0);
+    let radius2 = across.iter().map(|o| o.length_squared()).sum::<f64>() / n;
+    (length * length >= BONE_SPAN_RADII * BONE_SPAN_RADII * radius2)
+        .then(|| centroid.length_squared() - scatter)
+}
+
+/// Shortest bone [`bone_excess`] reads, in its markers' RMS distances from it: two joints'
+/// errors turn a short bone's line by more than its markers' side says.
+const BONE_SPAN_RADII: f64 = 2.0;
 
 /// A hinge the child carries counts as a point for [`marker_bias_variance`] when sliding
 /// it along its own axis moves it along this hinge's axis by at most this fraction (axes
@@ -993,11 +1035,44 @@ pub fn place_hinges_across_bones(
         .fold((0.0, 0usize), |(q, d), m| (q + m.squares, d + m.count - 1));
     let pooled = if dof > 0 { squares / dof as f64 } else { 0.0 };
     // Markers on one side of a limb miss its bone by more than their count averages away.
+    // Segments whose bone two point joints fix, one at each end: the one it hangs from and
+    // the one it carries (a neck between two balls, a clavicle; not a pelvis between its
+    // two hips, whose markers surround no line between them).
+    let bones = (0..segments).filter_map(|x| {
+        let ends = |at_child_end: bool| -> Vec<DVec3> {
+            edges
+                .iter()
+                .enumerate()
+                .filter(|&(g, &(_, parent, child))| {
+                    unknown[g].is_none()
+                        && if at_child_end {
+                            parent == x
+                        } else {
+                            child == x
+                        }
+                })
+                .filter_map(|(g, _)| seen_from(g, x).map(|(c, _)| c))
+                .collect()
+        };
+        let (from, carried) = (ends(false), ends(true));
+        let ([a], [b]) = (&from[..], &carried[..]) else {
+            return None;
+        };
+        let (a, b) = (*a, *b);
+        let markers: Vec<DVec3> = fits.poses[x]
+            .reference
+            .iter()
+            .map(|&m| DVec3::from_array(m))
+            .filter(|m| m.is_finite())
+            .collect();
+        bone_excess(&markers, a, b)
+    });
     let bias = marker_bias_variance(
         hinges
             .iter()
             .filter_map(|(_, child, _)| Some((child.markers?, child.joints.as_slice()))),
         |m| marker_scatter(m, pooled),
+        bones,
     );
     let marker_row = |k: usize, evidence: &SideEvidence| {
         evidence.markers.map(|m| ShiftRow {
@@ -1529,6 +1604,39 @@ mod tests {
     }
 
     #[test]
+    fn a_bone_between_two_joints_says_whether_its_markers_sit_on_one_side() {
+        let (a, b) = (DVec3::ZERO, DVec3::new(0.0, 0.0, -400.0));
+        let around = |degrees: &[f64], radius: f64| -> Vec<DVec3> {
+            degrees
+                .iter()
+                .enumerate()
+                .map(|(k, d)| {
+                    let t = d.to_radians();
+                    DVec3::new(radius * t.cos(), radius * t.sin(), -80.0 * (k + 1) as f64)
+                })
+                .collect()
+        };
+        // All round: the centroid is on the bone, well within the markers' scatter.
+        let all_round = bone_excess(&around(&[0.0, 90.0, 180.0, 270.0], 50.0), a, b);
+        assert!(all_round.is_some_and(|e| e < 0.0), "{all_round:?}");
+        // Within ±60° of one side: the centroid sits 36 mm off, the scatter that way 13 mm.
+        let one_side =
+            bone_excess(&around(&[-60.0, -20.0, 20.0, 60.0], 50.0), a, b).expect("a long bone");
+        assert!(one_side > 25.0f64.powi(2), "{}", one_side.sqrt());
+        // Too short for its markers' radius (90 mm, markers 50 mm off), markers beyond its
+        // joints, or too few markers: no verdict.
+        let near: Vec<DVec3> = around(&[-60.0, 0.0, 60.0], 50.0)
+            .into_iter()
+            .map(|m| DVec3::new(m.x, m.y, m.z / 4.0))
+            .collect();
+        assert!(bone_excess(&near, a, b).is_some());
+        assert_eq!(bone_excess(&near, a, DVec3::new(0.0, 0.0, -90.0)), None);
+        let three = around(&[-60.0, 0.0, 60.0], 50.0);
+        assert_eq!(bone_excess(&three, a, DVec3::new(0.0, 0.0, -200.0)), None);
+        assert_eq!(bone_excess(&three[..2], a, b), None);
+    }
+
+    #[test]
     fn markers_on_one_side_of_their_bones_count_as_far_off_as_they_miss() {
         let scatter = |m: &MarkerEvidence| m.squares / (m.count - 1) as f64;
         let bias = |cases: &[(f64, f64)]| {
@@ -1536,7 +1644,11 @@ mod tests {
                 .iter()
                 .map(|&(mid, at)| (markers(mid), point(at)))
                 .collect();
-            marker_bias_variance(rows.iter().map(|(m, j)| (*m, j.as_slice())), scatter)
+            marker_bias_variance(
+                rows.iter().map(|(m, j)| (*m, j.as_slice())),
+                scatter,
+                std::iter::empty(),
+            )
         };
         // Two forearms whose markers sit 45 and 55 mm to one side of the wrists' plane:
         // the median squared miss less the scatter (100) and the joint's (4).
@@ -1553,7 +1665,11 @@ mod tests {
         // A child with no point joint says nothing.
         let none = [(markers(50.0), Vec::new()), (markers(60.0), Vec::new())];
         assert_eq!(
-            marker_bias_variance(none.iter().map(|(m, j)| (*m, j.as_slice())), scatter),
+            marker_bias_variance(
+                none.iter().map(|(m, j)| (*m, j.as_slice())),
+                scatter,
+                std::iter::empty()
+            ),
             0.0
         );
     }
