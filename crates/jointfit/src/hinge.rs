@@ -713,13 +713,13 @@ fn marker_scatter(m: &MarkerEvidence, pooled: f64) -> f64 {
 /// How far (variance, mm²) the midpoint of a hinge child's markers misses its bone's plane
 /// beyond their scatter, read off this capture: on each hinge whose child also carries a
 /// point joint (which its bone, and so the plane, passes through; or a hinge nearly at
-/// right angles, [`LOOSE_COUPLING`]), the squared miss
-/// between the markers' midpoint and that joint less the markers' scatter along the axis
-/// (`scatter`, not over √n: a few markers' midpoint misses by chance about that much) and
-/// the joint's own variance; the median over those hinges, at least 0, and 0 with fewer
-/// than [`MIN_BIAS_HINGES`] of them (one hinge's few markers can miss by chance: on hard,
-/// the two markers of a random tree's hinge child missed its ball joint by 93 mm). The
+/// right angles, [`LOOSE_COUPLING`]), the squared miss between the markers' midpoint and
+/// that joint less the markers' scatter along the axis (`scatter`, not over √n: a few
+/// markers' midpoint misses by chance about that much) and the joint's own variance; the
 /// segments whose bone two point joints fix add theirs (`bones`, see [`bone_excess`]).
+/// The median of those readings, at least 0, and 0 with fewer than [`MIN_BIAS_READINGS`]
+/// (one hinge's few markers can miss by chance: on hard, the two markers of a random
+/// tree's hinge child missed its ball joint by 93 mm).
 ///
 /// Markers all round a bone (the generator's default) put the midpoint on the plane; a
 /// limb marked on one side only (a gait marker set's lateral markers, or the generator's
@@ -758,7 +758,7 @@ fn marker_bias_variance<'a>(
         let miss = markers.mid - sum / precision;
         excess.push(miss * miss - scatter(&markers) - 1.0 / precision);
     }
-    if excess.len() < MIN_BIAS_HINGES {
+    if excess.len() < MIN_BIAS_READINGS {
         return 0.0;
     }
     excess.sort_by(f64::total_cmp);
@@ -766,9 +766,10 @@ fn marker_bias_variance<'a>(
     (0.5 * (excess[(n - 1) / 2] + excess[n / 2])).max(0.0)
 }
 
-/// Fewest hinges with a point joint on their child that [`marker_bias_variance`] reads:
-/// one hinge's few markers can miss by chance.
-const MIN_BIAS_HINGES: usize = 2;
+/// Fewest readings (hinges with a point joint on their child, bones between two point
+/// joints) [`marker_bias_variance`] takes a bias from: one hinge's few markers can miss
+/// by chance.
+const MIN_BIAS_READINGS: usize = 2;
 
 /// How far a segment's markers (`markers`, its frame, ≥ 3) sit off its bone beyond their
 /// scatter, mm², for [`marker_bias_variance`]: the bone runs through two point joints `a`
