@@ -989,12 +989,7 @@ pub fn place_hinges_across_bones(
                 });
             }
         }
-        let seen: Vec<DVec3> = fits.poses[x]
-            .reference
-            .iter()
-            .map(|&m| DVec3::from_array(m))
-            .filter(|m| m.is_finite())
-            .collect();
+        let seen = reference_points(&fits.poses[x]);
         if !seen.is_empty() {
             let n = seen.len() as f64;
             let centroid = seen.iter().sum::<DVec3>() / n;
@@ -1059,14 +1054,7 @@ pub fn place_hinges_across_bones(
         let ([a], [b]) = (&from[..], &carried[..]) else {
             return None;
         };
-        let (a, b) = (*a, *b);
-        let markers: Vec<DVec3> = fits.poses[x]
-            .reference
-            .iter()
-            .map(|&m| DVec3::from_array(m))
-            .filter(|m| m.is_finite())
-            .collect();
-        bone_excess(&markers, a, b)
+        bone_excess(&reference_points(&fits.poses[x]), *a, *b)
     });
     let bias = marker_bias_variance(
         hinges

@@ -714,6 +714,35 @@ fn a_leaf_hinge_sits_midway_between_its_outermost_markers() {
     assert!(err < 3.0, "{err} mm from the joint ({})", fit.evidence);
 }
 
+/// A chain of `articulations` (seeded `seed`) whose every segment carries four markers at
+/// `marker(k)` in its own frame, posed for 300 noise-free frames, its hinges placed across
+/// their bones: the last joint's fit (kind, evidence) and its mean error from the truth, mm.
+fn one_sided_leaf(
+    seed: u64,
+    articulations: &[Articulation],
+    marker: impl Fn(usize) -> DVec3,
+) -> (JointKind, String, f64) {
+    let mut rng = TestRng(seed);
+    let mut bodies = chain(&mut rng, articulations, 4);
+    for body in &mut bodies {
+        for (k, m) in body.markers.iter_mut().enumerate() {
+            *m = marker(k);
+        }
+    }
+    let trial = generate(&mut rng, &bodies, 300, 0.0, |_, _, _| false);
+    let mut fits = run_on_segments(&trial.traj, &trial.segments, &Params::default()).unwrap();
+    let n = articulations.len();
+    let links: Vec<(usize, usize)> = (0..n).map(|b| (b, b + 1)).collect();
+    let edges = tree_edges(&fits, &links);
+    crate::place_hinges_across_bones(&mut fits, &edges, crate::EdgeDirection::TreeRoot);
+    let leaf = pair(&fits, n - 1, n);
+    (
+        leaf.kind,
+        leaf.evidence.clone(),
+        mean_error(leaf, &trial.joints[n]),
+    )
+}
+
 /// A limb marked on one side only (a gait marker set's lateral markers): every segment's
 /// markers sit 40–58 mm to one side along the hinge axes (y). Two hinges' children carry
 /// ball joints, which put them on their bones' planes, 49 mm from their markers'
@@ -722,34 +751,21 @@ fn a_leaf_hinge_sits_midway_between_its_outermost_markers() {
 /// squarely), goes to the joint rather than halfway between its markers.
 #[test]
 fn a_leaf_hinge_marked_on_one_side_goes_to_its_parents_bone() {
-    let mut rng = TestRng(37);
-    let mut bodies = chain(
-        &mut rng,
-        &[
-            Articulation::Ball(40.0),
-            Articulation::Hinge(DVec3::Y, 50.0),
-            Articulation::Ball(40.0),
-            Articulation::Hinge(DVec3::Y, 50.0),
-            Articulation::Ball(40.0),
-            Articulation::Hinge(DVec3::Y, 50.0),
-        ],
-        4,
-    );
-    for body in &mut bodies {
-        for (k, m) in body.markers.iter_mut().enumerate() {
-            let side = if k % 2 == 0 { 1.0 } else { -1.0 };
-            *m = DVec3::new(35.0 * side, 40.0 + 6.0 * k as f64, -100.0 * (k + 1) as f64);
-        }
-    }
-    let trial = generate(&mut rng, &bodies, 300, 0.0, |_, _, _| false);
-    let mut fits = run_on_segments(&trial.traj, &trial.segments, &Params::default()).unwrap();
-    let edges = tree_edges(&fits, &[(0, 1), (1, 2), (2, 3), (3, 4), (4, 5), (5, 6)]);
-    crate::place_hinges_across_bones(&mut fits, &edges, crate::EdgeDirection::TreeRoot);
-    let leaf = pair(&fits, 5, 6);
-    assert_eq!(leaf.kind, JointKind::Hinge);
-    let err = mean_error(leaf, &trial.joints[6]);
+    let articulations = [
+        Articulation::Ball(40.0),
+        Articulation::Hinge(DVec3::Y, 50.0),
+        Articulation::Ball(40.0),
+        Articulation::Hinge(DVec3::Y, 50.0),
+        Articulation::Ball(40.0),
+        Articulation::Hinge(DVec3::Y, 50.0),
+    ];
+    let (kind, evidence, err) = one_sided_leaf(37, &articulations, |k| {
+        let side = if k % 2 == 0 { 1.0 } else { -1.0 };
+        DVec3::new(35.0 * side, 40.0 + 6.0 * k as f64, -100.0 * (k + 1) as f64)
+    });
+    assert_eq!(kind, JointKind::Hinge);
     // Its markers' midpoint along the axis is 49 mm off the joint.
-    assert!(err < 5.0, "{err} mm from the joint ({})", leaf.evidence);
+    assert!(err < 5.0, "{err} mm from the joint ({evidence})");
 }
 
 /// As [`a_leaf_hinge_marked_on_one_side_goes_to_its_parents_bone`] for a robot arm: four
@@ -759,35 +775,18 @@ fn a_leaf_hinge_marked_on_one_side_goes_to_its_parents_bone() {
 /// the markers miss.
 #[test]
 fn a_robot_arm_marked_on_one_side_keeps_its_last_hinge_on_its_parents_bone() {
-    let mut rng = TestRng(38);
-    let mut bodies = chain(
-        &mut rng,
-        &[
-            Articulation::Hinge(DVec3::X, 50.0),
-            Articulation::Hinge(DVec3::Y, 50.0),
-            Articulation::Hinge(DVec3::X, 50.0),
-            Articulation::Hinge(DVec3::Y, 50.0),
-        ],
-        4,
-    );
-    for body in &mut bodies {
-        for (k, (m, y)) in body
-            .markers
-            .iter_mut()
-            .zip([50.0, 40.0, 58.0, 46.0])
-            .enumerate()
-        {
-            *m = DVec3::new(40.0 + 6.0 * k as f64, y, -100.0 * (k + 1) as f64);
-        }
-    }
-    let trial = generate(&mut rng, &bodies, 300, 0.0, |_, _, _| false);
-    let mut fits = run_on_segments(&trial.traj, &trial.segments, &Params::default()).unwrap();
-    let edges = tree_edges(&fits, &[(0, 1), (1, 2), (2, 3), (3, 4)]);
-    crate::place_hinges_across_bones(&mut fits, &edges, crate::EdgeDirection::TreeRoot);
-    let leaf = pair(&fits, 3, 4);
-    assert_eq!(leaf.kind, JointKind::Hinge);
-    let err = mean_error(leaf, &trial.joints[4]);
-    assert!(err < 5.0, "{err} mm from the joint ({})", leaf.evidence);
+    let articulations = [
+        Articulation::Hinge(DVec3::X, 50.0),
+        Articulation::Hinge(DVec3::Y, 50.0),
+        Articulation::Hinge(DVec3::X, 50.0),
+        Articulation::Hinge(DVec3::Y, 50.0),
+    ];
+    let (kind, evidence, err) = one_sided_leaf(38, &articulations, |k| {
+        let y = [50.0, 40.0, 58.0, 46.0][k];
+        DVec3::new(40.0 + 6.0 * k as f64, y, -100.0 * (k + 1) as f64)
+    });
+    assert_eq!(kind, JointKind::Hinge);
+    assert!(err < 5.0, "{err} mm from the joint ({evidence})");
 }
 
 /// Chain 0–1–2 whose middle segment shows only 2 of its 4 markers in frames 100..220:

@@ -1012,6 +1012,24 @@ mod tests {
         assert_eq!(dissolve(&capture(0.0, 2.0), &together), (0, as_cut()));
     }
 
+    /// `clusters` after [`dissolve_small_clusters`] with only the loose-pair repair (ρ
+    /// tolerance 5 mm, segment floor 1 mm, hold bound 3 mm), each sorted, and how many
+    /// clusters it dissolved.
+    fn repair_loose_pairs(
+        traj: &mocap_io::Trajectories,
+        mut clusters: Vec<Vec<usize>>,
+    ) -> (usize, Vec<Vec<usize>>) {
+        let stats = pair_stats(traj);
+        let repair = LoosePairs {
+            stats: &stats,
+            tol_mm: 5.0,
+            segment_sigma_mm: 1.0,
+        };
+        let n = dissolve_small_clusters(traj, &mut clusters, 3.0, 10, None, Some(repair));
+        clusters.iter_mut().for_each(|c| c.sort_unstable());
+        (n, clusters)
+    }
+
     /// An arm swinging ±20° about x against a fixed 4-marker body carries marker 6 and,
     /// 15 mm off the axis, marker 4, which the clustering left with the body (its distances
     /// to the body's markers change by a few mm). Marker 6 is paired with a body marker 5
@@ -1037,16 +1055,7 @@ mod tests {
             })
         };
         let run = |traj: &mocap_io::Trajectories| {
-            let stats = pair_stats(traj);
-            let mut clusters = vec![vec![0, 1, 2, 3, 4], vec![5, 6]];
-            let repair = LoosePairs {
-                stats: &stats,
-                tol_mm: 5.0,
-                segment_sigma_mm: 1.0,
-            };
-            let n = dissolve_small_clusters(traj, &mut clusters, 3.0, 10, None, Some(repair));
-            clusters.iter_mut().for_each(|c| c.sort_unstable());
-            (n, clusters)
+            repair_loose_pairs(traj, vec![vec![0, 1, 2, 3, 4], vec![5, 6]])
         };
         assert_eq!(
             run(&scene(true)),
@@ -1088,16 +1097,7 @@ mod tests {
             })
         };
         let run = |traj: &mocap_io::Trajectories| {
-            let stats = pair_stats(traj);
-            let mut clusters = vec![vec![0, 1, 2, 3], vec![4, 5], vec![6, 7]];
-            let repair = LoosePairs {
-                stats: &stats,
-                tol_mm: 5.0,
-                segment_sigma_mm: 1.0,
-            };
-            let n = dissolve_small_clusters(traj, &mut clusters, 3.0, 10, None, Some(repair));
-            clusters.iter_mut().for_each(|c| c.sort_unstable());
-            (n, clusters)
+            repair_loose_pairs(traj, vec![vec![0, 1, 2, 3], vec![4, 5], vec![6, 7]])
         };
         assert_eq!(
             run(&scene(true)),
