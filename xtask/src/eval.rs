@@ -991,6 +991,7 @@ mod tests {
             noise_mm: 1.0,
             tolerance_mm: 5.0,
             eigenvalues: Vec::new(),
+            scatter_smoothness: None,
             eigengap_segments: 2,
             swaps: Vec::new(),
             glitches: Vec::new(),

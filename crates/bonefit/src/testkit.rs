@@ -160,6 +160,7 @@ pub fn scene(frames: usize, rate: f64) -> Scene {
         noise_mm: 0.0,
         tolerance_mm: 1.0,
         eigenvalues: Vec::new(),
+        scatter_smoothness: None,
         eigengap_segments: 4,
         swaps: Vec::new(),
         glitches: Vec::new(),

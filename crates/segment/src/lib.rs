@@ -15,7 +15,8 @@
 //! joint; `rejoin_orphans`); then markers move and rigid neighbours merge within a
 //! tolerance on the noise, and pieces of one or two markers within one on the spread of ρ
 //! inside the spectral clusters (skin widens it beyond the noise; see
-//! `rigidity::rigid_spread`).
+//! `rigidity::rigid_spread`); both tolerances are a tighter multiple where the capture's
+//! scatter is white measurement noise rather than skin (`rigidity::scatter_smoothness`).
 //! A marker still alone takes an ambiguous partner (rigid with it and with its own group,
 //! near a joint axis) from a group that keeps three, so both sides stay poseable.
 //! Before that, a rigid-fit check: each cluster of 4–10 markers is fitted as one rigid body
@@ -171,6 +172,16 @@ fn segment_capture(
     nodes.retain(|m| !lonely.contains(m));
 
     let noise_mm = rigidity::noise_level(&stats, &nodes, min_overlap);
+    // White noise scatters a rigid pair's distance by the same amount for every pair; skin
+    // gives each pair its own, so its tolerance needs the wider multiple.
+    let smoothness = rigidity::scatter_smoothness(traj, &stats, &nodes, min_overlap);
+    let white = params.tolerance_factor_white > 0.0
+        && smoothness.is_some_and(|s| s < params.white_noise_smoothness);
+    let tolerance_factor = if white {
+        params.tolerance_factor_white
+    } else {
+        params.tolerance_factor
+    };
     // Clusters that mix segments (a sparse marker set) raise the rigid spread without bound.
     let bound_spread = |spread_mm: f64| {
         if params.spread_max_noise_factor > 0.0 {
@@ -184,9 +195,7 @@ fn segment_capture(
         if params.tolerance_mm > 0.0 {
             params.tolerance_mm
         } else {
-            params
-                .tolerance_min_mm
-                .max(params.tolerance_factor * spread_mm)
+            params.tolerance_min_mm.max(tolerance_factor * spread_mm)
         }
     };
 
@@ -514,6 +523,7 @@ fn segment_capture(
         markers,
         noise_mm,
         tolerance_mm,
+        scatter_smoothness: smoothness,
         eigenvalues,
         eigengap_segments,
         swaps: Vec::new(),

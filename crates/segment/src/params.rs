@@ -89,6 +89,12 @@ pub struct Params {
     pub tolerance_mm: f64,
     /// Automatic tolerances = max(tolerance_min_mm, tolerance_factor × noise or spread).
     pub tolerance_factor: f64,
+    /// The factor instead of `tolerance_factor` where the scatter about rigidity is white
+    /// measurement noise (`white_noise_smoothness`); 0 = always `tolerance_factor`.
+    pub tolerance_factor_white: f64,
+    /// Scatter whose frame-to-frame smoothness (lag-one autocorrelation) is below this is
+    /// white noise, not skin.
+    pub white_noise_smoothness: f64,
     /// Smallest automatic tolerance, mm.
     pub tolerance_min_mm: f64,
     /// The rigid spread read off the spectral clusters counts for at most this × the noise level; 0 = no bound.
@@ -164,6 +170,8 @@ impl Default for Params {
             split_linkage: true,
             tolerance_mm: 0.0,
             tolerance_factor: 5.0,
+            tolerance_factor_white: 3.0,
+            white_noise_smoothness: 0.1,
             tolerance_min_mm: 2.0,
             spread_max_noise_factor: 4.0,
             spread_second_pass: true,
@@ -279,6 +287,14 @@ pub const PARAM_DOCS: &[(&str, &str)] = &[
     (
         "tolerance_factor",
         "automatic tolerance as a multiple of the rigid spread (or the noise level); default 5.0",
+    ),
+    (
+        "tolerance_factor_white",
+        "the automatic tolerance's multiple instead of tolerance_factor where the capture's scatter about rigidity is white measurement noise (see white_noise_smoothness): a rigid pair's ρ is then the noise itself, to within a few per cent over hundreds of frames, while skin gives each pair its own ρ, and three times the noise level still holds every rigid pair; 0 = always tolerance_factor; default 3.0",
+    ),
+    (
+        "white_noise_smoothness",
+        "the capture's scatter about rigidity is white measurement noise when the median over markers of the lag-one autocorrelation of the distance to their steadiest partner (the smallest ρ) is below this: about 0 for noise alone (synthetic noise preset 0.00-0.01, ART's labelled bodies 0.00), 1 for skin alone, 0.4-0.5 for the hard preset's skin plus 1 mm of noise, 0.19-0.91 on the real marker captures; default 0.1",
     ),
     (
         "tolerance_min_mm",
@@ -461,6 +477,8 @@ impl Params {
         }
         non_negative("tolerance_mm", self.tolerance_mm)?;
         positive("tolerance_factor", self.tolerance_factor)?;
+        non_negative("tolerance_factor_white", self.tolerance_factor_white)?;
+        non_negative("white_noise_smoothness", self.white_noise_smoothness)?;
         positive("tolerance_min_mm", self.tolerance_min_mm)?;
         positive("slide_ratio", self.slide_ratio)?;
         non_negative("slide_min_mm", self.slide_min_mm)?;

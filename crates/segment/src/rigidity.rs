@@ -3,6 +3,8 @@
 
 use rayon::prelude::*;
 
+use mocap_io::Trajectories;
+
 use crate::pairstats::PairStats;
 
 /// A marker split off alone rejoins the group it is most rigid with when its RMS ρ to it is
@@ -32,6 +34,70 @@ pub(crate) fn noise_level(stats: &PairStats, nodes: &[usize], min_overlap: usize
     }
     nearest.sort_by(f64::total_cmp);
     median_of_sorted(&nearest)
+}
+
+/// How smooth over time the capture's scatter about rigidity is: the median over `nodes` of
+/// the lag-one autocorrelation of each marker's distance to its steadiest partner (the
+/// smallest ρ) about that distance's median, over consecutive frames where both are seen.
+/// About 0 where that scatter is white measurement noise (rigid marker plates, a robot's
+/// links), near 1 where it is skin, which moves markers with the joint angles from frame to
+/// frame smoothly. `None` without a marker that has such a partner over ≥ `min_overlap`
+/// consecutive pairs of frames.
+pub(crate) fn scatter_smoothness(
+    traj: &Trajectories,
+    stats: &PairStats,
+    nodes: &[usize],
+    min_overlap: usize,
+) -> Option<f64> {
+    let markers = traj.markers();
+    let frames = traj.positions().chunks_exact(markers.max(1));
+    let mut smoothness: Vec<f64> = Vec::with_capacity(nodes.len());
+    let mut distances: Vec<Option<f64>> = Vec::with_capacity(traj.frames());
+    let mut seen: Vec<f64> = Vec::with_capacity(traj.frames());
+    for &i in nodes {
+        let Some(j) = nodes
+            .iter()
+            .copied()
+            .filter_map(|j| stats.rho(i, j, min_overlap).map(|r| (j, r)))
+            .min_by(|x, y| x.1.total_cmp(&y.1))
+            .map(|(j, _)| j)
+        else {
+            continue;
+        };
+        distances.clear();
+        distances.extend(frames.clone().map(|row| {
+            let (a, b) = (row[i], row[j]);
+            (mocap_io::is_present(a) && mocap_io::is_present(b)).then(|| {
+                ((a[0] - b[0]).powi(2) + (a[1] - b[1]).powi(2) + (a[2] - b[2]).powi(2)).sqrt()
+            })
+        }));
+        seen.clear();
+        seen.extend(distances.iter().flatten());
+        if seen.is_empty() {
+            continue;
+        }
+        seen.sort_by(f64::total_cmp);
+        let middle = median_of_sorted(&seen);
+        let (mut lagged, mut a2, mut b2, mut pairs) = (0.0, 0.0, 0.0, 0usize);
+        for w in distances.windows(2) {
+            if let [Some(a), Some(b)] = w {
+                let (a, b) = (a - middle, b - middle);
+                lagged += a * b;
+                a2 += a * a;
+                b2 += b * b;
+                pairs += 1;
+            }
+        }
+        let norm = (a2 * b2).sqrt();
+        if pairs >= min_overlap && norm > 0.0 {
+            smoothness.push(lagged / norm);
+        }
+    }
+    if smoothness.is_empty() {
+        return None;
+    }
+    smoothness.sort_by(f64::total_cmp);
+    Some(median_of_sorted(&smoothness))
 }
 
 /// The median of a sorted, non-empty slice.

@@ -6,7 +6,7 @@ use mocap_io::{MISSING, Trajectories};
 use serde::{Deserialize, Serialize};
 
 /// Schema version of [`Segmentation`]; bump when its fields or the algorithm's output change.
-pub const SCHEMA_VERSION: u32 = 35;
+pub const SCHEMA_VERSION: u32 = 36;
 
 /// The rigid segments found in a capture.
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
@@ -21,6 +21,12 @@ pub struct Segmentation {
     pub noise_mm: f64,
     /// Rigidity tolerance on ρ for pieces of 1-2 markers, the later checks and the cliques, mm (from the rigid spread; markers move and posed clusters merge within tolerance_factor × noise_mm).
     pub tolerance_mm: f64,
+    /// How smoothly the scatter about rigidity runs from frame to frame: the median lag-one
+    /// autocorrelation of each marker's distance to its steadiest partner (about 0 for white
+    /// measurement noise, which takes `tolerance_factor_white`; near 1 for skin); `None`
+    /// when no marker has such a partner.
+    #[serde(default)]
+    pub scatter_smoothness: Option<f64>,
     /// Top eigenvalues of D^-1/2 A D^-1/2, descending (spectral method; empty otherwise).
     pub eigenvalues: Vec<f64>,
     /// Cluster count spectral clustering chose (eigen-gap or forced), before the rigidity check; 0 for cliques.

@@ -589,6 +589,61 @@ fn noiseless_skin_sets_the_merge_tolerance_not_the_noise() {
     }
 }
 
+/// The scatter about rigidity runs white from frame to frame under noise alone, smoothly
+/// under skin, and in between under both (eval's 480 frames).
+#[test]
+fn scatter_smoothness_tells_noise_from_skin() {
+    let smoothness = |preset| {
+        let trial = eval_trial(synth::Subject::Human, preset, 20003);
+        run(&trial.trajectories, &Params::default())
+            .expect("segments")
+            .scatter_smoothness
+            .expect("a smoothness")
+    };
+    let (noise, skin, hard) = (
+        smoothness(synth::Preset::Noise),
+        smoothness(synth::Preset::Skin),
+        smoothness(synth::Preset::Hard),
+    );
+    assert!(noise.abs() < 0.05, "noise {noise}");
+    assert!(skin > 0.9, "skin {skin}");
+    assert!((0.2..0.8).contains(&hard), "hard {hard}");
+}
+
+/// A hexapod under 1 mm of white noise alone (eval's 480 frames): its coxae turn so little
+/// that ρ to the body's markers stays within 5 × the noise level; with the white-noise
+/// multiple, 3 ×, every segment comes out exactly, and without it two coxae are lost.
+#[test]
+fn white_noise_keeps_the_tolerance_tight() {
+    let trial = eval_trial(synth::Subject::Hexapod, synth::Preset::Noise, 20010);
+    let truth = {
+        let mut t = trial.true_segment_markers();
+        for s in &mut t {
+            s.sort_unstable();
+        }
+        t.sort();
+        t
+    };
+    let sorted = |seg: &Segmentation| {
+        let mut p = partition(seg);
+        p.sort();
+        p
+    };
+    let seg = run(&trial.trajectories, &Params::default()).expect("segments");
+    assert_eq!(sorted(&seg), truth);
+    let skin_multiple = Params {
+        tolerance_factor_white: 0.0,
+        ..Params::default()
+    };
+    let merged = run(&trial.trajectories, &skin_multiple).expect("segments");
+    assert_eq!(
+        merged.segments.len(),
+        truth.len() - 2,
+        "{:?}",
+        partition(&merged)
+    );
+}
+
 /// With two or three markers to a segment a cluster's second-nearest ρ may cross a joint,
 /// so the tolerance stays on the noise level (skin, 480 frames, markers 2:3).
 #[test]
@@ -703,22 +758,30 @@ fn is_true_partition(trial: &synth::Trial, seg: &Segmentation) -> bool {
 /// 3.83 but the coxa's centroid swings by a travel score of 5.20 (`joint_travel_z`); in
 /// s10003 the body, cut from a leg, takes back two markers from a coxa's cluster, and the
 /// body + coxa cluster that leaves is cut only when the joint test runs again after the
-/// settling. Both get their true segments; without the travel score s10019 does not.
+/// settling. Both get their true segments; without the travel score s10019 does not, on
+/// the tolerance skin needs (`tolerance_factor_white` 0): the white-noise tolerance keeps
+/// that coxa apart before the joint test sees it.
 #[test]
 fn a_coxa_the_rotation_score_misses_is_cut_by_its_travel() {
+    let skin_multiple = Params {
+        tolerance_factor_white: 0.0,
+        ..Params::default()
+    };
     for seed in [10003, 10019] {
         let trial = eval_trial(synth::Subject::Hexapod, synth::Preset::Noise, seed);
-        let seg = run(&trial.trajectories, &Params::default()).expect("segments");
-        assert!(
-            is_true_partition(&trial, &seg),
-            "s{seed}: {:?}",
-            partition(&seg)
-        );
+        for params in [&Params::default(), &skin_multiple] {
+            let seg = run(&trial.trajectories, params).expect("segments");
+            assert!(
+                is_true_partition(&trial, &seg),
+                "s{seed}: {:?}",
+                partition(&seg)
+            );
+        }
     }
     let trial = eval_trial(synth::Subject::Hexapod, synth::Preset::Noise, 10019);
     let rotation_only = Params {
         joint_travel_z: 0.0,
-        ..Params::default()
+        ..skin_multiple
     };
     let seg = run(&trial.trajectories, &rotation_only).expect("segments");
     assert!(!is_true_partition(&trial, &seg));
@@ -896,6 +959,7 @@ fn untangle_exchanges_the_swapped_frames_back() {
         noise_mm: 0.0,
         tolerance_mm: 0.0,
         eigenvalues: Vec::new(),
+        scatter_smoothness: None,
         eigengap_segments: 0,
         swaps: vec![LabelSwap {
             markers: [0, 7],

@@ -440,6 +440,7 @@ mod tests {
             noise_mm: 0.0,
             tolerance_mm: 1.0,
             eigenvalues: Vec::new(),
+            scatter_smoothness: None,
             eigengap_segments: 0,
             swaps: Vec::new(),
             glitches: Vec::new(),
