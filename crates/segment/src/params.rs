@@ -290,7 +290,7 @@ pub const PARAM_DOCS: &[(&str, &str)] = &[
     ),
     (
         "tolerance_factor_white",
-        "the automatic tolerance's multiple instead of tolerance_factor where the capture's scatter about rigidity is white measurement noise (see white_noise_smoothness): a rigid pair's ρ is then the noise itself, to within a few per cent over hundreds of frames, while skin gives each pair its own ρ, and three times the noise level still holds every rigid pair; 0 = always tolerance_factor; default 3.0",
+        "the automatic tolerance's multiple instead of tolerance_factor where the capture's scatter about rigidity is white measurement noise (see white_noise_smoothness): a rigid pair's ρ is then the noise itself, to within a few per cent over hundreds of frames, while skin gives each pair its own ρ. cargo xtask eval --presets noise: seeds 20001-20050 and 30001-30050 675 -> 683 of 700 exact trees (8 gained, none lost), 40001-40100 682 -> 685 (5 gained; 2 lost, hexapod-noise-s40039's femur cut in two); every other preset unchanged; 0 = always tolerance_factor; default 3.0",
     ),
     (
         "white_noise_smoothness",
