@@ -171,10 +171,11 @@ fn segment_capture(
     }
     nodes.retain(|m| !lonely.contains(m));
 
-    let noise_mm = rigidity::noise_level(&stats, &nodes, min_overlap);
+    let partners = rigidity::steadiest_partners(&stats, &nodes, min_overlap);
+    let noise_mm = rigidity::noise_level(&partners);
     // White noise scatters a rigid pair's distance by the same amount for every pair; skin
     // gives each pair its own, so its tolerance needs the wider multiple.
-    let smoothness = rigidity::scatter_smoothness(traj, &stats, &nodes, min_overlap);
+    let smoothness = rigidity::scatter_smoothness(traj, &partners, min_overlap);
     let white = params.tolerance_factor_white > 0.0
         && smoothness.is_some_and(|s| s < params.white_noise_smoothness);
     let tolerance_factor = if white {

@@ -290,11 +290,11 @@ pub const PARAM_DOCS: &[(&str, &str)] = &[
     ),
     (
         "tolerance_factor_white",
-        "the automatic tolerance's multiple instead of tolerance_factor where the capture's scatter about rigidity is white measurement noise (see white_noise_smoothness): a rigid pair's ρ is then the noise itself, to within a few per cent over hundreds of frames, while skin gives each pair its own ρ. cargo xtask eval --presets noise: seeds 20001-20050 and 30001-30050 675 -> 683 of 700 exact trees (8 gained, none lost), 40001-40100 682 -> 685 (5 gained; 2 lost, hexapod-noise-s40039's femur cut in two); every other preset unchanged; 0 = always tolerance_factor; default 3.0",
+        "the automatic tolerance's multiple instead of tolerance_factor where the capture's scatter about rigidity is white measurement noise (see white_noise_smoothness): a rigid pair's ρ is then the noise itself, the same for every pair but for the scatter of a standard deviation measured over N frames (1/√(2N) of it: 3 % at 480), while skin gives each pair its own ρ. cargo xtask eval --presets noise: seeds 20001-20050 and 30001-30050 675 -> 683 of 700 exact trees (8 gained, none lost), 40001-40100 682 -> 685 (5 gained; 2 lost, hexapod-noise-s40039's femur cut in two); every other preset unchanged; 0 = always tolerance_factor; default 3.0",
     ),
     (
         "white_noise_smoothness",
-        "the capture's scatter about rigidity is white measurement noise when the median over markers of the lag-one autocorrelation of the distance to their steadiest partner (the smallest ρ) is below this: about 0 for noise alone (synthetic noise preset 0.00-0.01, ART's labelled bodies 0.00), 1 for skin alone, 0.4-0.5 for the hard preset's skin plus 1 mm of noise, 0.19-0.91 on the real marker captures; default 0.1",
+        "the capture's scatter about rigidity is white measurement noise when the median over markers of the lag-one autocorrelation of the distance to their steadiest partner (the smallest ρ) is below this: -0.03 to 0.04 for noise alone or none (the noise and clean presets, seeds 20001-20010, 70 trials each; ART's labelled bodies in c3d.org's arthuman 0.00), 1.00 for skin alone, 0.11-0.65 for the hard preset's skin plus 1 mm of noise, 0.19 (c3d.org sample 02) to 0.99 (Sample_Jump2) on the other shared captures; default 0.1",
     ),
     (
         "tolerance_min_mm",

@@ -15,20 +15,32 @@ const REJOIN_FACTOR: f64 = 4.0;
 /// Most repair sweeps (move then merge); each sweep only ever improves rigidity, so a few do.
 const MAX_SWEEPS: usize = 10;
 
-/// The noise level in mm: the median over `nodes` of each marker's smallest ρ to another.
-///
-/// On a rigid body with noise the smallest ρ is a same-segment pair, so this measures the
-/// measurement noise (in ρ units), robustly to skin motion on a minority of markers.
-pub(crate) fn noise_level(stats: &PairStats, nodes: &[usize], min_overlap: usize) -> f64 {
-    let mut nearest: Vec<f64> = nodes
+/// Each of `nodes` with its steadiest partner among them (the smallest ρ, the first of
+/// equals) and that ρ, mm: `(marker, partner, ρ)`; markers seen with no other for
+/// `min_overlap` frames are left out.
+pub(crate) fn steadiest_partners(
+    stats: &PairStats,
+    nodes: &[usize],
+    min_overlap: usize,
+) -> Vec<(usize, usize, f64)> {
+    nodes
         .iter()
         .filter_map(|&i| {
             nodes
                 .iter()
-                .filter_map(|&j| stats.rho(i, j, min_overlap))
-                .min_by(f64::total_cmp)
+                .filter_map(|&j| stats.rho(i, j, min_overlap).map(|r| (i, j, r)))
+                .min_by(|x, y| x.2.total_cmp(&y.2))
         })
-        .collect();
+        .collect()
+}
+
+/// The noise level in mm: the median over the markers of their smallest ρ to another
+/// (`partners`, [`steadiest_partners`]).
+///
+/// On a rigid body with noise the smallest ρ is a same-segment pair, so this measures the
+/// measurement noise (in ρ units), robustly to skin motion on a minority of markers.
+pub(crate) fn noise_level(partners: &[(usize, usize, f64)]) -> f64 {
+    let mut nearest: Vec<f64> = partners.iter().map(|&(_, _, r)| r).collect();
     if nearest.is_empty() {
         return 0.0;
     }
@@ -36,41 +48,24 @@ pub(crate) fn noise_level(stats: &PairStats, nodes: &[usize], min_overlap: usize
     median_of_sorted(&nearest)
 }
 
-/// How smooth over time the capture's scatter about rigidity is: the median over `nodes` of
-/// the lag-one autocorrelation of each marker's distance to its steadiest partner (the
-/// smallest ρ) about that distance's median, over consecutive frames where both are seen.
-/// About 0 where that scatter is white measurement noise (rigid marker plates, a robot's
-/// links), near 1 where it is skin, which moves markers with the joint angles from frame to
-/// frame smoothly. `None` without a marker that has such a partner over ≥ `min_overlap`
-/// consecutive pairs of frames.
+/// How smooth over time the capture's scatter about rigidity is: the median over the
+/// markers of the lag-one autocorrelation of each one's distance to its steadiest partner
+/// (`partners`, [`steadiest_partners`]) about that distance's median, over consecutive
+/// frames where both are seen. About 0 where that scatter is white measurement noise
+/// (rigid marker plates, a robot's links), near 1 where it is skin, which moves markers
+/// with the joint angles from frame to frame smoothly. `None` without a marker seen with
+/// its partner over ≥ `min_overlap` consecutive pairs of frames.
 pub(crate) fn scatter_smoothness(
     traj: &Trajectories,
-    stats: &PairStats,
-    nodes: &[usize],
+    partners: &[(usize, usize, f64)],
     min_overlap: usize,
 ) -> Option<f64> {
-    let markers = traj.markers();
-    let frames = traj.positions().chunks_exact(markers.max(1));
-    let mut smoothness: Vec<f64> = Vec::with_capacity(nodes.len());
+    let mut smoothness: Vec<f64> = Vec::with_capacity(partners.len());
     let mut distances: Vec<Option<f64>> = Vec::with_capacity(traj.frames());
     let mut seen: Vec<f64> = Vec::with_capacity(traj.frames());
-    for &i in nodes {
-        let Some(j) = nodes
-            .iter()
-            .copied()
-            .filter_map(|j| stats.rho(i, j, min_overlap).map(|r| (j, r)))
-            .min_by(|x, y| x.1.total_cmp(&y.1))
-            .map(|(j, _)| j)
-        else {
-            continue;
-        };
+    for &(i, j, _) in partners {
         distances.clear();
-        distances.extend(frames.clone().map(|row| {
-            let (a, b) = (row[i], row[j]);
-            (mocap_io::is_present(a) && mocap_io::is_present(b)).then(|| {
-                ((a[0] - b[0]).powi(2) + (a[1] - b[1]).powi(2) + (a[2] - b[2]).powi(2)).sqrt()
-            })
-        }));
+        distances.extend((0..traj.frames()).map(|f| crate::swaps::distance(traj, f, i, j)));
         seen.clear();
         seen.extend(distances.iter().flatten());
         if seen.is_empty() {

@@ -546,7 +546,7 @@ impl<'a> Distances<'a> {
 }
 
 /// Distance (mm) between markers `m` and `h` in frame `f`, when both are seen.
-fn distance(traj: &Trajectories, f: usize, m: usize, h: usize) -> Option<f64> {
+pub(crate) fn distance(traj: &Trajectories, f: usize, m: usize, h: usize) -> Option<f64> {
     Some(apart(traj.get(f, m)?, traj.get(f, h)?))
 }
 
