@@ -1,12 +1,16 @@
 //! Joint-centre accuracy of every method on synthetic trials, from the TRUE segmentation.
 //!
-//! `cargo run --release -p jointfit --example synth_eval -- [SEED] [FRAMES] [SUBJECT|all] [LO,HI]`
+//! `cargo run --release -p jointfit --example synth_eval -- [SEED|FIRST..LAST] [FRAMES] [SUBJECT|all] [LO,HI]`
 //! (LO,HI: markers per segment, default the generator's).
-//! Per subject and preset (clean, hard) and method: mean and worst joint error over the
-//! true joints (mm and % of height), fraction of frames with a position, whether a
+//! Per subject and preset (clean, skin, hard) and method: mean and worst joint error over
+//! the true joints (mm and % of height), fraction of frames with a position, whether a
 //! minimum spanning tree on the pair costs equals the true tree, hinge-vs-not right, time;
-//! and `floor`: the error left by the best centre constant in each segment's marker frame
-//! (from the truth), the limit skin puts on every method here.
+//! `floor`: the error left by the best centre constant in each segment's marker frame
+//! (from the truth), the limit skin puts on every method here; and `score-floor`: plain
+//! SCoRE on the same poses with every hinge's place along its axis taken from the truth,
+//! what the poses themselves allow a fit that reads nothing but them (below it only a
+//! prior on where joints sit can go). Over a seed range, a last table gives each line's
+//! mean % of height over the seeds.
 #![allow(clippy::print_stdout)]
 
 use std::collections::BTreeSet;
@@ -18,7 +22,13 @@ use synth::{Preset, Subject, SynthConfig};
 
 fn main() -> Result<(), Box<dyn std::error::Error>> {
     let args: Vec<String> = std::env::args().collect();
-    let seed: u64 = args.get(1).map_or(Ok(101), |s| s.parse())?;
+    let seeds: Vec<u64> = match args.get(1) {
+        None => vec![101],
+        Some(s) => match s.split_once("..") {
+            Some((first, last)) => (first.parse()?..=last.parse()?).collect(),
+            None => vec![s.parse()?],
+        },
+    };
     let frames: usize = args.get(2).map_or(Ok(1200), |s| s.parse())?;
     // Optional third argument: only subjects whose name contains it, with per-joint detail.
     let only = args.get(3).filter(|s| s.as_str() != "all");
@@ -31,7 +41,7 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
         None => SynthConfig::default().markers_per_segment,
     };
     println!(
-        "{:<28} {:<7} {:>8} {:>7} {:>8} {:>7} {:>6} {:>5} {:>6} {:>7}",
+        "{:<28} {:<11} {:>8} {:>7} {:>8} {:>7} {:>6} {:>5} {:>6} {:>7}",
         "trial",
         "method",
         "mean_mm",
@@ -43,170 +53,321 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
         "hinge",
         "secs"
     );
-    for subject in Subject::ALL {
-        if only.is_some_and(|o| !subject.name().contains(o.as_str())) {
-            continue;
+    // Mean % of height per (subject, preset, line), summed over the seeds.
+    let mut summary: Vec<((&str, &str, &str), f64, usize)> = Vec::new();
+    let mut tally = |key: (&'static str, &'static str, &'static str), pct: f64| match summary
+        .iter_mut()
+        .find(|(k, ..)| *k == key)
+    {
+        Some((_, sum, n)) => {
+            *sum += pct;
+            *n += 1;
         }
-        for preset in [Preset::Clean, Preset::Skin, Preset::Hard] {
-            let trial = synth::generate(&SynthConfig {
-                subject,
-                preset,
-                frames,
-                seed,
-                markers_per_segment,
-                ..SynthConfig::default()
-            })?;
-            let truth = &trial.truth;
-            let traj = &trial.trajectories;
-            let segments: Vec<Vec<usize>> = trial.true_segment_markers();
-            let true_edges: BTreeSet<(usize, usize)> = truth
-                .joints
-                .iter()
-                .map(|j| {
-                    (
-                        j.parent_segment.min(j.child_segment),
-                        j.parent_segment.max(j.child_segment),
-                    )
-                })
-                .collect();
-            for (name, method, anchor) in [
-                ("score", Method::Score, true),
-                ("no-anch", Method::Score, false),
-                ("no-dist", Method::Score, true),
-                ("aguiar", Method::Aguiar, true),
-                ("score+h", Method::Score, true),
-                ("local", Method::Local, true),
-                ("local+h", Method::Local, true),
-            ] {
-                let params = Params {
-                    method,
-                    anchor,
-                    anchor_centres_by_distance: name != "no-dist",
-                    ..Params::default()
-                };
-                let start = Instant::now();
-                let mut fits = run_on_segments(traj, &segments, &params)?;
-                if name.ends_with("+h") {
-                    // Hinge centres placed from the TRUE tree.
-                    let edges: Vec<(usize, usize, usize)> = truth
-                        .joints
-                        .iter()
-                        .filter_map(|j| {
-                            let (a, b) = (
-                                j.parent_segment.min(j.child_segment),
-                                j.parent_segment.max(j.child_segment),
-                            );
-                            let idx = fits.pairs.iter().position(|p| p.a == a && p.b == b)?;
-                            Some((idx, j.parent_segment, j.child_segment))
-                        })
-                        .collect();
-                    jointfit::place_hinge_centres(&mut fits, &edges);
-                }
-                let secs = start.elapsed().as_secs_f64();
-                let (mut sum, mut worst, mut known, mut total, mut hinge_ok) =
-                    (0.0, 0.0f64, 0, 0, 0);
-                for j in &truth.joints {
-                    let (a, b) = (
-                        j.parent_segment.min(j.child_segment),
-                        j.parent_segment.max(j.child_segment),
-                    );
-                    let Some(fit) = fits.pairs.iter().find(|p| p.a == a && p.b == b) else {
-                        continue;
+        None => summary.push((key, pct, 1)),
+    };
+    for seed in seeds.iter().copied() {
+        for subject in Subject::ALL {
+            if only.is_some_and(|o| !subject.name().contains(o.as_str())) {
+                continue;
+            }
+            for preset in [Preset::Clean, Preset::Skin, Preset::Hard] {
+                let trial = synth::generate(&SynthConfig {
+                    subject,
+                    preset,
+                    frames,
+                    seed,
+                    markers_per_segment,
+                    ..SynthConfig::default()
+                })?;
+                let truth = &trial.truth;
+                let traj = &trial.trajectories;
+                let segments: Vec<Vec<usize>> = trial.true_segment_markers();
+                let true_edges: BTreeSet<(usize, usize)> = truth
+                    .joints
+                    .iter()
+                    .map(|j| {
+                        (
+                            j.parent_segment.min(j.child_segment),
+                            j.parent_segment.max(j.child_segment),
+                        )
+                    })
+                    .collect();
+                for (name, method, anchor) in [
+                    ("score", Method::Score, true),
+                    ("no-anch", Method::Score, false),
+                    ("no-dist", Method::Score, true),
+                    ("aguiar", Method::Aguiar, true),
+                    ("score+h", Method::Score, true),
+                    ("local", Method::Local, true),
+                    ("local+h", Method::Local, true),
+                ] {
+                    let params = Params {
+                        method,
+                        anchor,
+                        anchor_centres_by_distance: name != "no-dist",
+                        ..Params::default()
                     };
-                    let (mut e, mut n) = (0.0, 0);
-                    for (p, t) in fit.positions.iter().zip(&j.positions) {
-                        total += 1;
-                        if p[0].is_finite() {
-                            known += 1;
-                            e += ((p[0] - t[0]).powi(2)
-                                + (p[1] - t[1]).powi(2)
-                                + (p[2] - t[2]).powi(2))
-                            .sqrt();
-                            n += 1;
+                    let start = Instant::now();
+                    let mut fits = run_on_segments(traj, &segments, &params)?;
+                    if name.ends_with("+h") {
+                        // Hinge centres placed from the TRUE tree.
+                        let edges: Vec<(usize, usize, usize)> = truth
+                            .joints
+                            .iter()
+                            .filter_map(|j| {
+                                let (a, b) = (
+                                    j.parent_segment.min(j.child_segment),
+                                    j.parent_segment.max(j.child_segment),
+                                );
+                                let idx = fits.pairs.iter().position(|p| p.a == a && p.b == b)?;
+                                Some((idx, j.parent_segment, j.child_segment))
+                            })
+                            .collect();
+                        jointfit::place_hinge_centres(&mut fits, &edges);
+                    }
+                    let secs = start.elapsed().as_secs_f64();
+                    let (mut sum, mut worst, mut known, mut total, mut hinge_ok) =
+                        (0.0, 0.0f64, 0, 0, 0);
+                    for j in &truth.joints {
+                        let (a, b) = (
+                            j.parent_segment.min(j.child_segment),
+                            j.parent_segment.max(j.child_segment),
+                        );
+                        let Some(fit) = fits.pairs.iter().find(|p| p.a == a && p.b == b) else {
+                            continue;
+                        };
+                        let (mut e, mut n) = (0.0, 0);
+                        for (p, t) in fit.positions.iter().zip(&j.positions) {
+                            total += 1;
+                            if p[0].is_finite() {
+                                known += 1;
+                                e += ((p[0] - t[0]).powi(2)
+                                    + (p[1] - t[1]).powi(2)
+                                    + (p[2] - t[2]).powi(2))
+                                .sqrt();
+                                n += 1;
+                            }
+                        }
+                        let e = if n > 0 { e / n as f64 } else { f64::NAN };
+                        if verbose {
+                            println!(
+                                "    {:<14} truth {:<5} fit {:<6} err {:>7.2} mm  wobble {:>6.2} {:>6.2} {:>6.2}  resid {:>6.2}  cost {:>8.2}",
+                                j.name,
+                                j.kind,
+                                format!("{:?}", fit.kind),
+                                e,
+                                fit.wobble_deg[0],
+                                fit.wobble_deg[1],
+                                fit.wobble_deg[2],
+                                fit.residual_rms_mm,
+                                fit.cost
+                            );
+                        }
+                        sum += e;
+                        worst = worst.max(e);
+                        if (fit.kind == JointKind::Hinge) == (j.kind == "hinge") {
+                            hinge_ok += 1;
                         }
                     }
-                    let e = if n > 0 { e / n as f64 } else { f64::NAN };
-                    if verbose {
-                        println!(
-                            "    {:<14} truth {:<5} fit {:<6} err {:>7.2} mm  wobble {:>6.2} {:>6.2} {:>6.2}  resid {:>6.2}  cost {:>8.2}",
-                            j.name,
-                            j.kind,
-                            format!("{:?}", fit.kind),
-                            e,
-                            fit.wobble_deg[0],
-                            fit.wobble_deg[1],
-                            fit.wobble_deg[2],
-                            fit.residual_rms_mm,
-                            fit.cost
-                        );
+                    let mean = sum / truth.joints.len() as f64;
+                    let found = mst(segments.len(), &fits);
+                    let tree = found == true_edges;
+                    if verbose && !tree {
+                        for e in found.difference(&true_edges) {
+                            let p = fits.pairs.iter().find(|p| (p.a, p.b) == *e);
+                            println!(
+                                "    extra edge {e:?}: cost {:.3} kind {:?}; {}",
+                                p.map_or(f64::NAN, |p| p.cost),
+                                p.map(|p| p.kind),
+                                p.map_or("", |p| p.evidence.as_str())
+                            );
+                        }
+                        for e in true_edges.difference(&found) {
+                            let p = fits.pairs.iter().find(|p| (p.a, p.b) == *e);
+                            println!(
+                                "    missed edge {e:?}: cost {:.3}",
+                                p.map_or(f64::NAN, |p| p.cost)
+                            );
+                        }
                     }
-                    sum += e;
-                    worst = worst.max(e);
-                    if (fit.kind == JointKind::Hinge) == (j.kind == "hinge") {
-                        hinge_ok += 1;
-                    }
+                    let h = truth.height_mm / 100.0;
+                    tally((subject.name(), preset.name(), name), mean / h);
+                    println!(
+                        "{:<28} {:<11} {:>8.2} {:>7.3} {:>8.2} {:>7.3} {:>6.3} {:>5} {:>3}/{:<2} {:>7.3}",
+                        trial.name,
+                        name,
+                        mean,
+                        mean / h,
+                        worst,
+                        worst / h,
+                        known as f64 / total.max(1) as f64,
+                        if tree { "ok" } else { "WRONG" },
+                        hinge_ok,
+                        truth.joints.len(),
+                        secs
+                    );
                 }
-                let mean = sum / truth.joints.len() as f64;
-                let found = mst(segments.len(), &fits);
-                let tree = found == true_edges;
-                if verbose && !tree {
-                    for e in found.difference(&true_edges) {
-                        let p = fits.pairs.iter().find(|p| (p.a, p.b) == *e);
-                        println!(
-                            "    extra edge {e:?}: cost {:.3} kind {:?}; {}",
-                            p.map_or(f64::NAN, |p| p.cost),
-                            p.map(|p| p.kind),
-                            p.map_or("", |p| p.evidence.as_str())
-                        );
-                    }
-                    for e in true_edges.difference(&found) {
-                        let p = fits.pairs.iter().find(|p| (p.a, p.b) == *e);
-                        println!(
-                            "    missed edge {e:?}: cost {:.3}",
-                            p.map_or(f64::NAN, |p| p.cost)
-                        );
-                    }
-                }
+                // The floor of any method that keeps a joint at one place in each segment's
+                // marker frame: the best such place, known from the truth.
+                let fits = run_on_segments(traj, &segments, &Params::default())?;
+                let (floor, fit_fits_better) = constant_centre_floor(&fits, truth);
                 let h = truth.height_mm / 100.0;
+                // On clean data both residuals are rounding error: nothing to compare.
+                let versus = if floor > 0.5 {
+                    format!(
+                        "   (SCoRE's centres leave a smaller residual than these at {fit_fits_better}/{} joints)",
+                        truth.joints.len()
+                    )
+                } else {
+                    String::new()
+                };
                 println!(
-                    "{:<28} {:<7} {:>8.2} {:>7.3} {:>8.2} {:>7.3} {:>6.3} {:>5} {:>3}/{:<2} {:>7.3}",
+                    "{:<28} {:<11} {:>8.2} {:>7.3}{versus}",
                     trial.name,
-                    name,
-                    mean,
-                    mean / h,
-                    worst,
-                    worst / h,
-                    known as f64 / total.max(1) as f64,
-                    if tree { "ok" } else { "WRONG" },
-                    hinge_ok,
-                    truth.joints.len(),
-                    secs
+                    "floor",
+                    floor,
+                    floor / h
+                );
+                let score_floor = score_floor(&fits, truth);
+                println!(
+                    "{:<28} {:<11} {:>8.2} {:>7.3}",
+                    trial.name,
+                    "score-floor",
+                    score_floor,
+                    score_floor / h
+                );
+                tally((subject.name(), preset.name(), "floor"), floor / h);
+                tally(
+                    (subject.name(), preset.name(), "score-floor"),
+                    score_floor / h,
                 );
             }
-            // The floor of any method that keeps a joint at one place in each segment's
-            // marker frame: the best such place, known from the truth.
-            let fits = run_on_segments(traj, &segments, &Params::default())?;
-            let (floor, fit_fits_better) = constant_centre_floor(&fits, truth);
-            let h = truth.height_mm / 100.0;
-            // On clean data both residuals are rounding error: nothing to compare.
-            let versus = if floor > 0.5 {
-                format!(
-                    "   (SCoRE's centres leave a smaller residual than these at {fit_fits_better}/{} joints)",
-                    truth.joints.len()
-                )
-            } else {
-                String::new()
-            };
+        }
+    }
+    if seeds.len() > 1 {
+        println!("\nmean % of height over seeds {:?}", seeds);
+        for ((subject, preset, line), sum, n) in &summary {
             println!(
-                "{:<28} {:<7} {:>8.2} {:>7.3}{versus}",
-                trial.name,
-                "floor",
-                floor,
-                floor / h
+                "{subject:<10} {preset:<6} {line:<12} {:>7.3}  ({n} trials)",
+                sum / *n as f64
             );
         }
     }
     Ok(())
+}
+
+/// A segment's pose at one frame: rotation and translation (mm), local to global.
+type Pose = (DQuat, DVec3);
+
+/// The pose `fits` gives segment `s` at frame `f`, if known.
+fn fitted_pose(fits: &jointfit::PairFits, s: usize, f: usize) -> Option<Pose> {
+    let p = fits.poses.iter().find(|p| p.segment == s)?;
+    let q = DQuat::from_array(*p.rotations.get(f)?);
+    let t = DVec3::from_array(*p.translations.get(f)?);
+    (q.is_finite() && t.is_finite()).then_some((q, t))
+}
+
+/// Mean joint error (mm) of plain SCoRE on the poses of `fits` (the true segments' own
+/// marker fits) for every true joint, with what SCoRE leaves free (a hinge's place along
+/// its axis) taken from the truth, and the error along a hinge's true axis not counted:
+/// the error a fit reading only these poses cannot avoid. A ridge of 1e-6 (of the normal
+/// matrix's scale, at most 2) pulls only the undetermined directions to the truth.
+fn score_floor(fits: &jointfit::PairFits, truth: &synth::Truth) -> f64 {
+    const RIDGE: f64 = 1e-6;
+    let mut total = 0.0;
+    for j in &truth.joints {
+        let (a, b) = (j.parent_segment, j.child_segment);
+        let at = |f: usize| DVec3::from_array(j.positions[f]);
+        let frames = j.positions.len();
+        let both: Vec<(usize, Pose, Pose)> = (0..frames)
+            .filter_map(|f| Some((f, fitted_pose(fits, a, f)?, fitted_pose(fits, b, f)?)))
+            .collect();
+        if both.is_empty() {
+            continue;
+        }
+        // The truth's centre in each frame, averaged over the frames: the ridge's target.
+        let n = both.len() as f64;
+        let target_a = both
+            .iter()
+            .map(|(f, (q, t), _)| q.inverse() * (at(*f) - *t))
+            .sum::<DVec3>()
+            / n;
+        let target_b = both
+            .iter()
+            .map(|(f, _, (q, t))| q.inverse() * (at(*f) - *t))
+            .sum::<DVec3>()
+            / n;
+        // Normal equations of [R_a  −R_b][c_a; c_b] = t_b − t_a, divided by the frame count.
+        let mut normal = [[0.0f64; 6]; 6];
+        let mut rhs = [0.0f64; 6];
+        for (_, (qa, ta), (qb, tb)) in &both {
+            let (ra, rb) = (glam::DMat3::from_quat(*qa), glam::DMat3::from_quat(*qb));
+            let d = *tb - *ta;
+            let block = [ra, -rb];
+            for (i, row) in normal.iter_mut().enumerate() {
+                for (k, x) in row.iter_mut().enumerate() {
+                    // Column i of [R_a −R_b] dotted with column k.
+                    let ci = block[i / 3].col(i % 3);
+                    let ck = block[k / 3].col(k % 3);
+                    *x += ci.dot(ck) / n;
+                }
+                rhs[i] += block[i / 3].col(i % 3).dot(d) / n;
+            }
+        }
+        let target = [
+            target_a.x, target_a.y, target_a.z, target_b.x, target_b.y, target_b.z,
+        ];
+        for i in 0..6 {
+            normal[i][i] += RIDGE;
+            rhs[i] += RIDGE * target[i];
+        }
+        let Some(x) = solve6(normal, rhs) else {
+            continue;
+        };
+        let (ca, cb) = (DVec3::new(x[0], x[1], x[2]), DVec3::new(x[3], x[4], x[5]));
+        // A hinge's true axis in the parent's frame, from the first frame it is posed.
+        let axis_in_parent = j.axis.and_then(|axis| {
+            let (q, _) = fitted_pose(fits, a, 0)?;
+            Some(q.inverse() * DVec3::from_array(axis))
+        });
+        let mut sum = 0.0;
+        for (f, (qa, ta), (qb, tb)) in &both {
+            let mut e = 0.5 * ((*qa * ca + *ta) + (*qb * cb + *tb)) - at(*f);
+            if let Some(u) = axis_in_parent {
+                let u = *qa * u;
+                e -= u * e.dot(u);
+            }
+            sum += e.length();
+        }
+        total += sum / n;
+    }
+    total / truth.joints.len().max(1) as f64
+}
+
+/// Solves a 6×6 linear system by Gaussian elimination with partial pivoting.
+#[allow(clippy::needless_range_loop)] // Index loops read like the elimination they do.
+fn solve6(mut m: [[f64; 6]; 6], mut r: [f64; 6]) -> Option<[f64; 6]> {
+    for c in 0..6 {
+        let p = (c..6).max_by(|&x, &y| m[x][c].abs().total_cmp(&m[y][c].abs()))?;
+        if m[p][c].abs() < 1e-300 {
+            return None;
+        }
+        m.swap(c, p);
+        r.swap(c, p);
+        for row in c + 1..6 {
+            let k = m[row][c] / m[c][c];
+            for col in c..6 {
+                m[row][col] -= k * m[c][col];
+            }
+            r[row] -= k * r[c];
+        }
+    }
+    let mut x = [0.0; 6];
+    for c in (0..6).rev() {
+        let s: f64 = (c + 1..6).map(|k| m[c][k] * x[k]).sum();
+        x[c] = (r[c] - s) / m[c][c];
+    }
+    Some(x)
 }
 
 /// Mean joint error (mm) of the truth's joints placed at their mean position in each
@@ -215,12 +376,7 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
 /// joints' fitted centres (the pair fit's) have a smaller RMS gap between the two
 /// segments' images than these: where they do, no residual-minimising fit finds the floor.
 fn constant_centre_floor(fits: &jointfit::PairFits, truth: &synth::Truth) -> (f64, usize) {
-    let pose = |s: usize, f: usize| -> Option<(DQuat, DVec3)> {
-        let p = fits.poses.iter().find(|p| p.segment == s)?;
-        let q = DQuat::from_array(p.rotations[f]);
-        let t = DVec3::from_array(p.translations[f]);
-        (q.is_finite() && t.is_finite()).then_some((q, t))
-    };
+    let pose = |s: usize, f: usize| fitted_pose(fits, s, f);
     // RMS over frames of the distance between the two sides' images of a centre.
     let gap = |a: usize, b: usize, ca: DVec3, cb: DVec3, frames: usize| {
         let (mut sum, mut n) = (0.0, 0usize);
