@@ -5,23 +5,29 @@ use crate::params::{Affinity, Params};
 
 /// The affinity matrix of `nodes` (marker indices), row-major `nodes.len()²`, zero diagonal
 /// (Ng–Jordan–Weiss). Pairs seen together in fewer than `min_overlap_frames` frames get 0.
-pub(crate) fn affinity_matrix(stats: &PairStats, nodes: &[usize], params: &Params) -> Vec<f64> {
+/// `noise_rho_mm`: the share of every pair's ρ that white measurement noise gives it (0
+/// where the capture's scatter is not white), taken out in quadrature first.
+pub(crate) fn affinity_matrix(
+    stats: &PairStats,
+    nodes: &[usize],
+    params: &Params,
+    noise_rho_mm: f64,
+) -> Vec<f64> {
     let n = nodes.len();
     let min_overlap = params.min_overlap_frames;
+    let rho_of = |i: usize, j: usize| {
+        stats
+            .rho(i, j, min_overlap)
+            .map(|rho| (rho * rho - noise_rho_mm * noise_rho_mm).max(0.0).sqrt())
+    };
     let mut a = vec![0.0; n * n];
     let scales = match params.affinity {
-        Affinity::Local => local_scales(
-            stats,
-            nodes,
-            params.local_k,
-            params.min_scale_mm,
-            min_overlap,
-        ),
+        Affinity::Local => local_scales(nodes, params.local_k, params.min_scale_mm, rho_of),
         Affinity::Paper | Affinity::Absolute => Vec::new(),
     };
     for (r, &i) in nodes.iter().enumerate() {
         for (c, &j) in nodes.iter().enumerate().skip(r + 1) {
-            let Some(rho) = stats.rho(i, j, min_overlap) else {
+            let Some(rho) = rho_of(i, j) else {
                 continue;
             };
             let value = match params.affinity {
@@ -45,21 +51,21 @@ pub(crate) fn affinity_matrix(stats: &PairStats, nodes: &[usize], params: &Param
     a
 }
 
-/// Self-tuning scales (Zelnik-Manor & Perona 2004): each marker's ρ to its k-th nearest
-/// marker in ρ (fewer neighbours: the farthest one), never below `floor_mm`, mm.
+/// Self-tuning scales (Zelnik-Manor & Perona 2004): each marker's ρ (as `rho_of` gives it)
+/// to its k-th nearest marker in ρ (fewer neighbours: the farthest one), never below
+/// `floor_mm`, mm.
 pub(crate) fn local_scales(
-    stats: &PairStats,
     nodes: &[usize],
     k: usize,
     floor_mm: f64,
-    min_overlap: usize,
+    rho_of: impl Fn(usize, usize) -> Option<f64>,
 ) -> Vec<f64> {
     let mut rhos = Vec::with_capacity(nodes.len());
     nodes
         .iter()
         .map(|&i| {
             rhos.clear();
-            rhos.extend(nodes.iter().filter_map(|&j| stats.rho(i, j, min_overlap)));
+            rhos.extend(nodes.iter().filter_map(|&j| rho_of(i, j)));
             rhos.sort_by(f64::total_cmp);
             let kth = rhos.get(k.min(rhos.len()).wrapping_sub(1)).copied();
             kth.unwrap_or(floor_mm).max(floor_mm)

@@ -16,7 +16,8 @@
 //! tolerance on the noise, and pieces of one or two markers within one on the spread of ρ
 //! inside the spectral clusters (skin widens it beyond the noise; see
 //! `rigidity::rigid_spread`); both tolerances are a tighter multiple where the capture's
-//! scatter is white measurement noise rather than skin (`rigidity::scatter_smoothness`).
+//! scatter is white measurement noise rather than skin (`rigidity::scatter_smoothness`),
+//! where the affinity also reads ρ with the noise level taken out in quadrature.
 //! A marker still alone takes an ambiguous partner (rigid with it and with its own group,
 //! near a joint axis) from a group that keeps three, so both sides stay poseable.
 //! Before that, a rigid-fit check: each cluster of 4–10 markers is fitted as one rigid body
@@ -176,9 +177,8 @@ fn segment_capture(
     // White noise scatters a rigid pair's distance by the same amount for every pair; skin
     // gives each pair its own, so its tolerance needs the wider multiple.
     let smoothness = rigidity::scatter_smoothness(traj, &partners, min_overlap);
-    let white = params.tolerance_factor_white > 0.0
-        && smoothness.is_some_and(|s| s < params.white_noise_smoothness);
-    let tolerance_factor = if white {
+    let white = smoothness.is_some_and(|s| s < params.white_noise_smoothness);
+    let tolerance_factor = if white && params.tolerance_factor_white > 0.0 {
         params.tolerance_factor_white
     } else {
         params.tolerance_factor
@@ -207,7 +207,12 @@ fn segment_capture(
     let mut spectral_of: Vec<Option<usize>> = vec![None; markers];
     let (mut clusters, eigenvalues, eigengap_segments, tolerance_mm) = match params.method {
         Method::Spectral if !nodes.is_empty() => {
-            let a = affinity::affinity_matrix(&stats, &nodes, params);
+            let noise_rho_mm = if white && params.white_noise_excess {
+                noise_mm
+            } else {
+                0.0
+            };
+            let a = affinity::affinity_matrix(&stats, &nodes, params, noise_rho_mm);
             let found = spectral::spectral_clusters(&a, nodes.len(), params)?;
             let clusters: Vec<Vec<usize>> = found
                 .clusters

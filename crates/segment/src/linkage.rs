@@ -17,7 +17,9 @@ pub(crate) fn node_scales(
     floor_mm: f64,
     min_overlap: usize,
 ) -> Vec<f64> {
-    crate::affinity::local_scales(stats, nodes, k, floor_mm.max(1e-9), min_overlap)
+    crate::affinity::local_scales(nodes, k, floor_mm.max(1e-9), |i, j| {
+        stats.rho(i, j, min_overlap)
+    })
 }
 
 /// Groups `nodes` (marker indices) by agglomeration while the linkage of

@@ -95,6 +95,9 @@ pub struct Params {
     /// Scatter whose frame-to-frame smoothness (lag-one autocorrelation) is below this is
     /// white noise, not skin.
     pub white_noise_smoothness: f64,
+    /// Where the scatter is white noise, the spectral affinity reads each pair's ρ with the
+    /// noise level taken out in quadrature.
+    pub white_noise_excess: bool,
     /// Smallest automatic tolerance, mm.
     pub tolerance_min_mm: f64,
     /// The rigid spread read off the spectral clusters counts for at most this × the noise level; 0 = no bound.
@@ -172,6 +175,7 @@ impl Default for Params {
             tolerance_factor: 5.0,
             tolerance_factor_white: 3.0,
             white_noise_smoothness: 0.1,
+            white_noise_excess: true,
             tolerance_min_mm: 2.0,
             spread_max_noise_factor: 4.0,
             spread_second_pass: true,
@@ -295,6 +299,10 @@ pub const PARAM_DOCS: &[(&str, &str)] = &[
     (
         "white_noise_smoothness",
         "the capture's scatter about rigidity is white measurement noise when the median over markers of the lag-one autocorrelation of the distance to their steadiest partner (the smallest ρ) is below this: -0.03 to 0.04 for noise alone or none (the noise and clean presets, seeds 20001-20010, 70 trials each; ART's labelled bodies in c3d.org's arthuman 0.00), 1.00 for skin alone, 0.11-0.65 for the hard preset's skin plus 1 mm of noise, 0.19 (c3d.org sample 02) to 0.99 (Sample_Jump2) on the other shared captures; default 0.1",
+    ),
+    (
+        "white_noise_excess",
+        "where the capture's scatter about rigidity is white noise (see white_noise_smoothness), the spectral affinity reads every pair's ρ with the noise level (the median steadiest-pair ρ) taken out in quadrature, √(ρ² − noise²): the noise's share is then the same for every pair and hides the little a joint that turns little adds (a small body's markers went to the coxae around it). cargo xtask eval --presets noise: seeds 20001-20050 and 30001-30050 683 -> 686 of 700 exact trees, 676 -> 681 exact segmentations; 40001-40100 685 -> 688 and 674 -> 684; clean, hard and the shared captures unchanged; default true",
     ),
     (
         "tolerance_min_mm",
