@@ -53,194 +53,22 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
         "hinge",
         "secs"
     );
-    // Mean % of height per (subject, preset, line), summed over the seeds.
-    let mut summary: Vec<((&str, &str, &str), f64, usize)> = Vec::new();
-    let mut tally = |key: (&'static str, &'static str, &'static str), pct: f64| match summary
-        .iter_mut()
-        .find(|(k, ..)| *k == key)
-    {
-        Some((_, sum, n)) => {
-            *sum += pct;
-            *n += 1;
-        }
-        None => summary.push((key, pct, 1)),
-    };
+    let mut summary = Summary::new();
     for seed in seeds.iter().copied() {
         for subject in Subject::ALL {
             if only.is_some_and(|o| !subject.name().contains(o.as_str())) {
                 continue;
             }
             for preset in [Preset::Clean, Preset::Skin, Preset::Hard] {
-                let trial = synth::generate(&SynthConfig {
+                let config = SynthConfig {
                     subject,
                     preset,
                     frames,
                     seed,
                     markers_per_segment,
                     ..SynthConfig::default()
-                })?;
-                let truth = &trial.truth;
-                let traj = &trial.trajectories;
-                let segments: Vec<Vec<usize>> = trial.true_segment_markers();
-                let true_edges: BTreeSet<(usize, usize)> = truth
-                    .joints
-                    .iter()
-                    .map(|j| {
-                        (
-                            j.parent_segment.min(j.child_segment),
-                            j.parent_segment.max(j.child_segment),
-                        )
-                    })
-                    .collect();
-                for (name, method, anchor) in [
-                    ("score", Method::Score, true),
-                    ("no-anch", Method::Score, false),
-                    ("no-dist", Method::Score, true),
-                    ("aguiar", Method::Aguiar, true),
-                    ("score+h", Method::Score, true),
-                    ("local", Method::Local, true),
-                    ("local+h", Method::Local, true),
-                ] {
-                    let params = Params {
-                        method,
-                        anchor,
-                        anchor_centres_by_distance: name != "no-dist",
-                        ..Params::default()
-                    };
-                    let start = Instant::now();
-                    let mut fits = run_on_segments(traj, &segments, &params)?;
-                    if name.ends_with("+h") {
-                        // Hinge centres placed from the TRUE tree.
-                        let edges: Vec<(usize, usize, usize)> = truth
-                            .joints
-                            .iter()
-                            .filter_map(|j| {
-                                let (a, b) = (
-                                    j.parent_segment.min(j.child_segment),
-                                    j.parent_segment.max(j.child_segment),
-                                );
-                                let idx = fits.pairs.iter().position(|p| p.a == a && p.b == b)?;
-                                Some((idx, j.parent_segment, j.child_segment))
-                            })
-                            .collect();
-                        jointfit::place_hinge_centres(&mut fits, &edges);
-                    }
-                    let secs = start.elapsed().as_secs_f64();
-                    let (mut sum, mut worst, mut known, mut total, mut hinge_ok) =
-                        (0.0, 0.0f64, 0, 0, 0);
-                    for j in &truth.joints {
-                        let (a, b) = (
-                            j.parent_segment.min(j.child_segment),
-                            j.parent_segment.max(j.child_segment),
-                        );
-                        let Some(fit) = fits.pairs.iter().find(|p| p.a == a && p.b == b) else {
-                            continue;
-                        };
-                        let (mut e, mut n) = (0.0, 0);
-                        for (p, t) in fit.positions.iter().zip(&j.positions) {
-                            total += 1;
-                            if p[0].is_finite() {
-                                known += 1;
-                                e += ((p[0] - t[0]).powi(2)
-                                    + (p[1] - t[1]).powi(2)
-                                    + (p[2] - t[2]).powi(2))
-                                .sqrt();
-                                n += 1;
-                            }
-                        }
-                        let e = if n > 0 { e / n as f64 } else { f64::NAN };
-                        if verbose {
-                            println!(
-                                "    {:<14} truth {:<5} fit {:<6} err {:>7.2} mm  wobble {:>6.2} {:>6.2} {:>6.2}  resid {:>6.2}  cost {:>8.2}",
-                                j.name,
-                                j.kind,
-                                format!("{:?}", fit.kind),
-                                e,
-                                fit.wobble_deg[0],
-                                fit.wobble_deg[1],
-                                fit.wobble_deg[2],
-                                fit.residual_rms_mm,
-                                fit.cost
-                            );
-                        }
-                        sum += e;
-                        worst = worst.max(e);
-                        if (fit.kind == JointKind::Hinge) == (j.kind == "hinge") {
-                            hinge_ok += 1;
-                        }
-                    }
-                    let mean = sum / truth.joints.len() as f64;
-                    let found = mst(segments.len(), &fits);
-                    let tree = found == true_edges;
-                    if verbose && !tree {
-                        for e in found.difference(&true_edges) {
-                            let p = fits.pairs.iter().find(|p| (p.a, p.b) == *e);
-                            println!(
-                                "    extra edge {e:?}: cost {:.3} kind {:?}; {}",
-                                p.map_or(f64::NAN, |p| p.cost),
-                                p.map(|p| p.kind),
-                                p.map_or("", |p| p.evidence.as_str())
-                            );
-                        }
-                        for e in true_edges.difference(&found) {
-                            let p = fits.pairs.iter().find(|p| (p.a, p.b) == *e);
-                            println!(
-                                "    missed edge {e:?}: cost {:.3}",
-                                p.map_or(f64::NAN, |p| p.cost)
-                            );
-                        }
-                    }
-                    let h = truth.height_mm / 100.0;
-                    tally((subject.name(), preset.name(), name), mean / h);
-                    println!(
-                        "{:<28} {:<11} {:>8.2} {:>7.3} {:>8.2} {:>7.3} {:>6.3} {:>5} {:>3}/{:<2} {:>7.3}",
-                        trial.name,
-                        name,
-                        mean,
-                        mean / h,
-                        worst,
-                        worst / h,
-                        known as f64 / total.max(1) as f64,
-                        if tree { "ok" } else { "WRONG" },
-                        hinge_ok,
-                        truth.joints.len(),
-                        secs
-                    );
-                }
-                // The floor of any method that keeps a joint at one place in each segment's
-                // marker frame: the best such place, known from the truth.
-                let fits = run_on_segments(traj, &segments, &Params::default())?;
-                let (floor, fit_fits_better) = constant_centre_floor(&fits, truth);
-                let h = truth.height_mm / 100.0;
-                // On clean data both residuals are rounding error: nothing to compare.
-                let versus = if floor > 0.5 {
-                    format!(
-                        "   (SCoRE's centres leave a smaller residual than these at {fit_fits_better}/{} joints)",
-                        truth.joints.len()
-                    )
-                } else {
-                    String::new()
                 };
-                println!(
-                    "{:<28} {:<11} {:>8.2} {:>7.3}{versus}",
-                    trial.name,
-                    "floor",
-                    floor,
-                    floor / h
-                );
-                let score_floor = score_floor(&fits, truth);
-                println!(
-                    "{:<28} {:<11} {:>8.2} {:>7.3}",
-                    trial.name,
-                    "score-floor",
-                    score_floor,
-                    score_floor / h
-                );
-                tally((subject.name(), preset.name(), "floor"), floor / h);
-                tally(
-                    (subject.name(), preset.name(), "score-floor"),
-                    score_floor / h,
-                );
+                evaluate(&config, verbose, &mut summary)?;
             }
         }
     }
@@ -253,6 +81,191 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
             );
         }
     }
+    Ok(())
+}
+
+/// Mean % of height per (subject, preset, line) over the seeds: sum and count.
+type Summary = Vec<((&'static str, &'static str, &'static str), f64, usize)>;
+
+/// Adds one trial's % of height to its (subject, preset, line) entry.
+fn tally(summary: &mut Summary, key: (&'static str, &'static str, &'static str), pct: f64) {
+    match summary.iter_mut().find(|(k, ..)| *k == key) {
+        Some((_, sum, n)) => {
+            *sum += pct;
+            *n += 1;
+        }
+        None => summary.push((key, pct, 1)),
+    }
+}
+
+/// One trial: every method's line, `floor` and `score-floor`, each tallied in `summary`.
+fn evaluate(
+    config: &SynthConfig,
+    verbose: bool,
+    summary: &mut Summary,
+) -> Result<(), Box<dyn std::error::Error>> {
+    let (subject, preset) = (config.subject, config.preset);
+    let trial = synth::generate(config)?;
+    let truth = &trial.truth;
+    let traj = &trial.trajectories;
+    let segments: Vec<Vec<usize>> = trial.true_segment_markers();
+    let true_edges: BTreeSet<(usize, usize)> = truth
+        .joints
+        .iter()
+        .map(|j| {
+            (
+                j.parent_segment.min(j.child_segment),
+                j.parent_segment.max(j.child_segment),
+            )
+        })
+        .collect();
+    for (name, method, anchor) in [
+        ("score", Method::Score, true),
+        ("no-anch", Method::Score, false),
+        ("no-dist", Method::Score, true),
+        ("aguiar", Method::Aguiar, true),
+        ("score+h", Method::Score, true),
+        ("local", Method::Local, true),
+        ("local+h", Method::Local, true),
+    ] {
+        let params = Params {
+            method,
+            anchor,
+            anchor_centres_by_distance: name != "no-dist",
+            ..Params::default()
+        };
+        let start = Instant::now();
+        let mut fits = run_on_segments(traj, &segments, &params)?;
+        if name.ends_with("+h") {
+            // Hinge centres placed from the TRUE tree.
+            let edges: Vec<(usize, usize, usize)> = truth
+                .joints
+                .iter()
+                .filter_map(|j| {
+                    let (a, b) = (
+                        j.parent_segment.min(j.child_segment),
+                        j.parent_segment.max(j.child_segment),
+                    );
+                    let idx = fits.pairs.iter().position(|p| p.a == a && p.b == b)?;
+                    Some((idx, j.parent_segment, j.child_segment))
+                })
+                .collect();
+            jointfit::place_hinge_centres(&mut fits, &edges);
+        }
+        let secs = start.elapsed().as_secs_f64();
+        let (mut sum, mut worst, mut known, mut total, mut hinge_ok) = (0.0, 0.0f64, 0, 0, 0);
+        for j in &truth.joints {
+            let (a, b) = (
+                j.parent_segment.min(j.child_segment),
+                j.parent_segment.max(j.child_segment),
+            );
+            let Some(fit) = fits.pairs.iter().find(|p| p.a == a && p.b == b) else {
+                continue;
+            };
+            let (mut e, mut n) = (0.0, 0);
+            for (p, t) in fit.positions.iter().zip(&j.positions) {
+                total += 1;
+                if p[0].is_finite() {
+                    known += 1;
+                    e += ((p[0] - t[0]).powi(2) + (p[1] - t[1]).powi(2) + (p[2] - t[2]).powi(2))
+                        .sqrt();
+                    n += 1;
+                }
+            }
+            let e = if n > 0 { e / n as f64 } else { f64::NAN };
+            if verbose {
+                println!(
+                    "    {:<14} truth {:<5} fit {:<6} err {:>7.2} mm  wobble {:>6.2} {:>6.2} {:>6.2}  resid {:>6.2}  cost {:>8.2}",
+                    j.name,
+                    j.kind,
+                    format!("{:?}", fit.kind),
+                    e,
+                    fit.wobble_deg[0],
+                    fit.wobble_deg[1],
+                    fit.wobble_deg[2],
+                    fit.residual_rms_mm,
+                    fit.cost
+                );
+            }
+            sum += e;
+            worst = worst.max(e);
+            if (fit.kind == JointKind::Hinge) == (j.kind == "hinge") {
+                hinge_ok += 1;
+            }
+        }
+        let mean = sum / truth.joints.len() as f64;
+        let found = mst(segments.len(), &fits);
+        let tree = found == true_edges;
+        if verbose && !tree {
+            for e in found.difference(&true_edges) {
+                let p = fits.pairs.iter().find(|p| (p.a, p.b) == *e);
+                println!(
+                    "    extra edge {e:?}: cost {:.3} kind {:?}; {}",
+                    p.map_or(f64::NAN, |p| p.cost),
+                    p.map(|p| p.kind),
+                    p.map_or("", |p| p.evidence.as_str())
+                );
+            }
+            for e in true_edges.difference(&found) {
+                let p = fits.pairs.iter().find(|p| (p.a, p.b) == *e);
+                println!(
+                    "    missed edge {e:?}: cost {:.3}",
+                    p.map_or(f64::NAN, |p| p.cost)
+                );
+            }
+        }
+        let h = truth.height_mm / 100.0;
+        tally(summary, (subject.name(), preset.name(), name), mean / h);
+        println!(
+            "{:<28} {:<11} {:>8.2} {:>7.3} {:>8.2} {:>7.3} {:>6.3} {:>5} {:>3}/{:<2} {:>7.3}",
+            trial.name,
+            name,
+            mean,
+            mean / h,
+            worst,
+            worst / h,
+            known as f64 / total.max(1) as f64,
+            if tree { "ok" } else { "WRONG" },
+            hinge_ok,
+            truth.joints.len(),
+            secs
+        );
+    }
+    // The floor of any method that keeps a joint at one place in each segment's
+    // marker frame: the best such place, known from the truth.
+    let fits = run_on_segments(traj, &segments, &Params::default())?;
+    let (floor, fit_fits_better) = constant_centre_floor(&fits, truth);
+    let h = truth.height_mm / 100.0;
+    // On clean data both residuals are rounding error: nothing to compare.
+    let versus = if floor > 0.5 {
+        format!(
+            "   (SCoRE's centres leave a smaller residual than these at {fit_fits_better}/{} joints)",
+            truth.joints.len()
+        )
+    } else {
+        String::new()
+    };
+    println!(
+        "{:<28} {:<11} {:>8.2} {:>7.3}{versus}",
+        trial.name,
+        "floor",
+        floor,
+        floor / h
+    );
+    let score_floor = score_floor(&fits, truth);
+    println!(
+        "{:<28} {:<11} {:>8.2} {:>7.3}",
+        trial.name,
+        "score-floor",
+        score_floor,
+        score_floor / h
+    );
+    tally(summary, (subject.name(), preset.name(), "floor"), floor / h);
+    tally(
+        summary,
+        (subject.name(), preset.name(), "score-floor"),
+        score_floor / h,
+    );
     Ok(())
 }
 
