@@ -5,8 +5,9 @@
 //! residual, skin sliding, glitch frames). First, samples where a marker leaves most of its
 //! steadiest partners at once are read as gaps (`glitch_factor`, see `glitch`). Then one
 //! pass over the frames gives every pair's distance mean and standard deviation ρ over the
-//! frames where both are seen (a marker is never dropped for a gap); an affinity from ρ,
-//! normalised spectral clustering with the eigen-gap segment count and seeded k-means
+//! frames where both are seen (a marker is never dropped for a gap); an affinity from ρ
+//! (less the noise level in quadrature where the capture's scatter is white noise, which
+//! every pair carries alike; `white_noise_excess`), normalised spectral clustering with the eigen-gap segment count and seeded k-means
 //! (Aguiar et al. 2006, Sect. 3), then a rigidity check: each cluster is re-split by
 //! complete linkage on ρ / √(s_i s_j) (s = a marker's ρ to its nearest marker, floored at
 //! the noise), so a two-marker segment whose pair is each other's nearest stays whole;
@@ -16,8 +17,7 @@
 //! tolerance on the noise, and pieces of one or two markers within one on the spread of ρ
 //! inside the spectral clusters (skin widens it beyond the noise; see
 //! `rigidity::rigid_spread`); both tolerances are a tighter multiple where the capture's
-//! scatter is white measurement noise rather than skin (`rigidity::scatter_smoothness`),
-//! where the affinity also reads ρ with the noise level taken out in quadrature.
+//! scatter is white measurement noise rather than skin (`rigidity::scatter_smoothness`).
 //! A marker still alone takes an ambiguous partner (rigid with it and with its own group,
 //! near a joint axis) from a group that keeps three, so both sides stay poseable.
 //! Before that, a rigid-fit check: each cluster of 4–10 markers is fitted as one rigid body
