@@ -252,7 +252,21 @@ fn evaluate(
         floor,
         floor / h
     );
-    let score_floor = score_floor(&fits, truth);
+    let per_joint = score_floor(&fits, truth);
+    if verbose {
+        for (j, e) in truth.joints.iter().zip(&per_joint) {
+            if let Some(e) = e {
+                let part = if j.axis.is_some() {
+                    " (across the axis)"
+                } else {
+                    ""
+                };
+                println!("    {:<18} score-floor {e:>7.2} mm{part}", j.name);
+            }
+        }
+    }
+    // A joint with no frame both its segments are posed in counts as 0, as in `floor`.
+    let score_floor = per_joint.iter().flatten().sum::<f64>() / truth.joints.len().max(1) as f64;
     println!(
         "{:<28} {:<11} {:>8.2} {:>7.3}",
         trial.name,
@@ -280,15 +294,17 @@ fn fitted_pose(fits: &jointfit::PairFits, s: usize, f: usize) -> Option<Pose> {
     (q.is_finite() && t.is_finite()).then_some((q, t))
 }
 
-/// Mean joint error (mm) of plain SCoRE on the poses of `fits` (the true segments' own
-/// marker fits) for every true joint, with what SCoRE leaves free (a hinge's place along
-/// its axis) taken from the truth, and the error along a hinge's true axis not counted:
-/// the error a fit reading only these poses cannot avoid. A ridge of 1e-6 (of the normal
-/// matrix's scale, at most 2) pulls only the undetermined directions to the truth.
-fn score_floor(fits: &jointfit::PairFits, truth: &synth::Truth) -> f64 {
+/// Each true joint's mean error (mm) under plain SCoRE on the poses of `fits` (the true
+/// segments' own marker fits), with what SCoRE leaves free (a hinge's place along its
+/// axis) taken from the truth, and the error along a hinge's true axis not counted: the
+/// error a fit reading only these poses cannot avoid; `None` where no frame poses both
+/// segments. A ridge of 1e-6 (of the normal matrix's scale, at most 2) pulls only the
+/// undetermined directions to the truth.
+fn score_floor(fits: &jointfit::PairFits, truth: &synth::Truth) -> Vec<Option<f64>> {
     const RIDGE: f64 = 1e-6;
-    let mut total = 0.0;
+    let mut per_joint = Vec::with_capacity(truth.joints.len());
     for j in &truth.joints {
+        per_joint.push(None);
         let (a, b) = (j.parent_segment, j.child_segment);
         let at = |f: usize| DVec3::from_array(j.positions[f]);
         let frames = j.positions.len();
@@ -352,9 +368,11 @@ fn score_floor(fits: &jointfit::PairFits, truth: &synth::Truth) -> f64 {
             }
             sum += e.length();
         }
-        total += sum / n;
+        if let Some(slot) = per_joint.last_mut() {
+            *slot = Some(sum / n);
+        }
     }
-    total / truth.joints.len().max(1) as f64
+    per_joint
 }
 
 /// Solves a 6×6 linear system by Gaussian elimination with partial pivoting.
