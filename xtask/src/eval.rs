@@ -54,6 +54,11 @@ pub struct Args {
     /// [default: the generator's, 360 = all round; real limb sets nearer 90–120].
     #[arg(long, value_name = "DEG")]
     pub marker_arc: Option<f64>,
+    /// Each marker's soft-tissue artefact amplitude, mm, as MIN:MAX (or one value), for the
+    /// skin, hard and messy presets [default: the generator's, 5:15; real walks move about
+    /// half that].
+    #[arg(long, value_name = "MIN:MAX")]
+    pub skin: Option<String>,
     /// Set a stage parameter for every trial (STAGE.PARAM=VALUE). Repeatable.
     #[arg(long = "set", value_name = "STAGE.PARAM=VALUE")]
     pub set: Vec<String>,
@@ -222,6 +227,7 @@ pub fn suite(args: &Args) -> Result<Vec<TrialSpec>> {
         .collect::<Result<_>>()?;
     let markers_per_segment = crate::synth_cmd::markers_arg(args.markers.as_deref())?;
     let sweep = crate::synth_cmd::sweep_arg(args.sweep.as_deref())?;
+    let skin_mm = crate::synth_cmd::skin_arg(args.skin.as_deref())?;
     let seeds = seed_list(&args.seeds)?;
     let defaults = SynthConfig::default();
     let mut specs = Vec::new();
@@ -238,9 +244,10 @@ pub fn suite(args: &Args) -> Result<Vec<TrialSpec>> {
                     rate: args.rate.unwrap_or(defaults.rate),
                     sweep,
                     marker_arc_deg: args.marker_arc.unwrap_or(defaults.marker_arc_deg),
+                    skin_mm,
                 };
                 config.validate().context(
-                    "--frames, --markers, --noise, --rate, --sweep or --marker-arc: not a trial the generator makes",
+                    "--frames, --markers, --noise, --rate, --sweep, --marker-arc or --skin: not a trial the generator makes",
                 )?;
                 specs.push(TrialSpec { config });
             }
@@ -484,6 +491,7 @@ fn generator_settings(specs: &[TrialSpec]) -> serde_json::Value {
             "markers_per_segment": [c.markers_per_segment.0, c.markers_per_segment.1],
             "sweep": [c.sweep.0, c.sweep.1],
             "marker_arc_deg": c.marker_arc_deg,
+            "skin_mm": [c.skin_mm.0, c.skin_mm.1],
         })
     })
 }
@@ -1099,7 +1107,7 @@ mod tests {
     }
 
     #[test]
-    fn sweep_and_marker_arc_reach_the_generator_and_are_checked() {
+    fn sweep_marker_arc_and_skin_reach_the_generator_and_are_checked() {
         let base = [
             "--subjects",
             "snowman",
@@ -1144,6 +1152,24 @@ mod tests {
             err.contains("--marker-arc") && err.contains("marker_arc_deg"),
             "{err}"
         );
+        assert_eq!(settings["skin_mm"], json!([5.0, 15.0]));
+        let mut line = base.to_vec();
+        line.extend(["--skin", "2.5:7.5"]);
+        let specs = suite(&parse(&line)).unwrap();
+        assert_eq!(specs[0].config.skin_mm, (2.5, 7.5));
+        for bad in ["--skin=7:3", "--skin=-1:2"] {
+            let mut line = base.to_vec();
+            line.push(bad);
+            let err = format!("{:#}", suite(&parse(&line)).unwrap_err());
+            assert!(
+                err.contains("--skin") && err.contains("skin_mm"),
+                "{bad}: {err}"
+            );
+        }
+        let mut line = base.to_vec();
+        line.extend(["--skin", "a:3"]);
+        let err = format!("{:#}", suite(&parse(&line)).unwrap_err());
+        assert!(err.contains("--skin a:3"), "{err}");
     }
 
     fn result(subject: &str, preset: &str, exact: bool, mean_pct: f64) -> TrialResult {

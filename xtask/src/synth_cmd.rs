@@ -37,6 +37,10 @@ pub struct Args {
     /// [default: 360 = all round; real limb sets nearer 90–120].
     #[arg(long, value_name = "DEG")]
     pub marker_arc: Option<f64>,
+    /// Each marker's soft-tissue artefact amplitude, mm, as MIN:MAX (or one value), for the
+    /// skin, hard and messy presets [default: 5:15; real walks move about half that].
+    #[arg(long, value_name = "MIN:MAX")]
+    pub skin: Option<String>,
     /// Also write a TRC file.
     #[arg(long)]
     pub trc: bool,
@@ -52,6 +56,7 @@ pub fn config(args: &Args) -> Result<SynthConfig> {
     let preset: Preset = args.preset.parse()?;
     let markers_per_segment = markers_arg(args.markers.as_deref())?;
     let sweep = sweep_arg(args.sweep.as_deref())?;
+    let skin_mm = skin_arg(args.skin.as_deref())?;
     let config = SynthConfig {
         subject,
         preset,
@@ -62,6 +67,7 @@ pub fn config(args: &Args) -> Result<SynthConfig> {
         markers_per_segment,
         sweep,
         marker_arc_deg: args.marker_arc.unwrap_or(defaults.marker_arc_deg),
+        skin_mm,
     };
     config.validate()?;
     Ok(config)
@@ -79,6 +85,13 @@ pub fn sweep_arg(text: Option<&str>) -> Result<(f64, f64)> {
     text.map_or(Ok(SynthConfig::default().sweep), parse_share_range)
 }
 
+/// `--skin` as given (`MIN:MAX`, `MIN,MAX` or one value, mm), else the generator's default.
+pub fn skin_arg(text: Option<&str>) -> Result<(f64, f64)> {
+    text.map_or(Ok(SynthConfig::default().skin_mm), |text| {
+        parse_f64_range(text, "--skin")
+    })
+}
+
 /// `MIN:MAX` (or `MIN-MAX`, `MIN,MAX`, one number) as a range of markers per segment.
 pub fn parse_range(text: &str) -> Result<(usize, usize)> {
     let (lo, hi) = text.split_once([':', '-', ',']).unwrap_or((text, text));
@@ -87,13 +100,18 @@ pub fn parse_range(text: &str) -> Result<(usize, usize)> {
 
 /// `MIN:MAX` (or `MIN,MAX`, one number) as a range of shares of a joint's range.
 pub fn parse_share_range(text: &str) -> Result<(f64, f64)> {
+    parse_f64_range(text, "--sweep")
+}
+
+/// `MIN:MAX` (or `MIN,MAX`, one number) as a range of numbers, for the option `flag`.
+fn parse_f64_range(text: &str, flag: &str) -> Result<(f64, f64)> {
     let (lo, hi) = text.split_once([':', ',']).unwrap_or((text, text));
-    let share = |s: &str| {
+    let number = |s: &str| {
         s.trim()
             .parse::<f64>()
-            .with_context(|| format!("--sweep {text}: {s:?} is not a number"))
+            .with_context(|| format!("{flag} {text}: {s:?} is not a number"))
     };
-    Ok((share(lo)?, share(hi)?))
+    Ok((number(lo)?, number(hi)?))
 }
 
 /// Runs `synth`.

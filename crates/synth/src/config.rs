@@ -41,6 +41,11 @@ pub struct SynthConfig {
     /// limb marker sets sit on one side (CMU's thigh, knee, shin and ankle markers are all
     /// lateral), nearer 90–120.
     pub marker_arc_deg: f64,
+    /// Range of each marker's soft-tissue artefact amplitude (its largest displacement over
+    /// the trial), mm, drawn per marker, for the `skin`, `hard` and `messy` presets
+    /// (0 ≤ min ≤ max). Default (5, 15), whatever the range of motion; real walks' soft
+    /// tissue moves about half as much (see the README).
+    pub skin_mm: (f64, f64),
 }
 
 impl Default for SynthConfig {
@@ -55,6 +60,7 @@ impl Default for SynthConfig {
             markers_per_segment: (3, 6),
             sweep: (0.7, 0.95),
             marker_arc_deg: 360.0,
+            skin_mm: (5.0, 15.0),
         }
     }
 }
@@ -88,6 +94,10 @@ pub const CONFIG_DOCS: &[(&str, &str)] = &[
     (
         "marker_arc_deg",
         "arc of directions around each segment's bone its markers sit in, degrees, centred on a random side per segment (0 < arc <= 360); default 360 (all round; one-sided real limb sets nearer 90-120)",
+    ),
+    (
+        "skin_mm",
+        "[min, max] of each marker's soft-tissue artefact amplitude (largest displacement over the trial) in mm, drawn per marker (skin, hard and messy presets; 0 <= min <= max); default [5, 15], whatever the range of motion",
     ),
 ];
 
@@ -129,6 +139,13 @@ impl SynthConfig {
             return bad(
                 "marker_arc_deg",
                 format!("is {arc}, must satisfy 0 < arc <= 360"),
+            );
+        }
+        let (lo, hi) = self.skin_mm;
+        if !(lo.is_finite() && hi.is_finite() && 0.0 <= lo && lo <= hi) {
+            return bad(
+                "skin_mm",
+                format!("is ({lo}, {hi}) mm, must satisfy 0 <= min <= max"),
             );
         }
         Ok(())

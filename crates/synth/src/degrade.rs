@@ -10,8 +10,6 @@ use crate::markers::MarkerSet;
 use crate::motion::Motion;
 use crate::truth::{TruthGap, TruthSwap};
 
-/// Soft-tissue artefact amplitude range per marker (largest displacement over the trial), mm.
-pub(crate) const SKIN_AMPLITUDE_MM: [f64; 2] = [5.0, 15.0];
 /// Share of the trial a label swap lasts.
 pub(crate) const SWAP_FRACTION: f64 = 0.15;
 /// Short holes: probability that a marker gets any.
@@ -31,11 +29,13 @@ pub(crate) const MARKERS_PER_LONG_GAP: usize = 15;
 /// Each joint touching the marker's segment drives the displacement with its first angle
 /// (rescaled to [−1, 1]); the direction is half a segment-wide vector shared by the
 /// segment's markers and half the marker's own, weighted by closeness to the joint;
-/// the result is scaled so its largest length over the trial is 5–15 mm.
+/// the result is scaled so its largest length over the trial is drawn in `amplitude_mm`
+/// (the config's `skin_mm`, 5–15 mm by default).
 pub(crate) fn skin(
     body: &Body,
     motion: &Motion,
     markers: &MarkerSet,
+    amplitude_mm: (f64, f64),
     rng: &mut ChaCha8Rng,
 ) -> Vec<DVec3> {
     let n = markers.labels.len();
@@ -64,7 +64,7 @@ pub(crate) fn skin(
             let dir = 0.5 * shared[j][side] + 0.5 * random_unit(rng);
             drivers.push((j, dir * weight));
         }
-        let amplitude = rng.random_range(SKIN_AMPLITUDE_MM[0]..=SKIN_AMPLITUDE_MM[1]);
+        let amplitude = rng.random_range(amplitude_mm.0..=amplitude_mm.1);
         let mut largest: f64 = 0.0;
         for f in 0..frames {
             let d: DVec3 = drivers

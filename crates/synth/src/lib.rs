@@ -115,6 +115,7 @@ pub fn generate(config: &SynthConfig) -> Result<Trial, Error> {
             &body,
             &motion,
             &markers,
+            config.skin_mm,
             &mut rng(config.seed, Stream::Skin),
         )
     });

@@ -733,3 +733,40 @@ fn a_marker_arc_puts_each_segments_markers_on_one_side_of_its_bone() {
         assert!(bad.validate().is_err(), "{arc}");
     }
 }
+
+/// `skin_mm` sets each marker's largest soft-tissue displacement: against the clean twin
+/// (the same body, markers and motion), every marker of a `skin` trial at 2–2 mm moves by
+/// at most 2 mm and reaches it; a range below 0 or upside down is refused.
+#[test]
+fn skin_amplitude_follows_the_configured_range() {
+    let of = |preset, skin_mm| {
+        generate(&SynthConfig {
+            preset,
+            frames: 120,
+            seed: 3,
+            skin_mm,
+            ..SynthConfig::default()
+        })
+        .expect("trial")
+    };
+    let clean = of(Preset::Clean, (2.0, 2.0));
+    let skin = of(Preset::Skin, (2.0, 2.0));
+    let (c, s) = (&clean.trajectories, &skin.trajectories);
+    let n = c.markers();
+    for m in 0..n {
+        let largest = (0..c.frames())
+            .map(|f| {
+                let (a, b) = (c.positions()[f * n + m], s.positions()[f * n + m]);
+                ((a[0] - b[0]).powi(2) + (a[1] - b[1]).powi(2) + (a[2] - b[2]).powi(2)).sqrt()
+            })
+            .fold(0.0, f64::max);
+        assert!((largest - 2.0).abs() < 0.01, "marker {m}: {largest} mm");
+    }
+    for skin_mm in [(-1.0, 2.0), (3.0, 2.0), (0.0, f64::NAN)] {
+        let bad = SynthConfig {
+            skin_mm,
+            ..SynthConfig::default()
+        };
+        assert!(bad.validate().is_err(), "{skin_mm:?}");
+    }
+}
