@@ -9,8 +9,8 @@
 //! (from the truth), the limit skin puts on every method here; and `score-floor`: plain
 //! SCoRE on the same poses with every hinge's place along its axis taken from the truth,
 //! what the poses themselves allow a fit that reads nothing but them (below it only a
-//! prior on where joints sit can go). Over a seed range, a last table gives each line's
-//! mean % of height over the seeds.
+//! prior on where joints sit can go; given a SUBJECT, also per joint). Over a seed range,
+//! a last table gives each line's mean % of height over the seeds.
 #![allow(clippy::print_stdout)]
 
 use std::collections::BTreeSet;
