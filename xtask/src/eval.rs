@@ -1136,18 +1136,20 @@ mod tests {
         assert_eq!(settings["noise_mm"], json!(0.5));
         assert_eq!(settings["marker_arc_deg"], json!(120.0));
         assert_eq!(settings["frames"], json!(480));
-        for bad in ["0.5:0.2", "0:0.3", "0.3:1.5"] {
+        // The error a suite with `extra` arguments is refused with.
+        let refused = |extra: &[&str]| {
             let mut line = base.to_vec();
-            line.extend(["--sweep", bad]);
-            let err = format!("{:#}", suite(&parse(&line)).unwrap_err());
+            line.extend(extra);
+            format!("{:#}", suite(&parse(&line)).unwrap_err())
+        };
+        for bad in ["0.5:0.2", "0:0.3", "0.3:1.5"] {
+            let err = refused(&["--sweep", bad]);
             assert!(
                 err.contains("--sweep") && err.contains("`sweep`"),
                 "{bad}: {err}"
             );
         }
-        let mut line = base.to_vec();
-        line.extend(["--marker-arc", "400"]);
-        let err = format!("{:#}", suite(&parse(&line)).unwrap_err());
+        let err = refused(&["--marker-arc", "400"]);
         assert!(
             err.contains("--marker-arc") && err.contains("marker_arc_deg"),
             "{err}"
@@ -1157,18 +1159,15 @@ mod tests {
         line.extend(["--skin", "2.5:7.5"]);
         let specs = suite(&parse(&line)).unwrap();
         assert_eq!(specs[0].config.skin_mm, (2.5, 7.5));
+        // `=`: a value starting with '-' would read as another option.
         for bad in ["--skin=7:3", "--skin=-1:2"] {
-            let mut line = base.to_vec();
-            line.push(bad);
-            let err = format!("{:#}", suite(&parse(&line)).unwrap_err());
+            let err = refused(&[bad]);
             assert!(
                 err.contains("--skin") && err.contains("skin_mm"),
                 "{bad}: {err}"
             );
         }
-        let mut line = base.to_vec();
-        line.extend(["--skin", "a:3"]);
-        let err = format!("{:#}", suite(&parse(&line)).unwrap_err());
+        let err = refused(&["--skin", "a:3"]);
         assert!(err.contains("--skin a:3"), "{err}");
     }
 

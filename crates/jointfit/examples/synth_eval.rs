@@ -301,78 +301,79 @@ fn fitted_pose(fits: &jointfit::PairFits, s: usize, f: usize) -> Option<Pose> {
 /// segments. A ridge of 1e-6 (of the normal matrix's scale, at most 2) pulls only the
 /// undetermined directions to the truth.
 fn score_floor(fits: &jointfit::PairFits, truth: &synth::Truth) -> Vec<Option<f64>> {
+    truth
+        .joints
+        .iter()
+        .map(|j| joint_score_floor(fits, j))
+        .collect()
+}
+
+/// [`score_floor`] for one true joint.
+fn joint_score_floor(fits: &jointfit::PairFits, j: &synth::TruthJoint) -> Option<f64> {
     const RIDGE: f64 = 1e-6;
-    let mut per_joint = Vec::with_capacity(truth.joints.len());
-    for j in &truth.joints {
-        per_joint.push(None);
-        let (a, b) = (j.parent_segment, j.child_segment);
-        let at = |f: usize| DVec3::from_array(j.positions[f]);
-        let frames = j.positions.len();
-        let both: Vec<(usize, Pose, Pose)> = (0..frames)
-            .filter_map(|f| Some((f, fitted_pose(fits, a, f)?, fitted_pose(fits, b, f)?)))
-            .collect();
-        if both.is_empty() {
-            continue;
-        }
-        // The truth's centre in each frame, averaged over the frames: the ridge's target.
-        let n = both.len() as f64;
-        let target_a = both
-            .iter()
-            .map(|(f, (q, t), _)| q.inverse() * (at(*f) - *t))
-            .sum::<DVec3>()
-            / n;
-        let target_b = both
-            .iter()
-            .map(|(f, _, (q, t))| q.inverse() * (at(*f) - *t))
-            .sum::<DVec3>()
-            / n;
-        // Normal equations of [R_a  −R_b][c_a; c_b] = t_b − t_a, divided by the frame count.
-        let mut normal = [[0.0f64; 6]; 6];
-        let mut rhs = [0.0f64; 6];
-        for (_, (qa, ta), (qb, tb)) in &both {
-            let (ra, rb) = (glam::DMat3::from_quat(*qa), glam::DMat3::from_quat(*qb));
-            let d = *tb - *ta;
-            let block = [ra, -rb];
-            for (i, row) in normal.iter_mut().enumerate() {
-                for (k, x) in row.iter_mut().enumerate() {
-                    // Column i of [R_a −R_b] dotted with column k.
-                    let ci = block[i / 3].col(i % 3);
-                    let ck = block[k / 3].col(k % 3);
-                    *x += ci.dot(ck) / n;
-                }
-                rhs[i] += block[i / 3].col(i % 3).dot(d) / n;
+    let (a, b) = (j.parent_segment, j.child_segment);
+    let at = |f: usize| DVec3::from_array(j.positions[f]);
+    let frames = j.positions.len();
+    let both: Vec<(usize, Pose, Pose)> = (0..frames)
+        .filter_map(|f| Some((f, fitted_pose(fits, a, f)?, fitted_pose(fits, b, f)?)))
+        .collect();
+    if both.is_empty() {
+        return None;
+    }
+    // The truth's centre in each frame, averaged over the frames: the ridge's target.
+    let n = both.len() as f64;
+    let target_a = both
+        .iter()
+        .map(|(f, (q, t), _)| q.inverse() * (at(*f) - *t))
+        .sum::<DVec3>()
+        / n;
+    let target_b = both
+        .iter()
+        .map(|(f, _, (q, t))| q.inverse() * (at(*f) - *t))
+        .sum::<DVec3>()
+        / n;
+    // Normal equations of [R_a  −R_b][c_a; c_b] = t_b − t_a, divided by the frame count.
+    let mut normal = [[0.0f64; 6]; 6];
+    let mut rhs = [0.0f64; 6];
+    for (_, (qa, ta), (qb, tb)) in &both {
+        let (ra, rb) = (glam::DMat3::from_quat(*qa), glam::DMat3::from_quat(*qb));
+        let d = *tb - *ta;
+        let block = [ra, -rb];
+        for (i, row) in normal.iter_mut().enumerate() {
+            for (k, x) in row.iter_mut().enumerate() {
+                // Column i of [R_a −R_b] dotted with column k.
+                let ci = block[i / 3].col(i % 3);
+                let ck = block[k / 3].col(k % 3);
+                *x += ci.dot(ck) / n;
             }
-        }
-        let target = [
-            target_a.x, target_a.y, target_a.z, target_b.x, target_b.y, target_b.z,
-        ];
-        for i in 0..6 {
-            normal[i][i] += RIDGE;
-            rhs[i] += RIDGE * target[i];
-        }
-        let Some(x) = solve6(normal, rhs) else {
-            continue;
-        };
-        let (ca, cb) = (DVec3::new(x[0], x[1], x[2]), DVec3::new(x[3], x[4], x[5]));
-        // A hinge's true axis in the parent's frame, from the first frame it is posed.
-        let axis_in_parent = j.axis.and_then(|axis| {
-            let (q, _) = fitted_pose(fits, a, 0)?;
-            Some(q.inverse() * DVec3::from_array(axis))
-        });
-        let mut sum = 0.0;
-        for (f, (qa, ta), (qb, tb)) in &both {
-            let mut e = 0.5 * ((*qa * ca + *ta) + (*qb * cb + *tb)) - at(*f);
-            if let Some(u) = axis_in_parent {
-                let u = *qa * u;
-                e -= u * e.dot(u);
-            }
-            sum += e.length();
-        }
-        if let Some(slot) = per_joint.last_mut() {
-            *slot = Some(sum / n);
+            rhs[i] += block[i / 3].col(i % 3).dot(d) / n;
         }
     }
-    per_joint
+    let target = [
+        target_a.x, target_a.y, target_a.z, target_b.x, target_b.y, target_b.z,
+    ];
+    for i in 0..6 {
+        normal[i][i] += RIDGE;
+        rhs[i] += RIDGE * target[i];
+    }
+    let x = solve6(normal, rhs)?;
+    let (ca, cb) = (DVec3::new(x[0], x[1], x[2]), DVec3::new(x[3], x[4], x[5]));
+    // A hinge's true axis in the parent's frame, from frame 0, where the truth gives it
+    // (the parent unposed there, the error along the axis counts too).
+    let axis_in_parent = j.axis.and_then(|axis| {
+        let (q, _) = fitted_pose(fits, a, 0)?;
+        Some(q.inverse() * DVec3::from_array(axis))
+    });
+    let mut sum = 0.0;
+    for (f, (qa, ta), (qb, tb)) in &both {
+        let mut e = 0.5 * ((*qa * ca + *ta) + (*qb * cb + *tb)) - at(*f);
+        if let Some(u) = axis_in_parent {
+            let u = *qa * u;
+            e -= u * e.dot(u);
+        }
+        sum += e.length();
+    }
+    Some(sum / n)
 }
 
 /// Solves a 6×6 linear system by Gaussian elimination with partial pivoting.
