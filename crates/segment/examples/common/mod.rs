@@ -33,6 +33,8 @@ pub fn generate(subject: Subject, preset: Preset, frames: usize, seed: u64) -> T
         .unwrap_or(defaults.noise_mm);
     // `SWEEP=MIN:MAX` sets the share of each joint's range the trial sweeps.
     let sweep = env_range("SWEEP").unwrap_or(defaults.sweep);
+    // `SKIN=MIN:MAX` sets each marker's soft-tissue amplitude, mm (skin, hard, messy).
+    let skin_mm = env_range("SKIN").unwrap_or(defaults.skin_mm);
     synth::generate(&SynthConfig {
         subject,
         preset,
@@ -41,6 +43,7 @@ pub fn generate(subject: Subject, preset: Preset, frames: usize, seed: u64) -> T
         markers_per_segment,
         noise_mm,
         sweep,
+        skin_mm,
         ..defaults
     })
     .expect("synthetic trial")
