@@ -19,26 +19,18 @@ use std::collections::BTreeMap;
 
 fn main() {
     let args: Vec<String> = std::env::args().skip(1).collect();
-    let subject: synth::Subject = args
-        .first()
-        .and_then(|s| s.parse().ok())
-        .unwrap_or(synth::Subject::Human);
-    let preset: synth::Preset = args
-        .get(1)
-        .and_then(|s| s.parse().ok())
-        .unwrap_or(synth::Preset::Hard);
-    let seeds: Vec<u64> = match args.get(2).map(|s| s.split_once("..")) {
-        Some(Some((first, last))) => match (first.parse(), last.parse()) {
-            (Ok(first), Ok(last)) => (first..=last).collect(),
-            _ => vec![1],
-        },
-        Some(None) => vec![args[2].parse().unwrap_or(1)],
+    let (subject, preset) = common::subject_and_preset(&args);
+    let seeds = match args.get(2) {
         None => vec![1],
+        Some(arg) => common::seeds(arg).unwrap_or_else(|| {
+            eprintln!("SEEDS: a seed or a range FIRST..LAST, not {arg:?}");
+            std::process::exit(2)
+        }),
     };
     let frames: usize = args.get(3).and_then(|s| s.parse().ok()).unwrap_or(480);
     let params = segment::Params::default();
     let mut every_joint_cut = 0;
-    let mut below: BTreeMap<String, (usize, usize)> = BTreeMap::new();
+    let mut missed_by_joint: BTreeMap<String, (usize, usize)> = BTreeMap::new();
     for &seed in &seeds {
         let trial = common::generate(subject, preset, frames, seed);
         let traj = &trial.trajectories;
@@ -72,11 +64,9 @@ fn main() {
                 )
             });
             all_cut &= cut;
-            let tally = below.entry(j.name.clone()).or_default();
+            let tally = missed_by_joint.entry(j.name.clone()).or_default();
+            tally.0 += usize::from(!cut);
             tally.1 += 1;
-            if !cut {
-                tally.0 += 1;
-            }
             let verdict = if cut { "cut" } else { "below" };
             match evidence {
                 Some(e) => println!(
@@ -96,7 +86,10 @@ fn main() {
             "\n{subject} {preset}, {} seeds: every true joint cut in {every_joint_cut} trials",
             seeds.len()
         );
-        for (name, (missed, of)) in below.iter().filter(|(_, (missed, _))| *missed > 0) {
+        for (name, (missed, of)) in missed_by_joint
+            .iter()
+            .filter(|(_, (missed, _))| *missed > 0)
+        {
             println!("  {name:<18} below the test in {missed} of {of}");
         }
     }

@@ -8,6 +8,14 @@ use synth::{Preset, Subject, SynthConfig, Trial};
 
 /// The trial named by `SUBJECT PRESET SEED [FRAMES]` (defaults: human, hard, 1, `frames`).
 pub fn trial_from_args(args: &[String], frames: usize) -> Trial {
+    let (subject, preset) = subject_and_preset(args);
+    let seed: u64 = args.get(2).and_then(|s| s.parse().ok()).unwrap_or(1);
+    let frames: usize = args.get(3).and_then(|s| s.parse().ok()).unwrap_or(frames);
+    generate(subject, preset, frames, seed)
+}
+
+/// The subject and preset `SUBJECT PRESET ...` names (defaults: human, hard).
+pub fn subject_and_preset(args: &[String]) -> (Subject, Preset) {
     let subject: Subject = args
         .first()
         .and_then(|s| s.parse().ok())
@@ -16,9 +24,16 @@ pub fn trial_from_args(args: &[String], frames: usize) -> Trial {
         .get(1)
         .and_then(|s| s.parse().ok())
         .unwrap_or(Preset::Hard);
-    let seed: u64 = args.get(2).and_then(|s| s.parse().ok()).unwrap_or(1);
-    let frames: usize = args.get(3).and_then(|s| s.parse().ok()).unwrap_or(frames);
-    generate(subject, preset, frames, seed)
+    (subject, preset)
+}
+
+/// Seeds from one argument: a seed or an inclusive range `FIRST..LAST`; `None` when it is
+/// neither.
+pub fn seeds(arg: &str) -> Option<Vec<u64>> {
+    match arg.split_once("..") {
+        Some((first, last)) => Some((first.parse().ok()?..=last.parse().ok()?).collect()),
+        None => Some(vec![arg.parse().ok()?]),
+    }
 }
 
 /// The synthetic trial of one subject, preset, length and seed.
