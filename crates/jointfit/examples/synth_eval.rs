@@ -109,16 +109,7 @@ fn evaluate(
     let truth = &trial.truth;
     let traj = &trial.trajectories;
     let segments: Vec<Vec<usize>> = trial.true_segment_markers();
-    let true_edges: BTreeSet<(usize, usize)> = truth
-        .joints
-        .iter()
-        .map(|j| {
-            (
-                j.parent_segment.min(j.child_segment),
-                j.parent_segment.max(j.child_segment),
-            )
-        })
-        .collect();
+    let true_edges: BTreeSet<(usize, usize)> = truth.joints.iter().map(segment_pair).collect();
     for (name, method, anchor) in [
         ("score", Method::Score, true),
         ("no-anch", Method::Score, false),
@@ -142,10 +133,7 @@ fn evaluate(
                 .joints
                 .iter()
                 .filter_map(|j| {
-                    let (a, b) = (
-                        j.parent_segment.min(j.child_segment),
-                        j.parent_segment.max(j.child_segment),
-                    );
+                    let (a, b) = segment_pair(j);
                     let idx = fits.pairs.iter().position(|p| p.a == a && p.b == b)?;
                     Some((idx, j.parent_segment, j.child_segment))
                 })
@@ -155,10 +143,7 @@ fn evaluate(
         let secs = start.elapsed().as_secs_f64();
         let (mut sum, mut worst, mut known, mut total, mut hinge_ok) = (0.0, 0.0f64, 0, 0, 0);
         for j in &truth.joints {
-            let (a, b) = (
-                j.parent_segment.min(j.child_segment),
-                j.parent_segment.max(j.child_segment),
-            );
+            let (a, b) = segment_pair(j);
             let Some(fit) = fits.pairs.iter().find(|p| p.a == a && p.b == b) else {
                 continue;
             };
@@ -376,30 +361,13 @@ fn joint_score_floor(fits: &jointfit::PairFits, j: &synth::TruthJoint) -> Option
     Some(sum / n)
 }
 
-/// Solves a 6×6 linear system by Gaussian elimination with partial pivoting.
-#[allow(clippy::needless_range_loop)] // Index loops read like the elimination they do.
-fn solve6(mut m: [[f64; 6]; 6], mut r: [f64; 6]) -> Option<[f64; 6]> {
-    for c in 0..6 {
-        let p = (c..6).max_by(|&x, &y| m[x][c].abs().total_cmp(&m[y][c].abs()))?;
-        if m[p][c].abs() < 1e-300 {
-            return None;
-        }
-        m.swap(c, p);
-        r.swap(c, p);
-        for row in c + 1..6 {
-            let k = m[row][c] / m[c][c];
-            for col in c..6 {
-                m[row][col] -= k * m[c][col];
-            }
-            r[row] -= k * r[c];
-        }
-    }
-    let mut x = [0.0; 6];
-    for c in (0..6).rev() {
-        let s: f64 = (c + 1..6).map(|k| m[c][k] * x[k]).sum();
-        x[c] = (r[c] - s) / m[c][c];
-    }
-    Some(x)
+/// Solves a 6×6 linear system (faer's LU with partial pivoting); `None` when singular.
+fn solve6(m: [[f64; 6]; 6], r: [f64; 6]) -> Option<[f64; 6]> {
+    use faer::linalg::solvers::Solve;
+    let lu = faer::Mat::from_fn(6, 6, |i, k| m[i][k]).partial_piv_lu();
+    let x = lu.solve(faer::Mat::from_fn(6, 1, |i, _| r[i]));
+    let x: [f64; 6] = std::array::from_fn(|i| x[(i, 0)]);
+    x.iter().all(|v| v.is_finite()).then_some(x)
 }
 
 /// Mean joint error (mm) of the truth's joints placed at their mean position in each
@@ -424,10 +392,7 @@ fn constant_centre_floor(fits: &jointfit::PairFits, truth: &synth::Truth) -> (f6
     for j in &truth.joints {
         let at = |f: usize| DVec3::from_array(j.positions[f]);
         let frames = j.positions.len();
-        let (a, b) = (
-            j.parent_segment.min(j.child_segment),
-            j.parent_segment.max(j.child_segment),
-        );
+        let (a, b) = segment_pair(j);
         let means: Vec<DVec3> = [a, b]
             .into_iter()
             .map(|s| {
@@ -490,4 +455,12 @@ fn mst(n: usize, fits: &jointfit::PairFits) -> BTreeSet<(usize, usize)> {
         }
     }
     edges
+}
+
+/// The two segments a true joint joins, lower index first (as the pair fits name them).
+fn segment_pair(j: &synth::TruthJoint) -> (usize, usize) {
+    (
+        j.parent_segment.min(j.child_segment),
+        j.parent_segment.max(j.child_segment),
+    )
 }
