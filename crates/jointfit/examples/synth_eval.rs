@@ -9,8 +9,14 @@
 //! (from the truth), the limit skin puts on every method here; and `score-floor`: plain
 //! SCoRE on the same poses with every hinge's place along its axis taken from the truth,
 //! what the poses themselves allow a fit that reads nothing but them (below it only a
-//! prior on where joints sit can go; given a SUBJECT, also per joint). Over a seed range,
-//! a last table gives each line's mean % of height over the seeds.
+//! prior on where joints sit can go; given a SUBJECT, also per joint). `along`: how far
+//! the bone placement (`place_hinges_across_bones` over the true tree, as bonefit runs
+//! it) leaves the true hinges fitted as hinges from the truth along their true axes, and
+//! the same with the truth's axes given to the placement (what the fitted axes' tilt
+//! costs), with how far the fitted axes are off and that over the tilt bound the
+//! placement assumes (RMS per tilt component: 1 when the bound is right on average).
+//! Over a seed range, a last table gives each line's mean % of height over the seeds
+//! (`tilt/bound`: the mean ratio).
 #![allow(clippy::print_stdout)]
 
 use std::collections::BTreeSet;
@@ -129,15 +135,7 @@ fn evaluate(
         let mut fits = run_on_segments(traj, &segments, &params)?;
         if name.ends_with("+h") {
             // Hinge centres placed from the TRUE tree.
-            let edges: Vec<(usize, usize, usize)> = truth
-                .joints
-                .iter()
-                .filter_map(|j| {
-                    let (a, b) = segment_pair(j);
-                    let idx = fits.pairs.iter().position(|p| p.a == a && p.b == b)?;
-                    Some((idx, j.parent_segment, j.child_segment))
-                })
-                .collect();
+            let edges = true_tree_edges(&fits, truth);
             jointfit::place_hinge_centres(&mut fits, &edges);
         }
         let secs = start.elapsed().as_secs_f64();
@@ -221,6 +219,30 @@ fn evaluate(
     let fits = run_on_segments(traj, &segments, &Params::default())?;
     let (floor, fit_fits_better) = constant_centre_floor(&fits, truth);
     let h = truth.height_mm / 100.0;
+    if let Some(along) = along_axis(&fits, truth) {
+        let n = along.hinges as f64;
+        // Per tilt component: an isotropic tilt of σ per component has E[angle²] = 2σ².
+        let over_bound = (along.bounded > 0)
+            .then(|| (along.tilt_over_bound_sq / (2.0 * along.bounded as f64)).sqrt());
+        println!(
+            "{:<28} {:<11} {:>8.2} {:>7.3}   (true axes {:.2} mm, {:.3} %; {} hinges, axes {:.1}° off, {} × the placement's tilt bound)",
+            trial.name,
+            "along",
+            along.fitted_mm / n,
+            along.fitted_mm / n / h,
+            along.true_axes_mm / n,
+            along.true_axes_mm / n / h,
+            along.hinges,
+            along.tilt_deg / n,
+            over_bound.map_or("-".to_string(), |r| format!("{r:.2}"))
+        );
+        let key = |line| (subject.name(), preset.name(), line);
+        tally(summary, key("along"), along.fitted_mm / n / h);
+        tally(summary, key("along-ta"), along.true_axes_mm / n / h);
+        if let Some(r) = over_bound {
+            tally(summary, key("tilt/bound"), r);
+        }
+    }
     // On clean data both residuals are rounding error: nothing to compare.
     let versus = if floor > 0.5 {
         format!(
@@ -463,4 +485,124 @@ fn segment_pair(j: &synth::TruthJoint) -> (usize, usize) {
         j.parent_segment.min(j.child_segment),
         j.parent_segment.max(j.child_segment),
     )
+}
+
+/// The true tree's joints as `(pair index, parent segment, child segment)` of `fits`
+/// (joints whose pair was not fitted left out).
+fn true_tree_edges(fits: &jointfit::PairFits, truth: &synth::Truth) -> Vec<(usize, usize, usize)> {
+    truth
+        .joints
+        .iter()
+        .filter_map(|j| {
+            let (a, b) = segment_pair(j);
+            let idx = fits.pairs.iter().position(|p| p.a == a && p.b == b)?;
+            Some((idx, j.parent_segment, j.child_segment))
+        })
+        .collect()
+}
+
+/// Sums over the true hinges fitted as hinges of [`along_axis`].
+struct AlongAxis {
+    /// Mean over frames of the placed centre's error along the true axis, |mm|, summed.
+    fitted_mm: f64,
+    /// The same with the truth's axes given to the placement.
+    true_axes_mm: f64,
+    /// Angle between the fitted and the true axis, degrees, summed.
+    tilt_deg: f64,
+    /// (That angle over the placement's tilt bound)², summed where the bound is not 0
+    /// (noise-free poses have none).
+    tilt_over_bound_sq: f64,
+    /// Hinges with a bound.
+    bounded: usize,
+    /// Hinges summed.
+    hinges: usize,
+}
+
+/// Where `jointfit::place_hinges_across_bones` leaves the true hinges along their true
+/// axes (the true tree, directed as bonefit directs it), with the fitted axes and with the
+/// truth's; `None` without a true hinge fitted as a hinge.
+fn along_axis(fits: &jointfit::PairFits, truth: &synth::Truth) -> Option<AlongAxis> {
+    let edges = true_tree_edges(fits, truth);
+    let place = |fits: &mut jointfit::PairFits| {
+        let steadiest = jointfit::steadiest_orientation(fits, &edges);
+        let direction = match steadiest {
+            Some(_) => jointfit::EdgeDirection::Steadiest,
+            None => jointfit::EdgeDirection::TreeRoot,
+        };
+        let directed = steadiest.unwrap_or_else(|| edges.clone());
+        jointfit::place_hinges_across_bones(fits, &directed, direction);
+    };
+    // A true hinge's axis in segment s's frame (from frame 0, where the truth gives it).
+    let axis_in = |j: &synth::TruthJoint, s: usize| -> Option<DVec3> {
+        let (q, _) = fitted_pose(fits, s, 0)?;
+        Some(q.inverse() * DVec3::from_array(j.axis?))
+    };
+    let hinge = |f: &jointfit::PairFits, j: &synth::TruthJoint| {
+        let (a, b) = segment_pair(j);
+        f.pairs.iter().position(|p| {
+            p.a == a && p.b == b && p.kind == JointKind::Hinge && p.axis_in_a.is_some()
+        })
+    };
+    let mut fitted = fits.clone();
+    place(&mut fitted);
+    let mut true_axes = fits.clone();
+    for j in &truth.joints {
+        let Some(k) = hinge(fits, j) else { continue };
+        let (a, b) = segment_pair(j);
+        if let (Some(ua), Some(ub)) = (axis_in(j, a), axis_in(j, b)) {
+            true_axes.pairs[k].axis_in_a = Some(ua.to_array());
+            true_axes.pairs[k].axis_in_b = Some(ub.to_array());
+        }
+    }
+    place(&mut true_axes);
+    // Mean over frames of the signed error along the true axis, |mm|.
+    let along = |f: &jointfit::PairFits, k: usize, j: &synth::TruthJoint, local: DVec3| {
+        let fit = &f.pairs[k];
+        let (mut sum, mut n) = (0.0, 0usize);
+        for (frame, p) in fit.positions.iter().enumerate() {
+            let Some((q, _)) = fitted_pose(f, fit.a, frame) else {
+                continue;
+            };
+            if p[0].is_finite() {
+                sum +=
+                    (q * local).dot(DVec3::from_array(*p) - DVec3::from_array(j.positions[frame]));
+                n += 1;
+            }
+        }
+        (n > 0).then(|| (sum / n as f64).abs())
+    };
+    let mut out = AlongAxis {
+        fitted_mm: 0.0,
+        true_axes_mm: 0.0,
+        tilt_deg: 0.0,
+        tilt_over_bound_sq: 0.0,
+        bounded: 0,
+        hinges: 0,
+    };
+    for j in &truth.joints {
+        let Some(k) = hinge(fits, j) else { continue };
+        let fit = &fits.pairs[k];
+        let (Some(local), Some(u)) = (axis_in(j, fit.a), fit.axis_in_a) else {
+            continue;
+        };
+        let (Some(x), Some(y)) = (along(&fitted, k, j, local), along(&true_axes, k, j, local))
+        else {
+            continue;
+        };
+        // An axis is a line: its sign is free.
+        let angle = local.angle_between(DVec3::from_array(u));
+        let tilt = angle.min(std::f64::consts::PI - angle);
+        // The placement's bound: the axis's standard error from its wobble, or skin's tilt.
+        let bound = (fit.wobble_deg[0].to_radians() / (fit.frames_used.max(1) as f64).sqrt())
+            .max(jointfit::skin_tilt(fits, fit));
+        out.fitted_mm += x;
+        out.true_axes_mm += y;
+        out.tilt_deg += tilt.to_degrees();
+        if bound > 0.0 {
+            out.tilt_over_bound_sq += (tilt / bound).powi(2);
+            out.bounded += 1;
+        }
+        out.hinges += 1;
+    }
+    (out.hinges > 0).then_some(out)
 }

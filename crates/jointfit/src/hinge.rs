@@ -350,7 +350,8 @@ fn parent_row_floors(
 /// that tilt; its size is about the two poses' smooth rotation error over the hinge's
 /// rotation RMS, `atan(√(θ_a² + θ_b²) / rms)` ([`smooth_pose_rotation`]). White noise
 /// does not follow the angle and averages out of the axis: it counts for nothing here.
-fn skin_tilt(fits: &PairFits, fit: &PairFit) -> f64 {
+/// Public so that diagnostics can compare it with the truth (`synth_eval`).
+pub fn skin_tilt(fits: &PairFits, fit: &PairFit) -> f64 {
     let range = fit.rotation_rms_deg.to_radians();
     let pose = |x: usize| fits.poses.get(x).map_or(0.0, smooth_pose_rotation);
     let turn = pose(fit.a).hypot(pose(fit.b));

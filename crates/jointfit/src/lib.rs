@@ -76,7 +76,7 @@ mod universal;
 pub use error::Error;
 pub use hinge::{
     EdgeDirection, HingePlacements, centre_gain, place_hinge_centres, place_hinges_across_bones,
-    slide_hinge_centre, steadiest_orientation,
+    skin_tilt, slide_hinge_centre, steadiest_orientation,
 };
 pub use horn::{RigidFit, absolute_orientation, rotation_from_cross_covariance};
 pub use pairfits::*;
