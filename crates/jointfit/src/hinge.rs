@@ -668,7 +668,7 @@ struct ShiftRow {
     sibling: Option<(usize, DVec3)>,
     /// The share of the row's variance its hinge's axis tilt puts there, and in which
     /// segment's frame `across` is: one tilt moves every row of a hinge (see
-    /// [`with_shared_tilts`]).
+    /// [`TiltSlots`]).
     tilt: Option<RowTilt>,
 }
 
@@ -893,7 +893,7 @@ pub struct HingePlacements {
 ///
 /// In that final solve the axis's tilt is not an independent error of each joint and
 /// marker row but one per hinge that moves them all by where they lie across the axis
-/// ([`with_shared_tilts`]): rows on both sides of the axis read it from their
+/// ([`TiltSlots`]): rows on both sides of the axis read it from their
 /// disagreement. The judgements before it (which side is square, which parent rows
 /// count) take each row's tilt share as its own variance.
 ///
@@ -1245,8 +1245,8 @@ pub fn place_hinges_across_bones(
             )
         })
         .collect();
-    let (rows, total) = with_shared_tilts(&rows, count, &tilts);
-    let Some(s) = solve_rows(&rows, total) else {
+    let slots = TiltSlots::new(count, &tilts);
+    let Some(s) = solve_rows(&slots.rows(&rows), slots.total) else {
         return placed;
     };
     for (e, &(pair, _, _)) in edges.iter().enumerate() {
@@ -1648,9 +1648,8 @@ impl SharedTilt {
     }
 }
 
-/// `rows` with every hinge's axis tilt as two unknowns of its own (after the `count`
-/// shifts, in `tilts` order) instead of a variance share per row, and a prior row per
-/// tilt coordinate (σ from [`skin_tilt`]); and how many unknowns that makes.
+/// Every hinge's axis tilt as two unknowns of its own, after the `count` shifts (in
+/// `tilts` order), in place of a variance share per row.
 ///
 /// A tilt δ of the fitted axis moves what a row says by δ·across: rows on one side of the
 /// axis all one way, rows across it the other way. Taken as independent errors, the rows
@@ -1658,52 +1657,64 @@ impl SharedTilt {
 /// across the axis whose disagreement is that tilt (robot-arm-hard-s20026's third joint:
 /// its child link's joint and markers both 73-99 mm off along an axis 25° off, placed
 /// 87 mm from the truth). As shared unknowns the tilt is read from the rows' disagreement
-/// where they lie at different places across the axis, and held to its prior where not.
-fn with_shared_tilts(
-    rows: &[ShiftRow],
-    count: usize,
-    tilts: &[Option<SharedTilt>],
-) -> (Vec<ShiftRow>, usize) {
-    let mut slot = vec![None; count];
-    let mut total = count;
-    for tilt in tilts.iter().flatten() {
-        if tilt.hinge < count && slot[tilt.hinge].is_none() {
-            slot[tilt.hinge] = Some((total, tilt));
-            total += 2;
+/// where they lie at different places across the axis, and held to its prior (σ from
+/// [`skin_tilt`]) where not.
+struct TiltSlots<'a> {
+    /// Per shift unknown: the first of its two tilt unknowns, and its tilt.
+    slot: Vec<Option<(usize, &'a SharedTilt)>>,
+    /// Shifts and tilt coordinates together.
+    total: usize,
+}
+
+impl<'a> TiltSlots<'a> {
+    /// Slots for `tilts` after `count` shifts.
+    fn new(count: usize, tilts: &'a [Option<SharedTilt>]) -> Self {
+        let mut slot = vec![None; count];
+        let mut total = count;
+        for tilt in tilts.iter().flatten() {
+            if tilt.hinge < count && slot[tilt.hinge].is_none() {
+                slot[tilt.hinge] = Some((total, tilt));
+                total += 2;
+            }
         }
+        Self { slot, total }
     }
-    let mut out: Vec<ShiftRow> = rows
-        .iter()
-        .map(|row| {
-            let mut row = row.clone();
-            let Some(share) = row.tilt else { return row };
-            let Some(Some((first, tilt))) = slot.get(share.hinge) else {
-                return row;
-            };
-            let Some(&(_, e1, e2)) = tilt.frames.iter().find(|f| f.0 == share.frame) else {
-                return row;
-            };
-            row.terms.push((*first, e1.dot(row.across)));
-            row.terms.push((*first + 1, e2.dot(row.across)));
-            let own = (1.0 / row.weight - share.variance).max(MIN_ROW_VARIANCE_MM2);
-            row.weight = 1.0 / own;
-            row
-        })
-        .collect();
-    for (first, tilt) in slot.iter().flatten() {
-        for index in [*first, *first + 1] {
-            out.push(ShiftRow {
-                terms: vec![(index, 1.0)],
-                b: 0.0,
-                weight: 1.0 / (tilt.sigma * tilt.sigma),
-                lever: 0.0,
-                across: DVec3::ZERO,
-                sibling: None,
-                tilt: None,
-            });
+
+    /// `row` with its hinge's tilt as unknowns and only its own variance; as it is when it
+    /// has no tilt share or its hinge no tilt.
+    fn shared(&self, row: &ShiftRow) -> ShiftRow {
+        let mut row = row.clone();
+        let Some(share) = row.tilt else { return row };
+        let Some(Some((first, tilt))) = self.slot.get(share.hinge) else {
+            return row;
+        };
+        let Some(&(_, e1, e2)) = tilt.frames.iter().find(|f| f.0 == share.frame) else {
+            return row;
+        };
+        row.terms.push((*first, e1.dot(row.across)));
+        row.terms.push((*first + 1, e2.dot(row.across)));
+        row.weight = 1.0 / (1.0 / row.weight - share.variance).max(MIN_ROW_VARIANCE_MM2);
+        row
+    }
+
+    /// `rows` shared ([`Self::shared`]) and a prior row per tilt coordinate.
+    fn rows(&self, rows: &[ShiftRow]) -> Vec<ShiftRow> {
+        let mut out: Vec<ShiftRow> = rows.iter().map(|row| self.shared(row)).collect();
+        for (first, tilt) in self.slot.iter().flatten() {
+            for index in [*first, *first + 1] {
+                out.push(ShiftRow {
+                    terms: vec![(index, 1.0)],
+                    b: 0.0,
+                    weight: 1.0 / (tilt.sigma * tilt.sigma),
+                    lever: 0.0,
+                    across: DVec3::ZERO,
+                    sibling: None,
+                    tilt: None,
+                });
+            }
         }
+        out
     }
-    (out, total)
 }
 
 /// Least variance (mm²) a row keeps once its tilt share is taken out.
@@ -2087,16 +2098,17 @@ mod tests {
             sigma,
             frames: [(1, DVec3::X, DVec3::Y), (0, DVec3::X, DVec3::Y)],
         };
-        let (shared_rows, total) = with_shared_tilts(&rows, 1, &[Some(tilt)]);
-        assert_eq!(total, 3);
-        let shared = solve_rows(&shared_rows, total).unwrap();
+        let tilts = [Some(tilt)];
+        let slots = TiltSlots::new(1, &tilts);
+        assert_eq!(slots.total, 3);
+        let shared = solve_rows(&slots.rows(&rows), slots.total).unwrap();
         assert!(independent > 10.0, "{independent}");
         assert!(shared[0].abs() < 1.0, "{shared:?}");
         assert!((shared[1] - sigma).abs() < 0.01, "{shared:?}");
         // Without a tilt to share (noise-free poses) the rows stay as they were.
-        let (same, count) = with_shared_tilts(&rows, 1, &[None]);
-        assert_eq!(count, 1);
-        assert!((solve_rows(&same, 1).unwrap()[0] - independent).abs() < 1e-9);
+        let slots = TiltSlots::new(1, &[None]);
+        assert_eq!(slots.total, 1);
+        assert!((solve_rows(&slots.rows(&rows), 1).unwrap()[0] - independent).abs() < 1e-9);
     }
 
     #[test]
