@@ -891,11 +891,11 @@ pub struct HingePlacements {
 ///   where their pair fit has one on the axis ([`composite_point_rows`]): two joints at
 ///   one tip, measured by two segments' poses where axes that skin tilts may not meet.
 ///
-/// In that final solve the axis's tilt is not an independent error of each joint and
-/// marker row but one per hinge that moves them all by where they lie across the axis
-/// ([`TiltSlots`]): rows on both sides of the axis read it from their
-/// disagreement. The judgements before it (which side is square, which parent rows
-/// count) take each row's tilt share as its own variance.
+/// In the child sides' solve, the parent rows' test against it and the final solve, the
+/// axis's tilt is not an independent error of each joint and marker row but one per
+/// hinge that moves them all by where they lie across the axis ([`TiltSlots`]): rows on
+/// both sides of the axis read it from their disagreement. Which side is square is
+/// judged with each row's tilt share as its own variance.
 ///
 /// Unlike [`place_hinge_centres`], nothing pulls from the parent side unchecked. The
 /// tree's direction says which side is the child, but a tree rooted elsewhere than the
@@ -1166,17 +1166,38 @@ pub fn place_hinges_across_bones(
             }
         }
     }
+    let tracks: Vec<_> = fits.poses.iter().map(pose_track).collect();
+    let tilts: Vec<Option<SharedTilt>> = edges
+        .iter()
+        .enumerate()
+        .map(|(e, &(_, parent, child))| {
+            let k = unknown[e]?;
+            let (_, Some(u_child)) = seen_from(e, child)? else {
+                return None;
+            };
+            let (_, Some(u_parent)) = seen_from(e, parent)? else {
+                return None;
+            };
+            SharedTilt::new(
+                k,
+                tilt(e),
+                (child, u_child, &tracks[child]),
+                (parent, u_parent, &tracks[parent]),
+            )
+        })
+        .collect();
+    let slots = TiltSlots::new(count, &tilts);
     // First solve: the child sides' evidence.
     let rows: Vec<ShiftRow> = hinges
         .iter()
         .flat_map(|(k, child, _)| with_markers(*k, child))
         .collect();
-    let Some(solution) = FirstSolve::of(&rows, count) else {
+    let Some(solution) = FirstSolve::of(&slots.rows(&rows), slots.total) else {
         return placed;
     };
     let guess = &solution.guess;
     let covariance = &solution.covariance;
-    let implied = |k: usize, row: &ShiftRow| solution.implied(k, row);
+    let implied = |k: usize, row: &ShiftRow| solution.implied(k, &slots.shared(row));
     // How often, in this capture, a parent's bone crosses a hinge axis squarely: most of
     // a limbed body's hinges, few of a random tree's. It sets the prior odds of every
     // parent-side row below (empirical Bayes, one step).
@@ -1225,27 +1246,6 @@ pub fn place_hinges_across_bones(
         fits, edges, &unknown, &seen_from, &residual, &tilt, &solution,
     );
     rows.extend(composite.iter().cloned());
-    let tracks: Vec<_> = fits.poses.iter().map(pose_track).collect();
-    let tilts: Vec<Option<SharedTilt>> = edges
-        .iter()
-        .enumerate()
-        .map(|(e, &(_, parent, child))| {
-            let k = unknown[e]?;
-            let (_, Some(u_child)) = seen_from(e, child)? else {
-                return None;
-            };
-            let (_, Some(u_parent)) = seen_from(e, parent)? else {
-                return None;
-            };
-            SharedTilt::new(
-                k,
-                tilt(e),
-                (child, u_child, &tracks[child]),
-                (parent, u_parent, &tracks[parent]),
-            )
-        })
-        .collect();
-    let slots = TiltSlots::new(count, &tilts);
     let Some(s) = solve_rows(&slots.rows(&rows), slots.total) else {
         return placed;
     };
