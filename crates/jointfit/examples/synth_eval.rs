@@ -12,9 +12,10 @@
 //! prior on where joints sit can go; given a SUBJECT, also per joint). `along`: how far
 //! the bone placement (`place_hinges_across_bones` over the true tree, as bonefit runs
 //! it) leaves the true hinges fitted as hinges from the truth along their true axes, and
-//! the same with the truth's axes given to the placement (what the fitted axes' tilt
-//! costs), with how far the fitted axes are off and that over the tilt bound the
-//! placement assumes (RMS per tilt component: 1 when the bound is right on average).
+//! the same with the truth's axes given to the placement (which still allows them the
+//! tilt bound it would allow the fitted ones), with how far the fitted axes are off and
+//! that over the tilt bound the placement assumes (RMS per tilt component: 1 when the
+//! bound is right on average).
 //! Over a seed range, a last table gives each line's mean % of height over the seeds
 //! (`tilt/bound`: the mean ratio).
 #![allow(clippy::print_stdout)]
@@ -523,6 +524,14 @@ struct AlongAxis {
 /// truth's; `None` without a true hinge fitted as a hinge.
 fn along_axis(fits: &jointfit::PairFits, truth: &synth::Truth) -> Option<AlongAxis> {
     let edges = true_tree_edges(fits, truth);
+    let mut joints = vec![0usize; fits.poses.len()];
+    for &(_, parent, child) in &edges {
+        for x in [parent, child] {
+            if let Some(j) = joints.get_mut(x) {
+                *j += 1;
+            }
+        }
+    }
     let place = |fits: &mut jointfit::PairFits| {
         let steadiest = jointfit::steadiest_orientation(fits, &edges);
         let direction = match steadiest {
@@ -594,7 +603,7 @@ fn along_axis(fits: &jointfit::PairFits, truth: &synth::Truth) -> Option<AlongAx
         let tilt = angle.min(std::f64::consts::PI - angle);
         // The placement's bound: the axis's standard error from its wobble, or skin's tilt.
         let bound = (fit.wobble_deg[0].to_radians() / (fit.frames_used.max(1) as f64).sqrt())
-            .max(jointfit::skin_tilt(fits, fit));
+            .max(jointfit::skin_tilt(fits, fit, &joints));
         out.fitted_mm += x;
         out.true_axes_mm += y;
         out.tilt_deg += tilt.to_degrees();

@@ -584,7 +584,7 @@ pub(crate) fn tilt_variance(poses: &SegmentPoses, axis: DVec3) -> Option<f64> {
 
 /// Per-coordinate scatter (mm) from a rigid fit's RMS over `points` points: the fit takes
 /// 6 degrees of freedom out of 3n, so E[RMS²] = σ²(3n − 6)/n.
-fn scatter_from_rms(rms_mm: f64, points: f64) -> f64 {
+pub(crate) fn scatter_from_rms(rms_mm: f64, points: f64) -> f64 {
     rms_mm * (points / (3.0 * points - 6.0)).sqrt()
 }
 
