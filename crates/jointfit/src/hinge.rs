@@ -1635,15 +1635,15 @@ struct SharedTilt {
 
 impl SharedTilt {
     /// The tilt of hinge `hinge` (σ `sigma`) seen from its child and parent: (segment,
-    /// unit axis in its frame, its pose track); `None` for a σ of 0, or without a frame
-    /// posing both.
+    /// unit axis in its frame, its pose track); `None` for a σ below
+    /// [`MIN_SHARED_TILT_RAD`], or without a frame posing both.
     fn new(
         hinge: usize,
         sigma: f64,
         child: (usize, DVec3, &[Option<Pose>]),
         parent: (usize, DVec3, &[Option<Pose>]),
     ) -> Option<Self> {
-        if !(sigma > 0.0 && sigma.is_finite()) {
+        if !(sigma > MIN_SHARED_TILT_RAD && sigma.is_finite()) {
             return None;
         }
         let (c, u_c, track_c) = child;
@@ -1740,6 +1740,11 @@ impl<'a> TiltSlots<'a> {
         out
     }
 }
+
+/// Smallest tilt σ (radians) worth unknowns of its own: below it (noise-free poses, whose
+/// bound is rounding error) a tilt moves no row by a micrometre, and a prior weight of
+/// 1/σ² would only strain the normal equations.
+const MIN_SHARED_TILT_RAD: f64 = 1.0e-6;
 
 /// Least variance (mm²) a row keeps once its tilt share is taken out.
 const MIN_ROW_VARIANCE_MM2: f64 = 1.0e-6;
