@@ -974,6 +974,8 @@ pub fn place_hinges_across_bones(
     // says less. The wobble itself, 1° with 1 mm of noise, made a knee's hip 420 mm away
     // count for 7 mm and let its own markers pull it (human-noise-s20001's knees 7.9 and
     // 2.2 mm along their axes; 3.2 and 1.0 with the standard error).
+    // Joints per segment in the tree: each takes a share of the segment's smooth pose
+    // error ([`skin_tilt`]).
     let mut joints = vec![0usize; segments];
     for &(_, parent, child) in edges {
         for x in [parent, child] {
