@@ -524,14 +524,6 @@ struct AlongAxis {
 /// truth's; `None` without a true hinge fitted as a hinge.
 fn along_axis(fits: &jointfit::PairFits, truth: &synth::Truth) -> Option<AlongAxis> {
     let edges = true_tree_edges(fits, truth);
-    let mut joints = vec![0usize; fits.poses.len()];
-    for &(_, parent, child) in &edges {
-        for x in [parent, child] {
-            if let Some(j) = joints.get_mut(x) {
-                *j += 1;
-            }
-        }
-    }
     let place = |fits: &mut jointfit::PairFits| {
         let steadiest = jointfit::steadiest_orientation(fits, &edges);
         let direction = match steadiest {
@@ -601,9 +593,7 @@ fn along_axis(fits: &jointfit::PairFits, truth: &synth::Truth) -> Option<AlongAx
         // An axis is a line: its sign is free.
         let angle = local.angle_between(DVec3::from_array(u));
         let tilt = angle.min(std::f64::consts::PI - angle);
-        // The placement's bound: the axis's standard error from its wobble, or skin's tilt.
-        let bound = (fit.wobble_deg[0].to_radians() / (fit.frames_used.max(1) as f64).sqrt())
-            .max(jointfit::skin_tilt(fits, fit, &joints));
+        let bound = jointfit::axis_tilt_bound(fits, fit, &edges);
         out.fitted_mm += x;
         out.true_axes_mm += y;
         out.tilt_deg += tilt.to_degrees();

@@ -343,6 +343,17 @@ fn parent_row_floors(
     floors
 }
 
+/// How far (radians, per direction across the axis) a hinge's fitted axis may be off: the
+/// standard error its relative rotation's least wobble leaves on the axis fitted over all
+/// its frames (the wobble over √frames: per-frame noise averages out of the axis; 0 for a
+/// noise-free hinge), or what skin can turn it by unseen ([`skin_tilt`]), whichever is
+/// larger. `edges`: the tree's joints as `(pair, parent, child)`. Public so that
+/// diagnostics can compare it with the truth (`synth_eval`'s `along` line).
+pub fn axis_tilt_bound(fits: &PairFits, fit: &PairFit, edges: &[(usize, usize, usize)]) -> f64 {
+    let wobble = fit.wobble_deg[0].to_radians() / (fit.frames_used.max(1) as f64).sqrt();
+    wobble.max(skin_tilt(fits, fit, edges)).max(0.0)
+}
+
 /// How far (radians) skin may tilt a hinge's fitted axis without showing in its wobble.
 ///
 /// Skin moves a segment's markers with its joints' angles, so each pose turns by an amount
@@ -352,17 +363,17 @@ fn parent_row_floors(
 /// that tilt; its size is about the two poses' smooth rotation error over the hinge's
 /// rotation RMS, `atan(√(θ_a² + θ_b²) / rms)` ([`smooth_pose_rotation`]). White noise
 /// does not follow the angle and averages out of the axis: it counts for nothing here.
-/// Nor does the skin that follows a segment's other joints: of a segment with `joints[x]`
-/// joints in the tree (at least 1), a share 1/joints of its smooth error variance is
-/// taken to follow this hinge's angle. Seeds 20001..20030 hard, true segments
-/// (`synth_eval`'s `along` lines): the fitted axes sit 0.85-0.99 × this bound off the
-/// truth per tilt direction (RMS over hinges); before the misfit's degrees of freedom and
-/// the joints' shares were counted, 0.98-1.10 on average but 1.34 where the smaller
-/// segment has three markers and 0.84-0.87 where it has five or six. Public so that
-/// diagnostics can compare it with the truth.
-pub fn skin_tilt(fits: &PairFits, fit: &PairFit, joints: &[usize]) -> f64 {
+/// Nor does the skin that follows a segment's other joints: of a segment with n joints in
+/// the tree `edges` (at least 1), a share 1/n of its smooth error variance is taken to
+/// follow this hinge's angle. Seeds 20001..20030 hard, true segments (`synth_eval`'s
+/// `along` lines): the fitted axes sit 0.85-0.99 × [`axis_tilt_bound`] off the truth per
+/// tilt direction (RMS over hinges); before the misfit's degrees of freedom and the
+/// joints' shares were counted, 0.98-1.10 on average but 1.34 where the smaller segment
+/// has three markers and 0.84-0.87 where it has five or six.
+fn skin_tilt(fits: &PairFits, fit: &PairFit, edges: &[(usize, usize, usize)]) -> f64 {
     let range = fit.rotation_rms_deg.to_radians();
-    let share = |x: usize| 1.0 / (joints.get(x).copied().unwrap_or(1).max(1) as f64).sqrt();
+    let joints = |x: usize| edges.iter().filter(|&&(_, p, c)| p == x || c == x).count();
+    let share = |x: usize| 1.0 / (joints(x).max(1) as f64).sqrt();
     let pose = |x: usize| fits.poses.get(x).map_or(0.0, smooth_pose_rotation) * share(x);
     let turn = pose(fit.a).hypot(pose(fit.b));
     if range > 0.0 && turn.is_finite() {
@@ -966,41 +977,20 @@ pub fn place_hinges_across_bones(
             .map_or(0.0, |f| f.residual_rms_mm)
             .max(0.0)
     };
-    // How far (radians) hinge e's axis may be tilted: the standard error its relative
-    // rotation's least wobble leaves on the axis fitted over all its frames (the wobble
-    // over √frames: per-frame noise averages out of the axis, as skin_tilt says; 0 for a
-    // noise-free hinge), or what skin can turn it by unseen ([`skin_tilt`]), whichever is
-    // larger. A tilt turns the plane across the axis, so evidence far from the centre
-    // says less. The wobble itself, 1° with 1 mm of noise, made a knee's hip 420 mm away
-    // count for 7 mm and let its own markers pull it (human-noise-s20001's knees 7.9 and
-    // 2.2 mm along their axes; 3.2 and 1.0 with the standard error).
-    // Joints per segment in the tree: each takes a share of the segment's smooth pose
-    // error ([`skin_tilt`]).
-    let mut joints = vec![0usize; segments];
-    for &(_, parent, child) in edges {
-        for x in [parent, child] {
-            if let Some(j) = joints.get_mut(x) {
-                *j += 1;
-            }
-        }
-    }
-    let skin: Vec<f64> = edges
+    // How far (radians) hinge e's axis may be tilted ([`axis_tilt_bound`]). A tilt turns
+    // the plane across the axis, so evidence far from the centre says less. The wobble
+    // itself, 1° with 1 mm of noise, made a knee's hip 420 mm away count for 7 mm and let
+    // its own markers pull it (human-noise-s20001's knees 7.9 and 2.2 mm along their axes;
+    // 3.2 and 1.0 with the standard error).
+    let bounds: Vec<f64> = edges
         .iter()
         .map(|&(pair, _, _)| {
             fits.pairs
                 .get(pair)
-                .map_or(0.0, |f| skin_tilt(fits, f, &joints))
+                .map_or(0.0, |f| axis_tilt_bound(fits, f, edges))
         })
         .collect();
-    let tilt = |e: usize| {
-        fits.pairs
-            .get(edges[e].0)
-            .map_or(0.0, |f| {
-                f.wobble_deg[0].to_radians() / (f.frames_used.max(1) as f64).sqrt()
-            })
-            .max(skin[e])
-            .max(0.0)
-    };
+    let tilt = |e: usize| bounds[e];
     // Evidence of edge e's side x (x one of its segments).
     let side = |e: usize, x: usize| -> SideEvidence {
         let mut evidence = SideEvidence::default();
@@ -1684,7 +1674,7 @@ impl SharedTilt {
 /// its child link's joint and markers both 73-99 mm off along an axis 25° off, placed
 /// 87 mm from the truth). As shared unknowns the tilt is read from the rows' disagreement
 /// where they lie at different places across the axis, and held to its prior (σ from
-/// [`skin_tilt`]) where not.
+/// [`axis_tilt_bound`]) where not.
 struct TiltSlots<'a> {
     /// Per shift unknown: the first of its two tilt unknowns, and its tilt.
     slot: Vec<Option<(usize, &'a SharedTilt)>>,

@@ -75,8 +75,8 @@ mod universal;
 
 pub use error::Error;
 pub use hinge::{
-    EdgeDirection, HingePlacements, centre_gain, place_hinge_centres, place_hinges_across_bones,
-    skin_tilt, slide_hinge_centre, steadiest_orientation,
+    EdgeDirection, HingePlacements, axis_tilt_bound, centre_gain, place_hinge_centres,
+    place_hinges_across_bones, slide_hinge_centre, steadiest_orientation,
 };
 pub use horn::{RigidFit, absolute_orientation, rotation_from_cross_covariance};
 pub use pairfits::*;
