@@ -38,7 +38,7 @@ fn main() {
         let posable: Vec<Vec<usize>> = sets.iter().filter(|s| s.len() >= 3).cloned().collect();
         let sigma = segment::typical_fit_sigma(traj, &posable);
         // Each part must fit like an ordinary segment, as in `segment::run`.
-        let part_sigma = (params.fit_split_floor * sigma).max(params.tolerance_min_mm);
+        let part_sigma = params.segment_sigma_mm(sigma);
         println!("{}: typical fit σ {sigma:.2} mm", trial.name);
         let mut all_cut = true;
         for j in &trial.truth.joints {

@@ -302,11 +302,7 @@ fn segment_capture(
     rigidity::normalise(&mut clusters);
     // The typical fit σ of the clusters as they stand (see `typical_sigma`).
     let mut sigma_memo = None;
-    // The largest fit σ of an ordinary segment: what the fit split leaves whole, and what
-    // each part of a joint must fit within. Never below the smallest tolerance: on
-    // noiseless data every σ is rounding error.
-    let segment_sigma_mm =
-        |typical: f64| (params.fit_split_floor * typical).max(params.tolerance_min_mm);
+    let segment_sigma_mm = |typical: f64| params.segment_sigma_mm(typical);
     if params.fit_split_ratio > 0.0 {
         // ρ is second order in a joint's angle near a straight limb; a rigid fit of the
         // whole cluster is first order (see `fitsplit`), so joined segments come apart here.

@@ -411,6 +411,14 @@ pub const PARAM_DOCS: &[(&str, &str)] = &[
 ];
 
 impl Params {
+    /// The largest fit σ (mm) of an ordinary segment when the capture's typical segment
+    /// fits to `typical_mm`: what the fit split leaves whole, and what each part of a joint
+    /// must fit within. Never below `tolerance_min_mm`: on noiseless data every σ is
+    /// rounding error.
+    pub fn segment_sigma_mm(&self, typical_mm: f64) -> f64 {
+        (self.fit_split_floor * typical_mm).max(self.tolerance_min_mm)
+    }
+
     /// These parameters with their millimetre floors (`tolerance_min_mm`, `min_scale_mm`,
     /// `slide_min_mm`) times `scale` (≤ 1, [`mocap_io::Trajectories::floor_scale`]): floors
     /// set for markers a few centimetres apart would swallow a small subject's motion.
