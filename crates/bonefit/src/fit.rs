@@ -85,16 +85,9 @@ pub fn run(
         let shifts = match params.hinge_placement {
             HingePlacement::Tree => jointfit::place_hinge_centres(&mut copy, &edges),
             HingePlacement::Bone => {
-                let steadiest = params
-                    .hinge_sides_from_steadiest
-                    .then(|| jointfit::steadiest_orientation(&copy, &edges))
-                    .flatten();
-                let direction = match steadiest {
-                    Some(_) => jointfit::EdgeDirection::Steadiest,
-                    None => jointfit::EdgeDirection::TreeRoot,
-                };
-                let directed = steadiest.as_deref().unwrap_or(&edges);
-                let placed = jointfit::place_hinges_across_bones(&mut copy, directed, direction);
+                let (directed, direction) =
+                    jointfit::placement_direction(&copy, &edges, params.hinge_sides_from_steadiest);
+                let placed = jointfit::place_hinges_across_bones(&mut copy, &directed, direction);
                 measured_point = placed.at_composite_point;
                 placed.shifts
             }

@@ -524,13 +524,9 @@ struct AlongAxis {
 /// truth's; `None` without a true hinge fitted as a hinge.
 fn along_axis(fits: &jointfit::PairFits, truth: &synth::Truth) -> Option<AlongAxis> {
     let edges = true_tree_edges(fits, truth);
+    // As bonefit places them by default (`hinge_sides_from_steadiest`).
     let place = |fits: &mut jointfit::PairFits| {
-        let steadiest = jointfit::steadiest_orientation(fits, &edges);
-        let direction = match steadiest {
-            Some(_) => jointfit::EdgeDirection::Steadiest,
-            None => jointfit::EdgeDirection::TreeRoot,
-        };
-        let directed = steadiest.unwrap_or_else(|| edges.clone());
+        let (directed, direction) = jointfit::placement_direction(fits, &edges, true);
         jointfit::place_hinges_across_bones(fits, &directed, direction);
     };
     // A true hinge's axis in segment s's frame (from frame 0, where the truth gives it).

@@ -476,6 +476,24 @@ pub enum EdgeDirection {
     Steadiest,
 }
 
+/// The tree's `edges` directed for [`place_hinges_across_bones`], and what that direction
+/// rests on: turned toward the segment that turns least in the world where
+/// `from_steadiest` and [`steadiest_orientation`] finds one clearly steadier than the
+/// tree's root, else as given.
+pub fn placement_direction(
+    fits: &PairFits,
+    edges: &[(usize, usize, usize)],
+    from_steadiest: bool,
+) -> (Vec<(usize, usize, usize)>, EdgeDirection) {
+    match from_steadiest
+        .then(|| steadiest_orientation(fits, edges))
+        .flatten()
+    {
+        Some(directed) => (directed, EdgeDirection::Steadiest),
+        None => (edges.to_vec(), EdgeDirection::TreeRoot),
+    }
+}
+
 /// Variance (mm²) [`FirstSolve`] gives a shift that no row mentions: a metre's worth, so
 /// nothing judged through it counts.
 const UNMENTIONED_VARIANCE_MM2: f64 = 1.0e6;

@@ -76,7 +76,7 @@ mod universal;
 pub use error::Error;
 pub use hinge::{
     EdgeDirection, HingePlacements, axis_tilt_bound, centre_gain, place_hinge_centres,
-    place_hinges_across_bones, slide_hinge_centre, steadiest_orientation,
+    place_hinges_across_bones, placement_direction, slide_hinge_centre, steadiest_orientation,
 };
 pub use horn::{RigidFit, absolute_orientation, rotation_from_cross_covariance};
 pub use pairfits::*;
