@@ -369,7 +369,7 @@ pub fn axis_tilt_bound(fits: &PairFits, fit: &PairFit, edges: &[(usize, usize, u
 /// `along` lines): the fitted axes sit 0.85-0.99 × [`axis_tilt_bound`] off the truth per
 /// tilt direction (RMS over hinges); before the misfit's degrees of freedom and the
 /// joints' shares were counted, 0.98-1.10 on average but 1.34 where the smaller segment
-/// has three markers and 0.84-0.87 where it has five or six.
+/// has three markers and 0.83-0.87 where it has five or six.
 fn skin_tilt(fits: &PairFits, fit: &PairFit, edges: &[(usize, usize, usize)]) -> f64 {
     let range = fit.rotation_rms_deg.to_radians();
     let joints = |x: usize| edges.iter().filter(|&&(_, p, c)| p == x || c == x).count();
