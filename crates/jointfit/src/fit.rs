@@ -347,7 +347,18 @@ pub(crate) fn fit_pair(
         }
     };
     let residual = residual_rms(pa, pb, &co, c_a, c_b);
-    let positions = joint_positions(c_a, c_b, sa.track, sb.track);
+    let positions = joint_positions(
+        c_a,
+        c_b,
+        PosedSegment {
+            poses: sa.poses,
+            track: sa.track,
+        },
+        PosedSegment {
+            poses: sb.poses,
+            track: sb.track,
+        },
+    );
     let hinge = kind == JointKind::Hinge;
     PairFit {
         a,
@@ -373,19 +384,55 @@ pub(crate) fn fit_pair(
     }
 }
 
-/// The joint's global position per frame from its centre in each segment: the mean of
-/// both segments' views where both are posed, either one's alone, NaN where neither is.
+/// A segment as [`joint_positions`] reads it: its stored poses (reference shape, fit
+/// misfit) and its pose per frame.
+#[derive(Clone, Copy)]
+pub(crate) struct PosedSegment<'a> {
+    /// Stored poses.
+    pub poses: &'a SegmentPoses,
+    /// Pose per frame (`None` where unknown).
+    pub track: &'a [Option<Pose>],
+}
+
+impl<'a> PosedSegment<'a> {
+    /// Segment `s` of every segment's stored `poses` and pose `tracks`.
+    pub fn of(poses: &'a [SegmentPoses], tracks: &'a [Vec<Option<Pose>>], s: usize) -> Self {
+        Self {
+            poses: &poses[s],
+            track: &tracks[s],
+        }
+    }
+}
+
+/// The joint's global position per frame from its centre in each segment: where both are
+/// posed, both segments' views weighted by how precisely each pose puts its centre
+/// ([`poses::point_precision`]: a pose fixes a point near its markers better than one
+/// far out along their lever, and many markers better than few), their mean where either
+/// has no such measure; either one's view alone; NaN where neither is posed. Seeds
+/// 20001..20050, 30001..30050 hard: the joints' error 1.687 → 1.671 % of height against the
+/// plain mean (1.555 → 1.540 with the true segments).
 pub(crate) fn joint_positions(
     c_a: DVec3,
     c_b: DVec3,
-    track_a: &[Option<Pose>],
-    track_b: &[Option<Pose>],
+    a: PosedSegment,
+    b: PosedSegment,
 ) -> Vec<[f64; 3]> {
-    track_a
+    let precision = poses::point_precision(a.poses, c_a).zip(poses::point_precision(b.poses, c_b));
+    a.track
         .iter()
-        .zip(track_b)
+        .zip(b.track)
         .map(|(x, y)| match (x, y) {
-            (Some(x), Some(y)) => (0.5 * (x.apply(c_a) + y.apply(c_b))).to_array(),
+            (Some(x), Some(y)) => {
+                let (p_a, p_b) = (x.apply(c_a), y.apply(c_b));
+                let weighted = precision.and_then(|(w_a, w_b)| {
+                    // Each precision turned into the global frame with its segment.
+                    let g_a = x.rot * w_a * x.rot.transpose();
+                    let g_b = y.rot * w_b * y.rot.transpose();
+                    let p = (g_a + g_b).inverse() * (g_a * p_a + g_b * p_b);
+                    p.is_finite().then_some(p)
+                });
+                weighted.unwrap_or(0.5 * (p_a + p_b)).to_array()
+            }
             (Some(x), None) => x.apply(c_a).to_array(),
             (None, Some(y)) => y.apply(c_b).to_array(),
             (None, None) => [f64::NAN; 3],
@@ -445,13 +492,13 @@ pub(crate) fn recentre(
     fit: &PairFit,
     n: usize,
     c_n: DVec3,
-    track_a: &[Option<Pose>],
-    track_b: &[Option<Pose>],
+    a: PosedSegment,
+    b: PosedSegment,
 ) -> Option<Recentred> {
     let (tn, ts) = if n == fit.a {
-        (track_a, track_b)
+        (a.track, b.track)
     } else {
-        (track_b, track_a)
+        (b.track, a.track)
     };
     let frames: Vec<usize> = (0..tn.len().min(ts.len()))
         .filter(|&f| tn[f].is_some() && ts[f].is_some())
@@ -464,7 +511,7 @@ pub(crate) fn recentre(
     Some(Recentred {
         c_a,
         c_b,
-        positions: joint_positions(c_a, c_b, track_a, track_b),
+        positions: joint_positions(c_a, c_b, a, b),
         frames,
     })
 }
@@ -489,4 +536,96 @@ pub(crate) fn apply_recentred(
     fit.evidence.push_str(&format!(
         "; centre set to {source}, {moved:.1} mm from the pose fit's"
     ));
+}
+
+#[cfg(test)]
+mod tests {
+    use glam::{DMat3, DQuat, DVec3};
+
+    use super::{PosedSegment, joint_positions};
+    use crate::pairfits::SegmentPoses;
+    use crate::poses::{Pose, pose_track};
+
+    /// A segment at rest with `reference` markers fitted to `rms_mm` in every frame.
+    fn segment(reference: &[[f64; 3]], rms_mm: f64, frames: usize) -> SegmentPoses {
+        SegmentPoses {
+            segment: 0,
+            reference: reference.to_vec(),
+            rotations: vec![[0.0, 0.0, 0.0, 1.0]; frames],
+            translations: vec![[0.0; 3]; frames],
+            rms_mm: vec![rms_mm; frames],
+        }
+    }
+
+    /// The joint's position follows the view of the segment whose pose fixes the centre
+    /// better: six markers spread round it at 1 mm, against three bunched 250 mm away at
+    /// 3 mm (the second segment's pose turned 2°, carrying its view 8.7 mm off). With
+    /// fewer than three markers on a side there is no such measure and it takes the mean.
+    #[test]
+    fn joint_positions_weigh_each_view_by_its_precision_at_the_centre() {
+        let frames = 4;
+        let near = segment(
+            &[
+                [60.0, 0.0, 0.0],
+                [-60.0, 0.0, 0.0],
+                [0.0, 60.0, 0.0],
+                [0.0, -60.0, 0.0],
+                [0.0, 0.0, 60.0],
+                [0.0, 0.0, -60.0],
+            ],
+            1.0,
+            frames,
+        );
+        let far = segment(
+            &[[250.0, 0.0, 0.0], [270.0, 10.0, 0.0], [260.0, -10.0, 10.0]],
+            3.0,
+            frames,
+        );
+        let track_near = pose_track(&near);
+        // The far segment's pose turned 2° about z about its markers.
+        let turn = DQuat::from_rotation_z(2f64.to_radians());
+        let pivot = DVec3::new(260.0, 0.0, 0.0);
+        let turned = Pose {
+            rot: DMat3::from_quat(turn),
+            trans: pivot - turn * pivot,
+        };
+        let track_far = vec![Some(turned); frames];
+        let centre = DVec3::ZERO;
+        let off = turned.apply(centre).length();
+        assert!(off > 8.0, "{off}");
+        let positions = joint_positions(
+            centre,
+            centre,
+            PosedSegment {
+                poses: &near,
+                track: &track_near,
+            },
+            PosedSegment {
+                poses: &far,
+                track: &track_far,
+            },
+        );
+        for p in &positions {
+            let miss = DVec3::from_array(*p).length();
+            assert!(miss < 0.05 * off, "{miss} of {off}");
+        }
+        // Two markers: no precision, so the plain mean of the views.
+        let two = segment(&[[250.0, 0.0, 0.0], [270.0, 10.0, 0.0]], 3.0, frames);
+        let positions = joint_positions(
+            centre,
+            centre,
+            PosedSegment {
+                poses: &near,
+                track: &track_near,
+            },
+            PosedSegment {
+                poses: &two,
+                track: &track_far,
+            },
+        );
+        let mean = 0.5 * turned.apply(centre);
+        for p in &positions {
+            assert!(DVec3::from_array(*p).distance(mean) < 1e-9);
+        }
+    }
 }

@@ -36,8 +36,8 @@
 
 use glam::{DMat3, DVec3};
 
-use crate::fit::joint_positions;
-use crate::pairfits::{PairFit, PairFits};
+use crate::fit::{PosedSegment, joint_positions};
+use crate::pairfits::{PairFit, PairFits, SegmentPoses};
 use crate::poses::{
     Pose, inverse_inertia, median_rms_mm, pose_track, reference_points, scatter_from_rms, trace,
 };
@@ -171,7 +171,7 @@ pub fn place_hinge_centres(fits: &mut PairFits, edges: &[(usize, usize, usize)])
         slide_along_axis(
             &mut fits.pairs[pair],
             shift,
-            &tracks,
+            (&fits.poses, &tracks),
             "toward the adjacent joints",
         );
     }
@@ -192,7 +192,7 @@ pub fn slide_hinge_centre(fits: &mut PairFits, pair: usize, shift: f64, why: &st
     let mut tracks = vec![Vec::new(); fits.poses.len()];
     tracks[a] = pose_track(pa);
     tracks[b] = pose_track(pb);
-    slide_along_axis(&mut fits.pairs[pair], shift, &tracks, why)
+    slide_along_axis(&mut fits.pairs[pair], shift, (&fits.poses, &tracks), why)
 }
 
 /// How far (times) an error in the two segments' poses can move pair `pair`'s centre
@@ -223,7 +223,7 @@ pub fn centre_gain(fits: &PairFits, pair: usize) -> Option<f64> {
 fn slide_along_axis(
     fit: &mut PairFit,
     shift: f64,
-    tracks: &[Vec<Option<Pose>>],
+    (poses, tracks): (&[SegmentPoses], &[Vec<Option<Pose>>]),
     why: &str,
 ) -> bool {
     let unit = |u: Option<[f64; 3]>| u.and_then(|u| DVec3::from_array(u).try_normalize());
@@ -234,7 +234,8 @@ fn slide_along_axis(
     let c_b = DVec3::from_array(fit.centre_in_b) + shift * ub;
     fit.centre_in_a = c_a.to_array();
     fit.centre_in_b = c_b.to_array();
-    fit.positions = joint_positions(c_a, c_b, &tracks[fit.a], &tracks[fit.b]);
+    let posed = |s: usize| PosedSegment::of(poses, tracks, s);
+    fit.positions = joint_positions(c_a, c_b, posed(fit.a), posed(fit.b));
     fit.evidence.push_str(&format!(
         "; centre moved {shift:.1} mm along the hinge axis {why}"
     ));
@@ -1292,7 +1293,7 @@ pub fn place_hinges_across_bones(
         if slide_along_axis(
             &mut fits.pairs[pair],
             shift,
-            &tracks,
+            (&fits.poses, &tracks),
             "to where it crosses a bone squarely",
         ) {
             placed.shifts[e] = shift;

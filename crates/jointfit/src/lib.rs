@@ -352,7 +352,7 @@ fn fit_all(
     // joints (the anchor's and any other) are centred by its markers' distances alone.
     if params.anchor_centres_by_distance {
         fits.par_iter_mut().for_each(|fit| {
-            centre_by_distances(traj, fit, segments, &anchors, &tracks, params);
+            centre_by_distances(traj, fit, segments, &anchors, (&poses, &tracks), params);
         });
     }
     // Say which joints carry a segment's poses: their costs are low partly by construction.
@@ -428,7 +428,7 @@ fn centre_by_distances(
     fit: &mut PairFit,
     segments: &[Vec<usize>],
     anchors: &[Option<anchor::Anchor>],
-    tracks: &[Vec<Option<poses::Pose>>],
+    (poses, tracks): (&[SegmentPoses], &[Vec<Option<poses::Pose>>]),
     params: &Params,
 ) {
     // An unidentifiable pair (no common frames) has no centre to move.
@@ -453,7 +453,8 @@ fn centre_by_distances(
         .min_by(|x, y| x.rms_mm.total_cmp(&y.rms_mm));
     let Some(c) = best else { return };
     let (ta, tb) = (&tracks[fit.a], &tracks[fit.b]);
-    let Some(moved) = fit::recentre(fit, c.frame, c.centre, ta, tb) else {
+    let posed = |s: usize| fit::PosedSegment::of(poses, tracks, s);
+    let Some(moved) = fit::recentre(fit, c.frame, c.centre, posed(fit.a), posed(fit.b)) else {
         return;
     };
     // Both measured on the positions they write, over the frames both are known.

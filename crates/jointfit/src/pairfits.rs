@@ -84,7 +84,8 @@ pub struct PairFit {
     pub centre_in_a: [f64; 3],
     /// Joint centre in `b`'s local frame (mm).
     pub centre_in_b: [f64; 3],
-    /// Joint centre in the global frame at every frame (mm); NaN where it cannot be known.
+    /// Joint centre in the global frame at every frame (mm): both segments' views, each
+    /// weighted by how precisely its pose puts the centre; NaN where it cannot be known.
     #[serde(with = "mocap_io::bulk::vec3s")]
     pub positions: Vec<[f64; 3]>,
     /// Articulation kind.

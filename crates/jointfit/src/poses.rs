@@ -566,6 +566,29 @@ pub(crate) fn pivot_tilt_variance(
     Some(sigma_mm * sigma_mm * (trace(inverse) - axis.dot(inverse * axis)).max(0.0))
 }
 
+/// Inverse covariance (mm⁻², segment frame) of where a segment's pose puts its local point
+/// `p` in one frame: its fit scatter σ through the Horn fit of its reference markers,
+/// σ² (I/n + [d]× J⁻¹ [d]×ᵀ) with d = p less their centroid and J their inertia tensor
+/// (linearised least squares: the translation's error, and the turn's at p's lever).
+/// `None` for fewer than 3 points, no fit, collinear points or a scatter of 0.
+pub(crate) fn point_precision(poses: &SegmentPoses, p: DVec3) -> Option<DMat3> {
+    let (sigma, reference) = fit_scatter(poses)?;
+    let inverse = inverse_inertia(&reference)?;
+    let n = reference.len() as f64;
+    let d = p - reference.iter().copied().sum::<DVec3>() / n;
+    // [d]×, the cross product with d as a matrix.
+    let cross = DMat3::from_cols(
+        DVec3::new(0.0, d.z, -d.y),
+        DVec3::new(-d.z, 0.0, d.x),
+        DVec3::new(d.y, -d.x, 0.0),
+    );
+    let covariance = (DMat3::IDENTITY / n + cross * inverse * cross.transpose()) * (sigma * sigma);
+    let determinant = covariance.determinant();
+    (determinant.is_finite() && determinant > 0.0)
+        .then(|| covariance.inverse())
+        .filter(|m| m.is_finite())
+}
+
 /// The sum of a 3×3 matrix's diagonal.
 pub(crate) fn trace(m: DMat3) -> f64 {
     m.x_axis.x + m.y_axis.y + m.z_axis.z
