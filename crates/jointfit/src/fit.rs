@@ -237,6 +237,7 @@ pub(crate) fn fit_pair(
                 _ => 0,
             };
             let mut sol = score::solve(pa, pb, &co, drop, target);
+            let mut used_drop = drop;
             let mut rms = residual_rms(pa, pb, &co, sol.c_a, sol.c_b);
             let mut kept = String::new();
             if kind == JointKind::Hinge && params.hinge_slide_max_rise > 0.0 {
@@ -253,9 +254,11 @@ pub(crate) fn fit_pair(
                     );
                     sol = full;
                     rms = rms_full;
+                    used_drop = 0;
                 }
             }
             let mut cost = rms;
+            let mut spin_corrected = false;
             let loose = match (sa.line, sb.line) {
                 (Some(line), None) => Some((line, true)),
                 (None, Some(line)) => Some((line, false)),
@@ -275,6 +278,7 @@ pub(crate) fn fit_pair(
                 )
                 && spin_rms.is_finite()
             {
+                spin_corrected = true;
                 cost = spin_rms;
                 sol = corrected;
                 evidence.push_str(&format!(
@@ -282,6 +286,14 @@ pub(crate) fn fit_pair(
                     if line_a { a } else { b },
                     line.spin_sd_rad.to_degrees()
                 ));
+            }
+            if params.weighted_centres
+                && !spin_corrected
+                && let Some((c_a, c_b)) =
+                    weighted_centres(sa.poses, sb.poses, (pa, pb, &co), used_drop, target, &sol)
+            {
+                sol.c_a = c_a;
+                sol.c_b = c_b;
             }
             let [l0, .., l5] = sol.eigenvalues;
             evidence.push_str(&format!(
@@ -382,6 +394,38 @@ pub(crate) fn fit_pair(
         seeded: false,
         first_pass_kind: None,
     }
+}
+
+/// SCoRE's centres `(c_a, c_b)` with each frame weighted by the precision of the two poses'
+/// disagreement at the centre (`Params::weighted_centres`): each segment's covariance of
+/// the point its pose puts at `unweighted`'s centre ([`poses::point_precision`]), turned
+/// with the poses. `(pa, pb, frames)` as for [`score::solve`], and its `drop` and
+/// `target`; `None` where either side has no such measure or the solve is not finite.
+fn weighted_centres(
+    poses_a: &SegmentPoses,
+    poses_b: &SegmentPoses,
+    (pa, pb, frames): (&[Option<Pose>], &[Option<Pose>], &[usize]),
+    drop: usize,
+    target: (DVec3, DVec3),
+    unweighted: &score::ScoreSolution,
+) -> Option<(DVec3, DVec3)> {
+    let covariance_a = poses::point_precision(poses_a, unweighted.c_a)?.inverse();
+    let covariance_b = poses::point_precision(poses_b, unweighted.c_b)?.inverse();
+    // Only their ratio matters; scaled to a trace of 3 (mm² per unit) for conditioning.
+    let trace = poses::trace(covariance_a + covariance_b);
+    if !(trace.is_finite() && trace > 0.0) {
+        return None;
+    }
+    let scale = 3.0 / trace;
+    let weighted = score::solve_weighted(
+        pa,
+        pb,
+        frames,
+        drop,
+        target,
+        (covariance_a * scale, covariance_b * scale),
+    );
+    (weighted.c_a.is_finite() && weighted.c_b.is_finite()).then_some((weighted.c_a, weighted.c_b))
 }
 
 /// A segment as [`joint_positions`] reads it: its stored poses (reference shape, fit
