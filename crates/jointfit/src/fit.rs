@@ -417,13 +417,23 @@ fn weighted_centres(
         return None;
     }
     let scale = 3.0 / trace;
+    let (scales_a, scales_b) = (poses::misfit_scales(poses_a), poses::misfit_scales(poses_b));
     let weighted = score::solve_weighted(
         pa,
         pb,
         frames,
         drop,
         target,
-        (covariance_a * scale, covariance_b * scale),
+        (
+            score::PointCovariance {
+                typical: covariance_a * scale,
+                scales: &scales_a,
+            },
+            score::PointCovariance {
+                typical: covariance_b * scale,
+                scales: &scales_b,
+            },
+        ),
     );
     (weighted.c_a.is_finite() && weighted.c_b.is_finite()).then_some((weighted.c_a, weighted.c_b))
 }
@@ -462,16 +472,24 @@ pub(crate) fn joint_positions(
     b: PosedSegment,
 ) -> Vec<[f64; 3]> {
     let precision = poses::point_precision(a.poses, c_a).zip(poses::point_precision(b.poses, c_b));
+    let (scales_a, scales_b) = if precision.is_some() {
+        (poses::misfit_scales(a.poses), poses::misfit_scales(b.poses))
+    } else {
+        (Vec::new(), Vec::new())
+    };
+    let scale = |scales: &[f64], f: usize| scales.get(f).copied().unwrap_or(1.0);
     a.track
         .iter()
         .zip(b.track)
-        .map(|(x, y)| match (x, y) {
+        .enumerate()
+        .map(|(f, (x, y))| match (x, y) {
             (Some(x), Some(y)) => {
                 let (p_a, p_b) = (x.apply(c_a), y.apply(c_b));
                 let weighted = precision.and_then(|(w_a, w_b)| {
-                    // Each precision turned into the global frame with its segment.
-                    let g_a = x.rot * w_a * x.rot.transpose();
-                    let g_b = y.rot * w_b * y.rot.transpose();
+                    // Each precision turned into the global frame with its segment, and
+                    // scaled by how this frame's fit compares with its typical one.
+                    let g_a = x.rot * w_a * x.rot.transpose() / scale(&scales_a, f);
+                    let g_b = y.rot * w_b * y.rot.transpose() / scale(&scales_b, f);
                     let p = (g_a + g_b).inverse() * (g_a * p_a + g_b * p_b);
                     p.is_finite().then_some(p)
                 });

@@ -589,6 +589,51 @@ pub(crate) fn point_precision(poses: &SegmentPoses, p: DVec3) -> Option<DMat3> {
         .filter(|m| m.is_finite())
 }
 
+/// Per frame, how a segment's pose error there compares with its typical frame's
+/// (variance ratio): the mean squared misfit RMS over the frames within
+/// [`MISFIT_WINDOW_FRAMES`] of it, over the squared median misfit RMS, at least
+/// [`MIN_MISFIT_SCALE`]; 1 where no frame near it has a fit, and everywhere without a
+/// median. Skin that deforms a segment's marker set in a frame has moved the set as a
+/// whole there too, which no misfit shows; the frames it deforms most are the ones whose
+/// pose to trust least. The window, because one frame's misfit has only 3n − 6 degrees
+/// of freedom (three with three markers): white noise alone would make it scatter.
+pub(crate) fn misfit_scales(poses: &SegmentPoses) -> Vec<f64> {
+    let n = poses.rms_mm.len();
+    let Some(median) = median_rms_mm(poses).filter(|m| *m > 0.0) else {
+        return vec![1.0; n];
+    };
+    // Prefix sums of the finite squares and their count.
+    let mut squares = vec![0.0; n + 1];
+    let mut counts = vec![0usize; n + 1];
+    for (f, r) in poses.rms_mm.iter().enumerate() {
+        let finite = r.is_finite();
+        squares[f + 1] = squares[f] + if finite { r * r } else { 0.0 };
+        counts[f + 1] = counts[f] + usize::from(finite);
+    }
+    (0..n)
+        .map(|f| {
+            let (lo, hi) = (
+                f.saturating_sub(MISFIT_WINDOW_FRAMES),
+                (f + MISFIT_WINDOW_FRAMES + 1).min(n),
+            );
+            let count = counts[hi] - counts[lo];
+            if count == 0 {
+                return 1.0;
+            }
+            let mean = (squares[hi] - squares[lo]) / count as f64;
+            (mean / (median * median)).max(MIN_MISFIT_SCALE)
+        })
+        .collect()
+}
+
+/// Half-width (frames) of the window [`misfit_scales`] averages a frame's misfit over:
+/// 13 frames of three markers give 39 degrees of freedom.
+const MISFIT_WINDOW_FRAMES: usize = 6;
+
+/// Least variance ratio [`misfit_scales`] gives a frame: no frame counts more than a
+/// hundred typical ones.
+const MIN_MISFIT_SCALE: f64 = 0.01;
+
 /// The sum of a 3×3 matrix's diagonal.
 pub(crate) fn trace(m: DMat3) -> f64 {
     m.x_axis.x + m.y_axis.y + m.z_axis.z
@@ -636,6 +681,42 @@ mod tests {
     /// The default rules.
     fn rules() -> FitRules {
         FitRules::of(&crate::Params::default())
+    }
+
+    /// A frame's variance ratio reads the misfit of the frames round it over the median's:
+    /// 1 where the fit is typical, the burst's ratio squared inside a long burst, partly at
+    /// its edges (the window straddles them), never below the floor, and 1 where nothing
+    /// near has a fit.
+    #[test]
+    fn misfit_scales_read_each_frame_against_the_typical_one() {
+        let mut rms = vec![2.0; 100];
+        for r in &mut rms[40..70] {
+            *r = 6.0;
+        }
+        for r in &mut rms[0..3] {
+            *r = 0.0;
+        }
+        rms.extend([f64::NAN; 20]);
+        let poses = SegmentPoses {
+            segment: 0,
+            reference: vec![[0.0; 3]; 3],
+            rotations: vec![[0.0, 0.0, 0.0, 1.0]; rms.len()],
+            translations: vec![[0.0; 3]; rms.len()],
+            rms_mm: rms,
+        };
+        let scales = misfit_scales(&poses);
+        assert_eq!(scales.len(), 120);
+        assert!((scales[20] - 1.0).abs() < 1e-12, "{}", scales[20]);
+        assert!((scales[55] - 9.0).abs() < 1e-12, "{}", scales[55]);
+        // Seven of the thirteen frames round frame 40 are the burst's (6 mm), six not (2 mm).
+        let edge = (7.0 * 36.0 + 6.0 * 4.0) / 13.0 / 4.0;
+        assert!((scales[40] - edge).abs() < 1e-12, "{} {edge}", scales[40]);
+        assert!(
+            scales[0] >= MIN_MISFIT_SCALE && scales[0] < 1.0,
+            "{}",
+            scales[0]
+        );
+        assert!(scales[110] == 1.0);
     }
 
     /// A 5-marker body whose last marker's trajectory is another body's for 50 of 300

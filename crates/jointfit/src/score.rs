@@ -39,17 +39,33 @@ pub(crate) fn solve(
     solve_with(pa, pb, frames, drop, target, None)
 }
 
+/// Where one segment's pose puts a point fixed in it, per frame, for [`solve_weighted`].
+#[derive(Clone, Copy)]
+pub(crate) struct PointCovariance<'a> {
+    /// Covariance (mm², segment frame) in a typical frame.
+    pub typical: DMat3,
+    /// Per frame, the variance's ratio to the typical frame's (`poses::misfit_scales`).
+    pub scales: &'a [f64],
+}
+
+impl PointCovariance<'_> {
+    /// The covariance at frame `f` in the global frame, the segment's rotation `rot`.
+    fn at(&self, f: usize, rot: DMat3) -> DMat3 {
+        rot * self.typical * rot.transpose() * self.scales.get(f).copied().unwrap_or(1.0)
+    }
+}
+
 /// [`solve`] with each frame's three equations weighted by the precision of the centres'
-/// disagreement there, `(R_a Σ_a R_aᵀ + R_b Σ_b R_bᵀ)⁻¹`, from `covariances` (Σ_a, Σ_b:
-/// segment frames) of where each pose puts its centre; a frame where that is singular
-/// counts for nothing. The eigenvalues are the weighted normal matrix's.
+/// disagreement there, `(R_a Σ_a R_aᵀ + R_b Σ_b R_bᵀ)⁻¹`, Σ_a and Σ_b (`covariances`)
+/// where each pose puts its centre that frame; a frame where that is singular counts for
+/// nothing. The eigenvalues are the weighted normal matrix's.
 pub(crate) fn solve_weighted(
     pa: &[Option<Pose>],
     pb: &[Option<Pose>],
     frames: &[usize],
     drop: usize,
     target: (DVec3, DVec3),
-    covariances: (DMat3, DMat3),
+    covariances: (PointCovariance, PointCovariance),
 ) -> ScoreSolution {
     solve_with(pa, pb, frames, drop, target, Some(covariances))
 }
@@ -61,7 +77,7 @@ fn solve_with(
     frames: &[usize],
     drop: usize,
     target: (DVec3, DVec3),
-    covariances: Option<(DMat3, DMat3)>,
+    covariances: Option<(PointCovariance, PointCovariance)>,
 ) -> ScoreSolution {
     let n = frames.len().max(1) as f64;
     let mut normal = [[0.0f64; 6]; 6];
@@ -72,7 +88,7 @@ fn solve_with(
         };
         let d = b.trans - a.trans;
         if let Some((sa, sb)) = covariances {
-            let w = (a.rot * sa * a.rot.transpose() + b.rot * sb * b.rot.transpose()).inverse();
+            let w = (sa.at(f, a.rot) + sb.at(f, b.rot)).inverse();
             if !w.is_finite() {
                 continue;
             }
@@ -411,7 +427,19 @@ mod tests {
             let frames: Vec<usize> = (0..pa.len()).collect();
             let target = (DVec3::ZERO, DVec3::ZERO);
             let plain = solve(&pa, &pb, &frames, 0, target);
-            let weighted = solve_weighted(&pa, &pb, &frames, 0, target, (sigma_a, sigma_b));
+            let ones = vec![1.0; frames.len()];
+            let covariance = |typical| PointCovariance {
+                typical,
+                scales: &ones,
+            };
+            let weighted = solve_weighted(
+                &pa,
+                &pb,
+                &frames,
+                0,
+                target,
+                (covariance(sigma_a), covariance(sigma_b)),
+            );
             plain_error += plain.c_b.distance(c_b) + plain.c_a.distance(c_a);
             weighted_error += weighted.c_b.distance(c_b) + weighted.c_a.distance(c_a);
         }
