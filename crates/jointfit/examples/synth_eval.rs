@@ -8,8 +8,9 @@
 //! `floor`: the error left by the best centre constant in each segment's marker frame
 //! (from the truth), the limit skin puts on every method here; and `score-floor`: plain
 //! SCoRE on the same poses with every hinge's place along its axis taken from the truth,
-//! what the poses themselves allow a fit that reads nothing but them (below it only a
-//! prior on where joints sit can go; given a SUBJECT, also per joint). `along`: how far
+//! what plain SCoRE allows with nothing but the poses (the default fit, which weighs each
+//! frame by the poses' precision at the centre, goes under it on some subjects; given a
+//! SUBJECT, also per joint). `along`: how far
 //! the bone placement (`place_hinges_across_bones` over the true tree, as bonefit runs
 //! it) leaves the true hinges fitted as hinges from the truth along their true axes, and
 //! the same with the truth's axes given to the placement (which still allows them the

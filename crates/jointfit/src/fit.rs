@@ -399,8 +399,10 @@ pub(crate) fn fit_pair(
 /// SCoRE's centres `(c_a, c_b)` with each frame weighted by the precision of the two poses'
 /// disagreement at the centre (`Params::weighted_centres`): each segment's covariance of
 /// the point its pose puts at `unweighted`'s centre ([`poses::point_precision`]), turned
-/// with the poses. `(pa, pb, frames)` as for [`score::solve`], and its `drop` and
-/// `target`; `None` where either side has no such measure or the solve is not finite.
+/// with the poses and scaled by how each frame's fit compares with the segment's typical
+/// one ([`poses::misfit_scales`]). `(pa, pb, frames)` as for [`score::solve`], and its
+/// `drop` and `target`; `None` where either side has no such measure or the solve is not
+/// finite.
 fn weighted_centres(
     poses_a: &SegmentPoses,
     poses_b: &SegmentPoses,
@@ -461,10 +463,11 @@ impl<'a> PosedSegment<'a> {
 /// The joint's global position per frame from its centre in each segment: where both are
 /// posed, both segments' views weighted by how precisely each pose puts its centre
 /// ([`poses::point_precision`]: a pose fixes a point near its markers better than one
-/// far out along their lever, and many markers better than few), their mean where either
-/// has no such measure; either one's view alone; NaN where neither is posed. Seeds
-/// 20001..20050, 30001..30050 hard: the joints' error 1.687 → 1.671 % of height against the
-/// plain mean (1.555 → 1.540 with the true segments).
+/// far out along their lever, and many markers better than few) in that frame
+/// ([`poses::misfit_scales`]), their mean where either has no such measure; either one's
+/// view alone; NaN where neither is posed. Seeds 20001..20050, 30001..30050 hard: the
+/// joints' error 1.687 → 1.671 % of height against the plain mean (1.555 → 1.540 with the
+/// true segments), before the per-frame scale and the weighted centres.
 pub(crate) fn joint_positions(
     c_a: DVec3,
     c_b: DVec3,

@@ -179,7 +179,7 @@ pub fn place_hinge_centres(fits: &mut PairFits, edges: &[(usize, usize, usize)])
 }
 
 /// Moves pair `pair`'s hinge centre `shift` mm along its axis in both segments and
-/// recomputes its positions (the mean of both segments' view where both are posed);
+/// recomputes its positions (both segments' views, each weighted by its precision there);
 /// `why` ends the note in its evidence ("centre moved … along the hinge axis {why}").
 /// False (nothing changed) when there is no such pair or it has no axis.
 pub fn slide_hinge_centre(fits: &mut PairFits, pair: usize, shift: f64, why: &str) -> bool {

@@ -6,7 +6,9 @@
 //! (allocation-free) and solved by eigen-decomposition. Hinges leave one direction
 //! (the axis, in both frames at once: SARA) and rigid pairs three directions undetermined;
 //! those components are not taken from noise but chosen to put the centre nearest the
-//! midpoint of the two segments' origins (see [`crate::fit`]).
+//! midpoint of the two segments' origins (see [`crate::fit`]). [`solve_weighted`] weighs
+//! each frame's three equations by the precision of the two poses' disagreement at the
+//! centre (`Params::weighted_centres`).
 
 // Index loops read like the matrix formulas they implement.
 #![allow(clippy::needless_range_loop)]
