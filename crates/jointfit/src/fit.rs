@@ -9,7 +9,7 @@ use crate::local::{LocalSettings, fit_local};
 use crate::motion::{RelativeMotion, relative_motion};
 use crate::pairfits::{JointKind, PairFit, SegmentPoses};
 use crate::params::{Method, Params};
-use crate::poses::{self, Pose};
+use crate::poses::{self, Pose, PoseScatter};
 use crate::score::{self, MarkerLine};
 
 /// What a pair fit reads about one segment.
@@ -20,6 +20,8 @@ pub(crate) struct SegmentView<'a> {
     pub poses: &'a SegmentPoses,
     /// Poses per frame.
     pub track: &'a [Option<Pose>],
+    /// How precisely the poses put a point, per frame.
+    pub scatter: &'a PoseScatter,
     /// For a segment with its own poses whose gaps were filled through an anchor: the
     /// anchor neighbour and, per frame, whether the pose there was filled through it.
     pub filled_through: Option<(usize, &'a [bool])>,
@@ -289,8 +291,13 @@ pub(crate) fn fit_pair(
             }
             if params.weighted_centres
                 && !spin_corrected
-                && let Some((c_a, c_b)) =
-                    weighted_centres(sa.poses, sb.poses, (pa, pb, &co), used_drop, target, &sol)
+                && let Some((c_a, c_b)) = weighted_centres(
+                    (sa.scatter, sb.scatter),
+                    (pa, pb, &co),
+                    used_drop,
+                    target,
+                    &sol,
+                )
             {
                 evidence.push_str(&format!(
                     "; centres weighted frame by frame by each pose's precision at the centre \
@@ -364,18 +371,7 @@ pub(crate) fn fit_pair(
         }
     };
     let residual = residual_rms(pa, pb, &co, c_a, c_b);
-    let positions = joint_positions(
-        c_a,
-        c_b,
-        PosedSegment {
-            poses: sa.poses,
-            track: sa.track,
-        },
-        PosedSegment {
-            poses: sb.poses,
-            track: sb.track,
-        },
-    );
+    let positions = joint_positions(c_a, c_b, sa.posed(), sb.posed());
     let hinge = kind == JointKind::Hinge;
     PairFit {
         a,
@@ -403,28 +399,26 @@ pub(crate) fn fit_pair(
 
 /// SCoRE's centres `(c_a, c_b)` with each frame weighted by the precision of the two poses'
 /// disagreement at the centre (`Params::weighted_centres`): each segment's covariance of
-/// the point its pose puts at `unweighted`'s centre ([`poses::point_precision`]), turned
+/// the point its pose puts at `unweighted`'s centre ([`PoseScatter::precision_at`]), turned
 /// with the poses and scaled by how each frame's fit compares with the segment's typical
-/// one ([`poses::misfit_scales`]). `(pa, pb, frames)` as for [`score::solve`], and its
+/// one (`PoseScatter::scales`). `(pa, pb, frames)` as for [`score::solve`], and its
 /// `drop` and `target`; `None` where either side has no such measure or the solve is not
 /// finite.
 fn weighted_centres(
-    poses_a: &SegmentPoses,
-    poses_b: &SegmentPoses,
+    (scatter_a, scatter_b): (&PoseScatter, &PoseScatter),
     (pa, pb, frames): (&[Option<Pose>], &[Option<Pose>], &[usize]),
     drop: usize,
     target: (DVec3, DVec3),
     unweighted: &score::ScoreSolution,
 ) -> Option<(DVec3, DVec3)> {
-    let covariance_a = poses::point_precision(poses_a, unweighted.c_a)?.inverse();
-    let covariance_b = poses::point_precision(poses_b, unweighted.c_b)?.inverse();
+    let covariance_a = scatter_a.precision_at(unweighted.c_a)?.inverse();
+    let covariance_b = scatter_b.precision_at(unweighted.c_b)?.inverse();
     // Only their ratio matters; scaled to a trace of 3 (mm² per unit) for conditioning.
     let trace = poses::trace(covariance_a + covariance_b);
     if !(trace.is_finite() && trace > 0.0) {
         return None;
     }
     let scale = 3.0 / trace;
-    let (scales_a, scales_b) = (poses::misfit_scales(poses_a), poses::misfit_scales(poses_b));
     let weighted = score::solve_weighted(
         pa,
         pb,
@@ -434,42 +428,52 @@ fn weighted_centres(
         (
             score::PointCovariance {
                 typical: covariance_a * scale,
-                scales: &scales_a,
+                scales: &scatter_a.scales,
             },
             score::PointCovariance {
                 typical: covariance_b * scale,
-                scales: &scales_b,
+                scales: &scatter_b.scales,
             },
         ),
     );
     (weighted.c_a.is_finite() && weighted.c_b.is_finite()).then_some((weighted.c_a, weighted.c_b))
 }
 
-/// A segment as [`joint_positions`] reads it: its stored poses (reference shape, fit
-/// misfit) and its pose per frame.
+/// A segment as [`joint_positions`] reads it: how precisely its poses put a point, and
+/// its pose per frame.
 #[derive(Clone, Copy)]
 pub(crate) struct PosedSegment<'a> {
-    /// Stored poses.
-    pub poses: &'a SegmentPoses,
+    /// How precisely its poses put a point, per frame.
+    pub scatter: &'a PoseScatter,
     /// Pose per frame (`None` where unknown).
     pub track: &'a [Option<Pose>],
 }
 
 impl<'a> PosedSegment<'a> {
-    /// Segment `s` of every segment's stored `poses` and pose `tracks`.
-    pub fn of(poses: &'a [SegmentPoses], tracks: &'a [Vec<Option<Pose>>], s: usize) -> Self {
+    /// Segment `s` of every segment's `scatters` and pose `tracks`.
+    pub fn of(scatters: &'a [PoseScatter], tracks: &'a [Vec<Option<Pose>>], s: usize) -> Self {
         Self {
-            poses: &poses[s],
+            scatter: &scatters[s],
             track: &tracks[s],
+        }
+    }
+}
+
+impl SegmentView<'_> {
+    /// The segment as [`joint_positions`] reads it.
+    fn posed(&self) -> PosedSegment<'_> {
+        PosedSegment {
+            scatter: self.scatter,
+            track: self.track,
         }
     }
 }
 
 /// The joint's global position per frame from its centre in each segment: where both are
 /// posed, both segments' views weighted by how precisely each pose puts its centre
-/// ([`poses::point_precision`]: a pose fixes a point near its markers better than one
+/// ([`PoseScatter::precision_at`]: a pose fixes a point near its markers better than one
 /// far out along their lever, and many markers better than few) in that frame
-/// ([`poses::misfit_scales`]), their mean where either has no such measure; either one's
+/// (`PoseScatter::scales`), their mean where either has no such measure; either one's
 /// view alone; NaN where neither is posed. Seeds 20001..20050, 30001..30050 hard: the
 /// joints' error 1.687 → 1.671 % of height against the plain mean (1.555 → 1.540 with the
 /// true segments), before the per-frame scale and the weighted centres.
@@ -479,13 +483,7 @@ pub(crate) fn joint_positions(
     a: PosedSegment,
     b: PosedSegment,
 ) -> Vec<[f64; 3]> {
-    let precision = poses::point_precision(a.poses, c_a).zip(poses::point_precision(b.poses, c_b));
-    let (scales_a, scales_b) = if precision.is_some() {
-        (poses::misfit_scales(a.poses), poses::misfit_scales(b.poses))
-    } else {
-        (Vec::new(), Vec::new())
-    };
-    let scale = |scales: &[f64], f: usize| scales.get(f).copied().unwrap_or(1.0);
+    let precision = a.scatter.precision_at(c_a).zip(b.scatter.precision_at(c_b));
     a.track
         .iter()
         .zip(b.track)
@@ -496,8 +494,8 @@ pub(crate) fn joint_positions(
                 let weighted = precision.and_then(|(w_a, w_b)| {
                     // Each precision turned into the global frame with its segment, and
                     // scaled by how this frame's fit compares with its typical one.
-                    let g_a = x.rot * w_a * x.rot.transpose() / scale(&scales_a, f);
-                    let g_b = y.rot * w_b * y.rot.transpose() / scale(&scales_b, f);
+                    let g_a = x.rot * w_a * x.rot.transpose() / a.scatter.scale(f);
+                    let g_b = y.rot * w_b * y.rot.transpose() / b.scatter.scale(f);
                     let p = (g_a + g_b).inverse() * (g_a * p_a + g_b * p_b);
                     p.is_finite().then_some(p)
                 });
@@ -614,7 +612,7 @@ mod tests {
 
     use super::{PosedSegment, joint_positions};
     use crate::pairfits::SegmentPoses;
-    use crate::poses::{Pose, pose_track};
+    use crate::poses::{Pose, PoseScatter, pose_track};
 
     /// A segment at rest with `reference` markers fitted to `rms_mm` in every frame.
     fn segment(reference: &[[f64; 3]], rms_mm: f64, frames: usize) -> SegmentPoses {
@@ -663,36 +661,29 @@ mod tests {
         let centre = DVec3::ZERO;
         let off = turned.apply(centre).length();
         assert!(off > 8.0, "{off}");
-        let positions = joint_positions(
-            centre,
-            centre,
-            PosedSegment {
-                poses: &near,
-                track: &track_near,
-            },
-            PosedSegment {
-                poses: &far,
-                track: &track_far,
-            },
-        );
-        for p in &positions {
+        let near_scatter = PoseScatter::of(&near);
+        // The joint's positions with `other` as the second segment, posed as `far` is.
+        let positions_with = |other: &SegmentPoses| {
+            joint_positions(
+                centre,
+                centre,
+                PosedSegment {
+                    scatter: &near_scatter,
+                    track: &track_near,
+                },
+                PosedSegment {
+                    scatter: &PoseScatter::of(other),
+                    track: &track_far,
+                },
+            )
+        };
+        for p in &positions_with(&far) {
             let miss = DVec3::from_array(*p).length();
             assert!(miss < 0.05 * off, "{miss} of {off}");
         }
         // Two markers: no precision, so the plain mean of the views.
         let two = segment(&[[250.0, 0.0, 0.0], [270.0, 10.0, 0.0]], 3.0, frames);
-        let positions = joint_positions(
-            centre,
-            centre,
-            PosedSegment {
-                poses: &near,
-                track: &track_near,
-            },
-            PosedSegment {
-                poses: &two,
-                track: &track_far,
-            },
-        );
+        let positions = positions_with(&two);
         let mean = 0.5 * turned.apply(centre);
         for p in &positions {
             assert!(DVec3::from_array(*p).distance(mean) < 1e-9);

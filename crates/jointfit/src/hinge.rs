@@ -37,9 +37,10 @@
 use glam::{DMat3, DVec3};
 
 use crate::fit::{PosedSegment, joint_positions};
-use crate::pairfits::{PairFit, PairFits, SegmentPoses};
+use crate::pairfits::{PairFit, PairFits};
 use crate::poses::{
-    Pose, inverse_inertia, median_rms_mm, pose_track, reference_points, scatter_from_rms, trace,
+    Pose, PoseScatter, inverse_inertia, median_rms_mm, pose_track, reference_points,
+    scatter_from_rms, trace,
 };
 
 /// Moves every hinge centre of the tree along its axis (see the module docs) and
@@ -161,6 +162,7 @@ pub fn place_hinge_centres(fits: &mut PairFits, edges: &[(usize, usize, usize)])
         return shifts;
     };
     let tracks: Vec<_> = fits.poses.iter().map(pose_track).collect();
+    let scatters: Vec<_> = fits.poses.iter().map(PoseScatter::of).collect();
     for &(e, pair, _) in &usable {
         let Some(k) = unknown[e] else { continue };
         let shift = s[k];
@@ -171,7 +173,7 @@ pub fn place_hinge_centres(fits: &mut PairFits, edges: &[(usize, usize, usize)])
         slide_along_axis(
             &mut fits.pairs[pair],
             shift,
-            (&fits.poses, &tracks),
+            (&scatters, &tracks),
             "toward the adjacent joints",
         );
     }
@@ -190,9 +192,12 @@ pub fn slide_hinge_centre(fits: &mut PairFits, pair: usize, shift: f64, why: &st
         return false;
     };
     let mut tracks = vec![Vec::new(); fits.poses.len()];
-    tracks[a] = pose_track(pa);
-    tracks[b] = pose_track(pb);
-    slide_along_axis(&mut fits.pairs[pair], shift, (&fits.poses, &tracks), why)
+    let mut scatters = vec![PoseScatter::default(); fits.poses.len()];
+    for (s, poses) in [(a, pa), (b, pb)] {
+        tracks[s] = pose_track(poses);
+        scatters[s] = PoseScatter::of(poses);
+    }
+    slide_along_axis(&mut fits.pairs[pair], shift, (&scatters, &tracks), why)
 }
 
 /// How far (times) an error in the two segments' poses can move pair `pair`'s centre
@@ -223,7 +228,7 @@ pub fn centre_gain(fits: &PairFits, pair: usize) -> Option<f64> {
 fn slide_along_axis(
     fit: &mut PairFit,
     shift: f64,
-    (poses, tracks): (&[SegmentPoses], &[Vec<Option<Pose>>]),
+    (scatters, tracks): (&[PoseScatter], &[Vec<Option<Pose>>]),
     why: &str,
 ) -> bool {
     let unit = |u: Option<[f64; 3]>| u.and_then(|u| DVec3::from_array(u).try_normalize());
@@ -234,7 +239,7 @@ fn slide_along_axis(
     let c_b = DVec3::from_array(fit.centre_in_b) + shift * ub;
     fit.centre_in_a = c_a.to_array();
     fit.centre_in_b = c_b.to_array();
-    let posed = |s: usize| PosedSegment::of(poses, tracks, s);
+    let posed = |s: usize| PosedSegment::of(scatters, tracks, s);
     fit.positions = joint_positions(c_a, c_b, posed(fit.a), posed(fit.b));
     fit.evidence.push_str(&format!(
         "; centre moved {shift:.1} mm along the hinge axis {why}"
@@ -1202,6 +1207,7 @@ pub fn place_hinges_across_bones(
         }
     }
     let tracks: Vec<_> = fits.poses.iter().map(pose_track).collect();
+    let scatters: Vec<_> = fits.poses.iter().map(PoseScatter::of).collect();
     let tilts: Vec<Option<SharedTilt>> = edges
         .iter()
         .enumerate()
@@ -1293,7 +1299,7 @@ pub fn place_hinges_across_bones(
         if slide_along_axis(
             &mut fits.pairs[pair],
             shift,
-            (&fits.poses, &tracks),
+            (&scatters, &tracks),
             "to where it crosses a bone squarely",
         ) {
             placed.shifts[e] = shift;

@@ -312,18 +312,21 @@ fn fit_all(
         })
         .collect();
     let tracks: Vec<Vec<Option<poses::Pose>>> = poses.par_iter().map(poses::pose_track).collect();
+    let scatters: Vec<poses::PoseScatter> = poses.par_iter().map(poses::PoseScatter::of).collect();
     let views: Vec<fit::SegmentView<'_>> = segments
         .iter()
         .zip(&poses)
         .zip(&tracks)
+        .zip(&scatters)
         .zip(&anchors)
         .zip(&lines)
         .map(
-            |((((markers, poses), track), anchor), line)| fit::SegmentView {
+            |(((((markers, poses), track), scatter), anchor), line)| fit::SegmentView {
                 markers,
                 line: *line,
                 poses,
                 track,
+                scatter,
                 pivot: anchor
                     .as_ref()
                     .filter(|a| a.posed_by_anchor && markers.len() >= 2)
@@ -353,7 +356,7 @@ fn fit_all(
     // joints (the anchor's and any other) are centred by its markers' distances alone.
     if params.anchor_centres_by_distance {
         fits.par_iter_mut().for_each(|fit| {
-            centre_by_distances(traj, fit, segments, &anchors, (&poses, &tracks), params);
+            centre_by_distances(traj, fit, segments, &anchors, (&scatters, &tracks), params);
         });
     }
     // Say which joints carry a segment's poses: their costs are low partly by construction.
@@ -429,7 +432,7 @@ fn centre_by_distances(
     fit: &mut PairFit,
     segments: &[Vec<usize>],
     anchors: &[Option<anchor::Anchor>],
-    (poses, tracks): (&[SegmentPoses], &[Vec<Option<poses::Pose>>]),
+    (scatters, tracks): (&[poses::PoseScatter], &[Vec<Option<poses::Pose>>]),
     params: &Params,
 ) {
     // An unidentifiable pair (no common frames) has no centre to move.
@@ -454,7 +457,7 @@ fn centre_by_distances(
         .min_by(|x, y| x.rms_mm.total_cmp(&y.rms_mm));
     let Some(c) = best else { return };
     let (ta, tb) = (&tracks[fit.a], &tracks[fit.b]);
-    let posed = |s: usize| fit::PosedSegment::of(poses, tracks, s);
+    let posed = |s: usize| fit::PosedSegment::of(scatters, tracks, s);
     let Some(moved) = fit::recentre(fit, c.frame, c.centre, posed(fit.a), posed(fit.b)) else {
         return;
     };

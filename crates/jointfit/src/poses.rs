@@ -566,27 +566,63 @@ pub(crate) fn pivot_tilt_variance(
     Some(sigma_mm * sigma_mm * (trace(inverse) - axis.dot(inverse * axis)).max(0.0))
 }
 
-/// Inverse covariance (mm⁻², segment frame) of where a segment's pose puts its local point
-/// `p` in one frame: its fit scatter σ through the Horn fit of its reference markers,
-/// σ² (I/n + [d]× J⁻¹ [d]×ᵀ) with d = p less their centroid and J their inertia tensor
-/// (linearised least squares: the translation's error, and the turn's at p's lever).
-/// `None` for fewer than 3 points, no fit, collinear points or a scatter of 0.
-pub(crate) fn point_precision(poses: &SegmentPoses, p: DVec3) -> Option<DMat3> {
-    let (sigma, reference) = fit_scatter(poses)?;
-    let inverse = inverse_inertia(&reference)?;
-    let n = reference.len() as f64;
-    let d = p - reference.iter().copied().sum::<DVec3>() / n;
-    // [d]×, the cross product with d as a matrix.
-    let cross = DMat3::from_cols(
-        DVec3::new(0.0, d.z, -d.y),
-        DVec3::new(-d.z, 0.0, d.x),
-        DVec3::new(d.y, -d.x, 0.0),
-    );
-    let covariance = (DMat3::IDENTITY / n + cross * inverse * cross.transpose()) * (sigma * sigma);
-    let determinant = covariance.determinant();
-    (determinant.is_finite() && determinant > 0.0)
-        .then(|| covariance.inverse())
-        .filter(|m| m.is_finite())
+/// How precisely a segment's poses put a point fixed in it, read once per segment: what
+/// [`PoseScatter::precision_at`] needs of its fit, and its frames' [`misfit_scales`].
+#[derive(Clone, Debug, Default)]
+pub(crate) struct PoseScatter {
+    /// Fit scatter σ (mm per coordinate), the reference markers' centroid, the inverse of
+    /// their inertia tensor and their count; `None` for fewer than 3 points, no fit or
+    /// collinear points.
+    fit: Option<(f64, DVec3, DMat3, f64)>,
+    /// Per frame, the pose's variance over its typical frame's ([`misfit_scales`]).
+    pub scales: Vec<f64>,
+}
+
+impl PoseScatter {
+    /// The scatter of `poses`.
+    pub fn of(poses: &SegmentPoses) -> Self {
+        let fit = fit_scatter(poses).and_then(|(sigma, reference)| {
+            let inverse = inverse_inertia(&reference)?;
+            let n = reference.len() as f64;
+            Some((
+                sigma,
+                reference.iter().copied().sum::<DVec3>() / n,
+                inverse,
+                n,
+            ))
+        });
+        Self {
+            fit,
+            scales: misfit_scales(poses),
+        }
+    }
+
+    /// Inverse covariance (mm⁻², segment frame) of where the segment's pose puts its local
+    /// point `p` in a typical frame: its fit scatter σ through the Horn fit of its reference
+    /// markers, σ² (I/n + [d]× J⁻¹ [d]×ᵀ) with d = p less their centroid and J their
+    /// inertia tensor (linearised least squares: the translation's error, and the turn's
+    /// at p's lever). `None` without a fit (see `fit`) or for a scatter of 0.
+    pub fn precision_at(&self, p: DVec3) -> Option<DMat3> {
+        let (sigma, centroid, inverse, n) = self.fit?;
+        let d = p - centroid;
+        // [d]×, the cross product with d as a matrix.
+        let cross = DMat3::from_cols(
+            DVec3::new(0.0, d.z, -d.y),
+            DVec3::new(-d.z, 0.0, d.x),
+            DVec3::new(d.y, -d.x, 0.0),
+        );
+        let covariance =
+            (DMat3::IDENTITY / n + cross * inverse * cross.transpose()) * (sigma * sigma);
+        let determinant = covariance.determinant();
+        (determinant.is_finite() && determinant > 0.0)
+            .then(|| covariance.inverse())
+            .filter(|m| m.is_finite())
+    }
+
+    /// Frame `f`'s variance ratio (1 beyond the frames read).
+    pub fn scale(&self, f: usize) -> f64 {
+        self.scales.get(f).copied().unwrap_or(1.0)
+    }
 }
 
 /// Per frame, how a segment's pose error there compares with its typical frame's
@@ -597,7 +633,7 @@ pub(crate) fn point_precision(poses: &SegmentPoses, p: DVec3) -> Option<DMat3> {
 /// whole there too, which no misfit shows; the frames it deforms most are the ones whose
 /// pose to trust least. The window, because one frame's misfit has only 3n − 6 degrees
 /// of freedom (three with three markers): white noise alone would make it scatter.
-pub(crate) fn misfit_scales(poses: &SegmentPoses) -> Vec<f64> {
+fn misfit_scales(poses: &SegmentPoses) -> Vec<f64> {
     let n = poses.rms_mm.len();
     let Some(median) = median_rms_mm(poses).filter(|m| *m > 0.0) else {
         return vec![1.0; n];

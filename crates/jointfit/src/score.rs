@@ -46,7 +46,7 @@ pub(crate) fn solve(
 pub(crate) struct PointCovariance<'a> {
     /// Covariance (mm², segment frame) in a typical frame.
     pub typical: DMat3,
-    /// Per frame, the variance's ratio to the typical frame's (`poses::misfit_scales`).
+    /// Per frame, the variance's ratio to the typical frame's (`poses::PoseScatter::scales`).
     pub scales: &'a [f64],
 }
 
