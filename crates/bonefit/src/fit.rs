@@ -25,6 +25,15 @@ struct JointSpec<'a> {
     centre_in_parent: DVec3,
 }
 
+/// The tree's joints as `(pair, parent segment, child segment)`, as jointfit's tree
+/// functions take them.
+fn tree_edges(topo: &Topology) -> Vec<(usize, usize, usize)> {
+    topo.joints
+        .iter()
+        .map(|j| (j.pair, j.parent_segment, j.child_segment))
+        .collect()
+}
+
 /// Fits constant offsets and computes the motion (see the crate docs).
 pub fn run(
     traj: &Trajectories,
@@ -77,11 +86,7 @@ pub fn run(
     let mut measured_point = vec![false; topo.joints.len()];
     let fits = if params.place_hinges {
         let mut copy = fits.clone();
-        let edges: Vec<(usize, usize, usize)> = topo
-            .joints
-            .iter()
-            .map(|j| (j.pair, j.parent_segment, j.child_segment))
-            .collect();
+        let edges = tree_edges(topo);
         let shifts = match params.hinge_placement {
             HingePlacement::Tree => jointfit::place_hinge_centres(&mut copy, &edges),
             HingePlacement::Bone => {
@@ -149,6 +154,14 @@ pub fn run(
                 copy.pairs[pair] = before.clone();
             }
         }
+        if params.tree_positions {
+            jointfit::tree_positions(&mut copy, &edges);
+        }
+        placed = copy;
+        &placed
+    } else if params.tree_positions {
+        let mut copy = fits.clone();
+        jointfit::tree_positions(&mut copy, &tree_edges(topo));
         placed = copy;
         &placed
     } else {

@@ -66,6 +66,9 @@
 //!   4001,4002,4003,7001,9001,1001,5001,5002 --compare
 //!   bonefit.hinge_placement=child,bone`): clean 0.34 % → 0.10 % of height, hard 1.83 % →
 //!   1.74 %; random-clean over seeds 4001–4016 1.20 % → 0.56 %.
+//! - Positions: with `tree_positions`, after the hinges are placed, every tree joint's
+//!   observed position per frame (what the `fitted` rotations follow) is read from all the
+//!   tree joints' views at once (`jointfit::tree_positions`), not pair by pair.
 //!
 //! It does not fit joint centres (jointfit), choose the tree (topo) or write files (export).
 mod error;
@@ -183,6 +186,10 @@ pub struct Params {
     /// For `bone` placement, judge which side of each hinge is its child from the segment
     /// that turns least in the world, not from the tree's root (default true).
     pub hinge_sides_from_steadiest: bool,
+    /// Read the tree joints' positions from every tree joint's views at once
+    /// (`jointfit::tree_positions`: a segment's pose error shows at all its joints),
+    /// after the hinge placement (default true).
+    pub tree_positions: bool,
 }
 
 impl Default for Params {
@@ -199,6 +206,7 @@ impl Default for Params {
             hinge_max_shift_ratio: 0.1,
             hinge_placement: HingePlacement::Bone,
             hinge_sides_from_steadiest: true,
+            tree_positions: true,
         }
     }
 }
@@ -305,5 +313,14 @@ pub const PARAM_DOCS: &[(&str, &str)] = &[
          02_01 moves 0.4 mm, c3d.org's gait-raw left knee 19.5 mm (36.6 -> 33.9 mm from \
          the LKNE marker), Sample_Jump2 and MACsample (both trees already odd) more, the \
          rest not at all; default true",
+    ),
+    (
+        "tree_positions",
+        "read each tree joint's position per frame from every tree joint's two views at once \
+         (jointfit::tree_positions): a segment's pose error in a frame is one rigid error \
+         that shows at all the joints it carries, so the gap between the views of one joint \
+         tells the others something; the posterior mean under the pair fits' pose-precision \
+         model, which for a joint alone is the pair's own precision-weighted mean; after the \
+         hinge placement, before the bones; default true",
     ),
 ];

@@ -56,7 +56,9 @@
 //! are placed on their axes from the tree by [`place_hinges_across_bones`] (or the older
 //! [`place_hinge_centres`]), which the caller (bonefit) runs once the tree is known,
 //! with its edges turned from the segment that turns least in the world where that is
-//! clearly not the tree's root ([`steadiest_orientation`]).
+//! clearly not the tree's root ([`steadiest_orientation`]). Once the tree is known, the
+//! caller can also read every tree joint's positions from all the tree's joints' views at
+//! once ([`tree_positions`]: a segment's pose error shows at each joint it carries).
 
 mod aguiar;
 mod anchor;
@@ -72,6 +74,7 @@ mod poses;
 mod score;
 mod seed;
 mod small;
+mod treepositions;
 mod universal;
 
 pub use error::Error;
@@ -82,6 +85,7 @@ pub use hinge::{
 pub use horn::{RigidFit, absolute_orientation, rotation_from_cross_covariance};
 pub use pairfits::*;
 pub use params::{Method, PARAM_DOCS, Params};
+pub use treepositions::tree_positions;
 
 use glam::DVec3;
 use mocap_io::Trajectories;

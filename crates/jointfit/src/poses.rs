@@ -605,12 +605,7 @@ impl PoseScatter {
     pub fn precision_at(&self, p: DVec3) -> Option<DMat3> {
         let (sigma, centroid, inverse, n) = self.fit?;
         let d = p - centroid;
-        // [d]×, the cross product with d as a matrix.
-        let cross = DMat3::from_cols(
-            DVec3::new(0.0, d.z, -d.y),
-            DVec3::new(-d.z, 0.0, d.x),
-            DVec3::new(d.y, -d.x, 0.0),
-        );
+        let cross = cross_matrix(d);
         let covariance =
             (DMat3::IDENTITY / n + cross * inverse * cross.transpose()) * (sigma * sigma);
         let determinant = covariance.determinant();
@@ -619,10 +614,31 @@ impl PoseScatter {
             .filter(|m| m.is_finite())
     }
 
+    /// Covariance (mm², segment frame) between where the segment's pose puts its local
+    /// points `p` and `q` in a typical frame: the same pose error moves both, through the
+    /// translation alike and through the turn by each one's lever, σ² (I/n + [d_p]× J⁻¹
+    /// [d_q]×ᵀ) (at p = q the inverse of [`Self::precision_at`]). `None` without a fit.
+    pub fn covariance_between(&self, p: DVec3, q: DVec3) -> Option<DMat3> {
+        let (sigma, centroid, inverse, n) = self.fit?;
+        let (cross_p, cross_q) = (cross_matrix(p - centroid), cross_matrix(q - centroid));
+        let covariance =
+            (DMat3::IDENTITY / n + cross_p * inverse * cross_q.transpose()) * (sigma * sigma);
+        covariance.is_finite().then_some(covariance)
+    }
+
     /// Frame `f`'s variance ratio (1 beyond the frames read).
     pub fn scale(&self, f: usize) -> f64 {
         self.scales.get(f).copied().unwrap_or(1.0)
     }
+}
+
+/// [d]×, the cross product with `d` as a matrix.
+fn cross_matrix(d: DVec3) -> DMat3 {
+    DMat3::from_cols(
+        DVec3::new(0.0, d.z, -d.y),
+        DVec3::new(-d.z, 0.0, d.x),
+        DVec3::new(d.y, -d.x, 0.0),
+    )
 }
 
 /// Per frame, how a segment's pose error there compares with its typical frame's

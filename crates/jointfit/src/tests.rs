@@ -1607,3 +1607,53 @@ fn a_segment_steadier_than_the_next_anchor_is_posed_first() {
     assert!(!wrist.contains(&through), "{wrist}");
     assert!(elbow_and_wrist.contains(&through), "{elbow_and_wrist}");
 }
+
+/// Reading every tree joint's views at once puts the joints nearer the truth than each
+/// pair's own weighted mean, where each pose's error is what the pose-precision model says
+/// (white marker noise): a chain of four bodies of three markers, 3 mm of noise (13.1 mm
+/// RMS against 17.6); and a joint alone in the tree keeps exactly the pair's positions.
+#[test]
+fn tree_positions_read_a_segments_pose_error_at_all_its_joints() {
+    let mut rng = TestRng(51);
+    let bodies = chain(
+        &mut rng,
+        &[
+            Articulation::Ball(60.0),
+            Articulation::Ball(60.0),
+            Articulation::Ball(60.0),
+        ],
+        3,
+    );
+    let trial = generate(&mut rng, &bodies, 400, 3.0, |_, _, _| false);
+    let fits = run_on_segments(&trial.traj, &trial.segments, &params(Method::Score)).unwrap();
+    let links = [(0, 1), (1, 2), (2, 3)];
+    let edges = tree_edges(&fits, &links);
+    // RMS over frames and joints of the positions' distance from the truth.
+    let rms = |fits: &crate::PairFits| {
+        let (mut sum, mut n) = (0.0, 0.0);
+        for (&(pair, _, child), truth) in edges.iter().zip(links.map(|(_, c)| &trial.joints[c])) {
+            assert_eq!(fits.pairs[pair].b, child);
+            for (p, t) in fits.pairs[pair].positions.iter().zip(truth) {
+                sum += DVec3::from_array(*p).distance_squared(*t);
+                n += 1.0;
+            }
+        }
+        (sum / n).sqrt()
+    };
+    let mut tree = fits.clone();
+    let changed = crate::tree_positions(&mut tree, &edges);
+    assert_eq!(changed, 3 * 400);
+    let (before, after) = (rms(&fits), rms(&tree));
+    assert!(after < 0.9 * before, "{after} against {before} mm");
+
+    let mut alone = fits.clone();
+    crate::tree_positions(&mut alone, &edges[..1]);
+    let pair = edges[0].0;
+    for (p, q) in alone.pairs[pair]
+        .positions
+        .iter()
+        .zip(&fits.pairs[pair].positions)
+    {
+        assert!(DVec3::from_array(*p).distance(DVec3::from_array(*q)) < 1e-9);
+    }
+}
