@@ -79,6 +79,16 @@ pub fn run(
     if root >= segments {
         return Err(Error::BadRoot { root, segments });
     }
+    // The tree joints' centres refitted together, on a copy of the pair fits.
+    let centred;
+    let fits = if params.tree_centres {
+        let mut copy = fits.clone();
+        jointfit::tree_centres(&mut copy, &tree_edges(topo));
+        centred = copy;
+        &centred
+    } else {
+        fits
+    };
     // Hinge centres placed on their axes from the tree, on a copy of the pair fits.
     let placed;
     let mut hinge_shifts = vec![0.0; topo.joints.len()];

@@ -66,9 +66,12 @@
 //!   4001,4002,4003,7001,9001,1001,5001,5002 --compare
 //!   bonefit.hinge_placement=child,bone`): clean 0.34 % → 0.10 % of height, hard 1.83 % →
 //!   1.74 %; random-clean over seeds 4001–4016 1.20 % → 0.56 %.
-//! - Positions: with `tree_positions`, after the hinges are placed, every tree joint's
-//!   observed position per frame (what the `fitted` rotations follow) is read from all the
-//!   tree joints' views at once (`jointfit::tree_positions`), not pair by pair.
+//! - Centres and positions: with `tree_centres`, before the hinges are placed, the tree's
+//!   joint centres are refitted all at once (`jointfit::tree_centres`: the gaps of joints
+//!   on one segment err together), not pair by pair; with `tree_positions`, after the
+//!   hinges are placed, every tree joint's observed position per frame (what the `fitted`
+//!   rotations follow) is read from all the tree joints' views at once
+//!   (`jointfit::tree_positions`).
 //!
 //! It does not fit joint centres (jointfit), choose the tree (topo) or write files (export).
 mod error;
@@ -190,6 +193,9 @@ pub struct Params {
     /// (`jointfit::tree_positions`: a segment's pose error shows at all its joints),
     /// after the hinge placement (default true).
     pub tree_positions: bool,
+    /// Refit the tree joints' centres all at once (`jointfit::tree_centres`), before the
+    /// hinge placement (default true).
+    pub tree_centres: bool,
 }
 
 impl Default for Params {
@@ -207,6 +213,7 @@ impl Default for Params {
             hinge_placement: HingePlacement::Bone,
             hinge_sides_from_steadiest: true,
             tree_positions: true,
+            tree_centres: true,
         }
     }
 }
@@ -321,6 +328,20 @@ pub const PARAM_DOCS: &[(&str, &str)] = &[
          that shows at all the joints it carries, so the gap between the views of one joint \
          tells the others something; the posterior mean under the pair fits' pose-precision \
          model, which for a joint alone is the pair's own precision-weighted mean; after the \
-         hinge placement, before the bones; default true",
+         hinge placement, before the bones. cargo xtask eval --presets hard --compare \
+         bonefit.tree_positions=false,true (before tree_centres), seeds \
+         20001-20050,30001-30050: 1.574 -> 1.567 % of height (true segments 1.452 -> 1.444), \
+         40001-40100: 1.564 -> 1.556; trees and clean unchanged; default true",
+    ),
+    (
+        "tree_centres",
+        "refit the tree joints' centres all at once (jointfit::tree_centres): SCoRE's gaps of \
+         all the tree's joints in a frame weighted by the inverse of their joint covariance \
+         under the pose-precision model, where the pair fits weigh one joint at a time as if \
+         two joints on one segment erred independently; a hinge keeps its place along its \
+         axis; before the hinge placement. cargo xtask eval --presets hard --compare \
+         bonefit.tree_centres=false,true, seeds 20001-20050,30001-30050: 1.567 -> 1.466 % of \
+         height (true segments 1.444 -> 1.329), 40001-40100: 1.556 -> 1.456; trees and clean \
+         unchanged; default true",
     ),
 ];

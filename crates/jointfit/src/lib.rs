@@ -57,8 +57,9 @@
 //! [`place_hinge_centres`]), which the caller (bonefit) runs once the tree is known,
 //! with its edges turned from the segment that turns least in the world where that is
 //! clearly not the tree's root ([`steadiest_orientation`]). Once the tree is known, the
-//! caller can also read every tree joint's positions from all the tree's joints' views at
-//! once ([`tree_positions`]: a segment's pose error shows at each joint it carries).
+//! caller can also refit the tree's centres and read its joints' positions from all the
+//! tree's joints at once ([`tree_centres`], [`tree_positions`]: a segment's pose error
+//! shows at each joint it carries, so two joints' gaps on one segment err together).
 
 mod aguiar;
 mod anchor;
@@ -74,7 +75,7 @@ mod poses;
 mod score;
 mod seed;
 mod small;
-mod treepositions;
+mod treefit;
 mod universal;
 
 pub use error::Error;
@@ -85,7 +86,7 @@ pub use hinge::{
 pub use horn::{RigidFit, absolute_orientation, rotation_from_cross_covariance};
 pub use pairfits::*;
 pub use params::{Method, PARAM_DOCS, Params};
-pub use treepositions::tree_positions;
+pub use treefit::{tree_centres, tree_positions};
 
 use glam::DVec3;
 use mocap_io::Trajectories;

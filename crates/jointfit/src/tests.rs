@@ -1657,3 +1657,54 @@ fn tree_positions_read_a_segments_pose_error_at_all_its_joints() {
         assert!(DVec3::from_array(*p).distance(DVec3::from_array(*q)) < 1e-9);
     }
 }
+
+/// Refitting the tree's centres together, each frame's gaps weighted by their joint
+/// covariance, puts them nearer the truth than the pairs' own weighing, which takes the
+/// gaps of two joints on one segment as independent: the chain of four bodies of three
+/// markers as above with a hinge in the middle, 3 mm of noise, over five seeds (156 mm of
+/// summed centre error against 244); and the hinge keeps its place along its axis.
+#[test]
+fn tree_centres_weigh_the_gaps_of_joints_on_one_segment_together() {
+    let (mut before, mut after) = (0.0, 0.0);
+    for seed in 0..5 {
+        let mut rng = TestRng(60 + seed);
+        let axis = DVec3::new(1.0, 0.0, 0.0);
+        let bodies = chain(
+            &mut rng,
+            &[
+                Articulation::Ball(60.0),
+                Articulation::Hinge(axis, 60.0),
+                Articulation::Ball(60.0),
+            ],
+            3,
+        );
+        let trial = generate(&mut rng, &bodies, 400, 3.0, |_, _, _| false);
+        let fits = run_on_segments(&trial.traj, &trial.segments, &params(Method::Score)).unwrap();
+        let links = [(0, 1), (1, 2), (2, 3)];
+        let edges = tree_edges(&fits, &links);
+        let mut tree = fits.clone();
+        let moved = crate::tree_centres(&mut tree, &edges).expect("refitted");
+        assert!(moved > 0.0);
+        for (&(pair, _, child), _) in edges.iter().zip(links) {
+            let truth = &trial.joints[child];
+            let (old, new) = (&fits.pairs[pair], &tree.pairs[pair]);
+            let (a0, b0) = centre_errors(&fits, old, truth);
+            let (a1, b1) = centre_errors(&tree, new, truth);
+            before += a0 + b0;
+            after += a1 + b1;
+            // Both centres slid along the axis together: the one move no motion fixes.
+            if let (Some(u_a), Some(u_b), JointKind::Hinge) =
+                (old.axis_in_a, old.axis_in_b, old.kind)
+            {
+                let along =
+                    |c: [f64; 3], u: [f64; 3]| DVec3::from_array(c).dot(DVec3::from_array(u));
+                let slid = 0.5
+                    * (along(new.centre_in_a, u_a) - along(old.centre_in_a, u_a)
+                        + along(new.centre_in_b, u_b)
+                        - along(old.centre_in_b, u_b));
+                assert!(slid.abs() < 0.01, "hinge slid {slid} mm along its axis");
+            }
+        }
+    }
+    assert!(after < 0.8 * before, "{after} against {before} mm");
+}
