@@ -1713,3 +1713,33 @@ fn tree_centres_weigh_the_gaps_of_joints_on_one_segment_together() {
     );
     assert!(after < 0.8 * before, "{after} against {before} mm");
 }
+
+/// A tree joint whose segments are never posed together in the frames the refit reads
+/// (its child seen only in odd frames, the refit striding over even ones) keeps its pair
+/// fit's centres, and the rest of the tree is refitted all the same.
+#[test]
+fn tree_centres_keep_a_joint_the_frames_read_never_pose() {
+    let mut rng = TestRng(70);
+    let bodies = chain(
+        &mut rng,
+        &[Articulation::Ball(60.0), Articulation::Ball(60.0)],
+        4,
+    );
+    let trial = generate(&mut rng, &bodies, 1200, 1.0, |f, body, _| {
+        body == 2 && f % 2 == 0
+    });
+    let fits = run_on_segments(&trial.traj, &trial.segments, &params(Method::Score)).unwrap();
+    let edges = tree_edges(&fits, &[(0, 1), (1, 2)]);
+    let mut tree = fits.clone();
+    assert!(crate::tree_centres(&mut tree, &edges).is_some());
+    let (first, second) = (edges[0].0, edges[1].0);
+    assert_ne!(tree.pairs[first].centre_in_a, fits.pairs[first].centre_in_a);
+    assert_eq!(
+        tree.pairs[second].centre_in_a,
+        fits.pairs[second].centre_in_a
+    );
+    assert_eq!(
+        tree.pairs[second].centre_in_b,
+        fits.pairs[second].centre_in_b
+    );
+}

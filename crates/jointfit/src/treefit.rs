@@ -418,11 +418,16 @@ pub fn tree_centres(fits: &mut PairFits, edges: &[(usize, usize, usize)]) -> Opt
         let trace: f64 = (0..6)
             .map(|i| normal[(base + i) * unknowns + base + i])
             .sum();
+        let c0 = [joint.sides[0].1.to_array(), joint.sides[1].1.to_array()].concat();
         if !(trace.is_finite() && trace > 0.0) {
-            return None;
+            // Never posed together in the frames read: it keeps its pair fit's centres.
+            for i in 0..6 {
+                normal[(base + i) * unknowns + base + i] = 1.0;
+                rhs[base + i] = c0[i];
+            }
+            continue;
         }
         let ridge = CENTRE_RIDGE * trace / 6.0;
-        let c0 = [joint.sides[0].1.to_array(), joint.sides[1].1.to_array()].concat();
         for i in 0..6 {
             normal[(base + i) * unknowns + base + i] += ridge;
             rhs[base + i] += ridge * c0[i];
