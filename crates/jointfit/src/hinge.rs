@@ -39,8 +39,8 @@ use glam::{DMat3, DVec3};
 use crate::fit::{PosedSegment, joint_positions};
 use crate::pairfits::{PairFit, PairFits};
 use crate::poses::{
-    Pose, PoseScatter, inverse_inertia, median_rms_mm, pose_track, reference_points,
-    scatter_from_rms, trace,
+    Pose, PoseScatter, inverse_inertia, median_rms_mm, misfit_smoothness, pose_track,
+    reference_points, scatter_from_rms, trace,
 };
 
 /// Moves every hinge centre of the tree along its axis (see the module docs) and
@@ -397,33 +397,14 @@ fn skin_tilt(fits: &PairFits, fit: &PairFit, edges: &[(usize, usize, usize)]) ->
 /// lag-1 autocorrelation (0 for white noise, near 1 for skin), clamped to [0, 1].
 fn smooth_pose_rotation(poses: &crate::pairfits::SegmentPoses) -> f64 {
     let points = reference_points(poses);
-    let finite: Vec<f64> = poses
-        .rms_mm
-        .iter()
-        .copied()
-        .filter(|v| v.is_finite())
-        .collect();
-    if points.len() < 3 || finite.len() < 3 {
+    if points.len() < 3 {
         return 0.0;
     }
     let (Some(inverse), Some(median)) = (inverse_inertia(&points), median_rms_mm(poses)) else {
         return 0.0;
     };
     let gain = trace(inverse).max(0.0).sqrt();
-    let mean = finite.iter().sum::<f64>() / finite.len() as f64;
-    let (mut lagged, mut spread) = (0.0, 0.0);
-    for w in poses.rms_mm.windows(2) {
-        if w[0].is_finite() && w[1].is_finite() {
-            lagged += (w[0] - mean) * (w[1] - mean);
-            spread += 0.5 * ((w[0] - mean).powi(2) + (w[1] - mean).powi(2));
-        }
-    }
-    let smooth = if spread > 0.0 {
-        (lagged / spread).clamp(0.0, 1.0)
-    } else {
-        0.0
-    };
-    smooth * scatter_from_rms(median, points.len() as f64) * gain
+    misfit_smoothness(poses) * scatter_from_rms(median, points.len() as f64) * gain
 }
 
 /// Smallest standard deviation (mm) given to "the bone from a hinge to a neighbouring

@@ -1610,7 +1610,7 @@ fn a_segment_steadier_than_the_next_anchor_is_posed_first() {
 
 /// Reading every tree joint's views at once puts the joints nearer the truth than each
 /// pair's own weighted mean, where each pose's error is what the pose-precision model says
-/// (white marker noise): a chain of four bodies of three markers, 3 mm of noise (13.1 mm
+/// (white marker noise): a chain of four bodies of three markers, 3 mm of noise (13.0 mm
 /// RMS against 17.6); and a joint alone in the tree keeps exactly the pair's positions.
 #[test]
 fn tree_positions_read_a_segments_pose_error_at_all_its_joints() {
