@@ -90,11 +90,11 @@ pub fn run(
         fits
     };
     // Hinge centres placed on their axes from the tree, on a copy of the pair fits.
-    let placed;
+    let mut placed: Option<PairFits> = None;
     let mut hinge_shifts = vec![0.0; topo.joints.len()];
     // Per tree joint: its slide ends at a point two segments' fit measured.
     let mut measured_point = vec![false; topo.joints.len()];
-    let fits = if params.place_hinges {
+    if params.place_hinges {
         let mut copy = fits.clone();
         let edges = tree_edges(topo);
         let shifts = match params.hinge_placement {
@@ -164,19 +164,14 @@ pub fn run(
                 copy.pairs[pair] = before.clone();
             }
         }
-        if params.tree_positions {
-            jointfit::tree_positions(&mut copy, &edges);
-        }
-        placed = copy;
-        &placed
-    } else if params.tree_positions {
-        let mut copy = fits.clone();
-        jointfit::tree_positions(&mut copy, &tree_edges(topo));
-        placed = copy;
-        &placed
-    } else {
-        fits
-    };
+        placed = Some(copy);
+    }
+    // Then every tree joint's positions read from all the tree's views at once.
+    if params.tree_positions {
+        let copy = placed.get_or_insert_with(|| fits.clone());
+        jointfit::tree_positions(copy, &tree_edges(topo));
+    }
+    let fits = placed.as_ref().unwrap_or(fits);
     let specs = resolve_joints(fits, topo, frames)?;
 
     let rate = traj.frame_rate();
