@@ -79,39 +79,42 @@ pub fn run(
     if root >= segments {
         return Err(Error::BadRoot { root, segments });
     }
-    // The tree joints' centres refitted together, on a copy of the pair fits.
-    let centred;
-    let fits = if params.tree_centres {
-        let mut copy = fits.clone();
-        jointfit::tree_centres(&mut copy, &tree_edges(topo));
-        centred = copy;
-        &centred
-    } else {
-        fits
-    };
-    // Hinge centres placed on their axes from the tree, on a copy of the pair fits.
-    let mut placed: Option<PairFits> = None;
+    // The tree steps change the pair fits on one working copy, made by the first of them
+    // that runs; the poses are never changed, only the tree pairs' centres and positions.
+    let mut work: Option<PairFits> = None;
+    if params.tree_centres {
+        let copy = work.get_or_insert_with(|| fits.clone());
+        jointfit::tree_centres(copy, &tree_edges(topo));
+    }
+    // Hinge centres placed on their axes from the tree.
     let mut hinge_shifts = vec![0.0; topo.joints.len()];
     // Per tree joint: its slide ends at a point two segments' fit measured.
     let mut measured_point = vec![false; topo.joints.len()];
     if params.place_hinges {
-        let mut copy = fits.clone();
+        let copy = work.get_or_insert_with(|| fits.clone());
         let edges = tree_edges(topo);
+        // What the placement reads as it was before: the tree pairs and their bones.
+        let before: Vec<Option<PairFit>> = edges
+            .iter()
+            .map(|&(pair, _, _)| copy.pairs.get(pair).cloned())
+            .collect();
+        let bones: Vec<f64> = (0..edges.len())
+            .map(|e| bone_length_before(copy, topo, e))
+            .collect();
         let shifts = match params.hinge_placement {
-            HingePlacement::Tree => jointfit::place_hinge_centres(&mut copy, &edges),
+            HingePlacement::Tree => jointfit::place_hinge_centres(copy, &edges),
             HingePlacement::Bone => {
                 let (directed, direction) =
-                    jointfit::placement_direction(&copy, &edges, params.hinge_sides_from_steadiest);
-                let placed = jointfit::place_hinges_across_bones(&mut copy, &directed, direction);
+                    jointfit::placement_direction(copy, &edges, params.hinge_sides_from_steadiest);
+                let placed = jointfit::place_hinges_across_bones(copy, &directed, direction);
                 measured_point = placed.at_composite_point;
                 placed.shifts
             }
             mode => {
                 // The joint solve, capped, for hinges with no ball joint below them.
-                let mut tree = fits.clone();
+                let mut tree = copy.clone();
                 let mut tree_shifts = jointfit::place_hinge_centres(&mut tree, &edges);
-                for (e, s) in tree_shifts.iter_mut().enumerate() {
-                    let bone = bone_length_before(fits, topo, e);
+                for (s, &bone) in tree_shifts.iter_mut().zip(&bones) {
                     let short = bone.is_nan()
                         || bone <= 0.0
                         || s.abs() <= params.hinge_max_shift_ratio * bone;
@@ -120,7 +123,7 @@ pub fn run(
                     }
                 }
                 let chain = mode == HingePlacement::Chain;
-                place_hinges_on_child(&mut copy, topo, &tree_shifts, chain)
+                place_hinges_on_child(copy, topo, &tree_shifts, chain)
             }
         };
         let capped = params.hinge_placement == HingePlacement::Tree;
@@ -136,13 +139,13 @@ pub fn run(
             // axis): keep the pair fit's centre. Unless the slide ends at a point other
             // segments' fit measured: then the pair's own wobble along a skin-tilted axis
             // is what grows, not doubt about where the centre is.
-            let (Some(before), Some(after)) = (fits.pairs.get(pair), copy.pairs.get(pair)) else {
+            let (Some(before), Some(after)) = (&before[e], copy.pairs.get(pair)) else {
                 continue;
             };
-            let (r0, r1) = (pair_residual(fits, before), pair_residual(fits, after));
+            let (r0, r1) = (pair_residual(copy, before), pair_residual(copy, after));
             // A slide that is a large part of the bone comes from an ill-conditioned
             // system (nearly parallel neighbouring axes, a noisy axis), not from anatomy.
-            let bone = bone_length_before(fits, topo, e);
+            let bone = bones[e];
             let short = !capped
                 || bone.is_nan()
                 || bone <= 0.0
@@ -151,11 +154,12 @@ pub fn run(
             // The residual grows along any axis by its wobble times the slide; where the
             // rotation barely fixes the centre along it, that growth says little, unless
             // it is several-fold (CMU 02_01's elbows, 1.0 -> 5.8 mm for a 121 mm slide).
-            // (Its gain, a pass over the frames, only for a slide the residual refused.)
+            // (Its gain, a pass over the frames, only for a slide the residual refused;
+            // it reads the poses alone, which the placement leaves as they were.)
             let free = || {
                 params.hinge_free_gain > 0.0
                     && r1 <= r0 * (1.0 + params.hinge_free_residual_increase.max(0.0)) + 0.1
-                    && jointfit::centre_gain(fits, pair)
+                    && jointfit::centre_gain(copy, pair)
                         .is_some_and(|g| g >= params.hinge_free_gain)
             };
             if short && (steady || measured_point[e] || free()) {
@@ -164,14 +168,13 @@ pub fn run(
                 copy.pairs[pair] = before.clone();
             }
         }
-        placed = Some(copy);
     }
     // Then every tree joint's positions read from all the tree's views at once.
     if params.tree_positions {
-        let copy = placed.get_or_insert_with(|| fits.clone());
+        let copy = work.get_or_insert_with(|| fits.clone());
         jointfit::tree_positions(copy, &tree_edges(topo));
     }
-    let fits = placed.as_ref().unwrap_or(fits);
+    let fits = work.as_ref().unwrap_or(fits);
     let specs = resolve_joints(fits, topo, frames)?;
 
     let rate = traj.frame_rate();
