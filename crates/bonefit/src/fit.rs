@@ -82,9 +82,14 @@ pub fn run(
     // The tree steps change the pair fits on one working copy, made by the first of them
     // that runs; the poses are never changed, only the tree pairs' centres and positions.
     let mut work: Option<PairFits> = None;
-    if params.tree_centres {
+    // Both tree readings read the segments' precision and poses; built once.
+    let tree_poses =
+        (params.tree_centres || params.tree_positions).then(|| jointfit::TreePoses::of(fits));
+    if params.tree_centres
+        && let Some(poses) = &tree_poses
+    {
         let copy = work.get_or_insert_with(|| fits.clone());
-        jointfit::tree_centres(copy, &tree_edges(topo));
+        jointfit::tree_centres(copy, &tree_edges(topo), poses);
     }
     // Hinge centres placed on their axes from the tree.
     let mut hinge_shifts = vec![0.0; topo.joints.len()];
@@ -170,9 +175,11 @@ pub fn run(
         }
     }
     // Then every tree joint's positions read from all the tree's views at once.
-    if params.tree_positions {
+    if params.tree_positions
+        && let Some(poses) = &tree_poses
+    {
         let copy = work.get_or_insert_with(|| fits.clone());
-        jointfit::tree_positions(copy, &tree_edges(topo));
+        jointfit::tree_positions(copy, &tree_edges(topo), poses);
     }
     let fits = work.as_ref().unwrap_or(fits);
     let specs = resolve_joints(fits, topo, frames)?;

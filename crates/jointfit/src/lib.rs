@@ -86,7 +86,7 @@ pub use hinge::{
 pub use horn::{RigidFit, absolute_orientation, rotation_from_cross_covariance};
 pub use pairfits::*;
 pub use params::{Method, PARAM_DOCS, Params};
-pub use treefit::{tree_centres, tree_positions};
+pub use treefit::{TreePoses, tree_centres, tree_positions};
 
 use glam::DVec3;
 use mocap_io::Trajectories;

@@ -609,12 +609,7 @@ impl PoseScatter {
     /// ([`SKIN_SHIFT_SHARE`]).
     /// `None` without a fit (see `fit`) or for a scatter of 0.
     pub fn precision_at(&self, p: DVec3) -> Option<DMat3> {
-        let (sigma, centroid, inverse, n) = self.fit?;
-        let d = p - centroid;
-        let cross = cross_matrix(d);
-        let covariance =
-            (DMat3::IDENTITY / n + cross * inverse * cross.transpose()) * (sigma * sigma);
-        let covariance = covariance + DMat3::IDENTITY * (self.shift_share * sigma * sigma);
+        let covariance = self.covariance_between(p, p)?;
         let determinant = covariance.determinant();
         (determinant.is_finite() && determinant > 0.0)
             .then(|| covariance.inverse())
@@ -675,7 +670,9 @@ pub(crate) fn misfit_smoothness(poses: &SegmentPoses) -> f64 {
 /// no rigid fit's misfit shows, by about as much as it moves them apart; white noise moves
 /// each marker on its own. `cargo xtask eval --presets hard`, seeds
 /// 20001..20050,30001..30050 / 40001..40100: 1.466 / 1.456 % of height without it, 1.455 /
-/// 1.450 with it unscaled; in the tree readings alone at 3 σ²: 1.475 (the first set).
+/// 1.450 with it unscaled, 1.455 / 1.448 scaled (as here); `--presets noise` on
+/// 20001..20030 0.206 % without it and scaled, 0.215 unscaled (white noise has no such
+/// shift); in the tree readings alone at 3 σ²: 1.475 (the first set).
 pub(crate) const SKIN_SHIFT_SHARE: f64 = 1.0;
 
 /// [d]×, the cross product with `d` as a matrix.

@@ -1641,13 +1641,14 @@ fn tree_positions_read_a_segments_pose_error_at_all_its_joints() {
         (sum / n).sqrt()
     };
     let mut tree = fits.clone();
-    let changed = crate::tree_positions(&mut tree, &edges);
+    let poses = crate::TreePoses::of(&fits);
+    let changed = crate::tree_positions(&mut tree, &edges, &poses);
     assert_eq!(changed, 3 * 400);
     let (before, after) = (rms(&fits), rms(&tree));
     assert!(after < 0.9 * before, "{after} against {before} mm");
 
     let mut alone = fits.clone();
-    crate::tree_positions(&mut alone, &edges[..1]);
+    crate::tree_positions(&mut alone, &edges[..1], &poses);
     let pair = edges[0].0;
     for (p, q) in alone.pairs[pair]
         .positions
@@ -1683,7 +1684,8 @@ fn tree_centres_weigh_the_gaps_of_joints_on_one_segment_together() {
         let links = [(0, 1), (1, 2), (2, 3)];
         let edges = tree_edges(&fits, &links);
         let mut tree = fits.clone();
-        let moved = crate::tree_centres(&mut tree, &edges).expect("refitted");
+        let moved =
+            crate::tree_centres(&mut tree, &edges, &crate::TreePoses::of(&fits)).expect("refitted");
         assert!(moved > 0.0);
         for &(pair, _, child) in &edges {
             let truth = &trial.joints[child];
@@ -1731,7 +1733,7 @@ fn tree_centres_keep_a_joint_the_frames_read_never_pose() {
     let fits = run_on_segments(&trial.traj, &trial.segments, &params(Method::Score)).unwrap();
     let edges = tree_edges(&fits, &[(0, 1), (1, 2)]);
     let mut tree = fits.clone();
-    assert!(crate::tree_centres(&mut tree, &edges).is_some());
+    assert!(crate::tree_centres(&mut tree, &edges, &crate::TreePoses::of(&fits)).is_some());
     let (first, second) = (edges[0].0, edges[1].0);
     assert_ne!(tree.pairs[first].centre_in_a, fits.pairs[first].centre_in_a);
     assert_eq!(

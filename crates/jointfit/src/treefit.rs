@@ -77,10 +77,15 @@ struct Workspace {
 
 /// Recomputes the positions of every tree joint in `edges` (`(pair, parent, child)`, the
 /// parent and child unused) from all tree joints' views at once (module docs); pairs not
-/// in `edges`, and frames or joints the solve cannot read, keep their positions. Returns
-/// how many joint-frames changed.
-pub fn tree_positions(fits: &mut PairFits, edges: &[(usize, usize, usize)]) -> usize {
-    let Some(tree) = TreeModel::of(fits, edges) else {
+/// in `edges`, and frames or joints the solve cannot read, keep their positions. `poses`
+/// are [`TreePoses::of`] these fits (or of any with the same poses). Returns how many
+/// joint-frames changed.
+pub fn tree_positions(
+    fits: &mut PairFits,
+    edges: &[(usize, usize, usize)],
+    poses: &TreePoses,
+) -> usize {
+    let Some(tree) = TreeModel::of(fits, edges, poses) else {
         return 0;
     };
     let count = tree.joints.len();
@@ -103,21 +108,43 @@ pub fn tree_positions(fits: &mut PairFits, edges: &[(usize, usize, usize)]) -> u
     changed
 }
 
-/// What both tree readings share: the joints they read, their segments' couplings,
-/// precision and poses.
-struct TreeModel {
-    joints: Vec<SolveJoint>,
-    couplings: Vec<Coupling>,
+/// Every segment's pose precision and pose per frame, read once from a [`PairFits`]'
+/// poses for both tree readings: they change the pairs' centres and positions, never the
+/// poses.
+pub struct TreePoses {
     scatters: Vec<PoseScatter>,
     tracks: Vec<Vec<Option<Pose>>>,
+    frames: usize,
 }
 
-impl TreeModel {
+impl TreePoses {
+    /// The precision and poses of every segment of `fits`.
+    pub fn of(fits: &PairFits) -> Self {
+        Self {
+            scatters: fits.poses.par_iter().map(PoseScatter::of).collect(),
+            tracks: fits.poses.par_iter().map(pose_track).collect(),
+            frames: fits.frames,
+        }
+    }
+}
+
+/// What both tree readings share: the joints they read, their segments' couplings,
+/// precision and poses.
+struct TreeModel<'a> {
+    joints: Vec<SolveJoint>,
+    couplings: Vec<Coupling>,
+    scatters: &'a [PoseScatter],
+    tracks: &'a [Vec<Option<Pose>>],
+}
+
+impl<'a> TreeModel<'a> {
     /// The tree joints of `edges` both of whose segments have a precision (module docs);
-    /// `None` when there is none.
-    fn of(fits: &PairFits, edges: &[(usize, usize, usize)]) -> Option<Self> {
-        let scatters: Vec<PoseScatter> = fits.poses.par_iter().map(PoseScatter::of).collect();
-        let tracks: Vec<Vec<Option<Pose>>> = fits.poses.par_iter().map(pose_track).collect();
+    /// `None` when there is none, or when `poses` were not read from poses like `fits'`.
+    fn of(fits: &PairFits, edges: &[(usize, usize, usize)], poses: &'a TreePoses) -> Option<Self> {
+        let (scatters, tracks) = (&poses.scatters[..], &poses.tracks[..]);
+        if scatters.len() != fits.poses.len() || poses.frames != fits.frames {
+            return None;
+        }
         let mut joints: Vec<SolveJoint> = Vec::new();
         for &(pair, _, _) in edges {
             let Some(fit) = fits.pairs.get(pair) else {
@@ -144,7 +171,7 @@ impl TreeModel {
         if joints.is_empty() {
             return None;
         }
-        let couplings = couplings(&joints, &scatters);
+        let couplings = couplings(&joints, scatters);
         Some(Self {
             joints,
             couplings,
@@ -378,10 +405,15 @@ const HINGE_PIN: f64 = 1e3;
 /// time, as if the gaps of two joints on one segment were independent. M is taken at the
 /// pair fits' centres; a small ridge holds each joint toward them, and a hinge's place
 /// along its axis (which no motion fixes) stays theirs. Positions are recomputed from the
-/// new centres, pair by pair. Returns how far the centres moved (mm, mean over the joints
-/// and both sides), or `None` when nothing was refitted.
-pub fn tree_centres(fits: &mut PairFits, edges: &[(usize, usize, usize)]) -> Option<f64> {
-    let tree = TreeModel::of(fits, edges)?;
+/// new centres, pair by pair. `poses` as for [`tree_positions`]. Returns how far the
+/// centres moved (mm, mean over the joints and both sides), or `None` when nothing was
+/// refitted.
+pub fn tree_centres(
+    fits: &mut PairFits,
+    edges: &[(usize, usize, usize)],
+    poses: &TreePoses,
+) -> Option<f64> {
+    let tree = TreeModel::of(fits, edges, poses)?;
     let count = tree.joints.len();
     let unknowns = 6 * count;
     let stride = fits.frames.div_ceil(CENTRE_FRAMES).max(1);
@@ -469,8 +501,8 @@ pub fn tree_centres(fits: &mut PairFits, edges: &[(usize, usize, usize)]) -> Opt
         let positions = crate::fit::joint_positions(
             c_a,
             c_b,
-            crate::fit::PosedSegment::of(&tree.scatters, &tree.tracks, a),
-            crate::fit::PosedSegment::of(&tree.scatters, &tree.tracks, b),
+            crate::fit::PosedSegment::of(tree.scatters, tree.tracks, a),
+            crate::fit::PosedSegment::of(tree.scatters, tree.tracks, b),
         );
         let fit = &mut fits.pairs[joint.pair];
         fit.centre_in_a = c_a.to_array();
@@ -480,7 +512,7 @@ pub fn tree_centres(fits: &mut PairFits, edges: &[(usize, usize, usize)]) -> Opt
     Some(moved / count as f64)
 }
 
-impl TreeModel {
+impl TreeModel<'_> {
     /// Adds frame `f`'s share of [`tree_centres`]' normal equations: with G the gaps'
     /// matrix in the centres and h = t_b − t_a per joint, Yᵀ Y to `normal` (its lower
     /// triangle) and Yᵀ L⁻¹ h to `rhs`, Y = L⁻¹ G (`columns`, column-major, n rows per
