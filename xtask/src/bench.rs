@@ -30,7 +30,7 @@ pub struct Args {
     #[arg(long, default_value_t = 5)]
     pub reads: usize,
     /// Times the warm-cache run is repeated (the best time is reported: a single one
-    /// varied 0.046-0.088 s on the default capture, with whatever the process had just
+    /// varied 0.040-0.088 s on the default capture, with whatever the process had just
     /// freed).
     #[arg(long, default_value_t = 5)]
     pub warm_runs: usize,
