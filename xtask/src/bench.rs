@@ -29,9 +29,9 @@ pub struct Args {
     /// Times the C3D is read (the best time is reported).
     #[arg(long, default_value_t = 5)]
     pub reads: usize,
-    /// Times the warm-cache run is repeated (the best time is reported: a single one
-    /// varied 0.040-0.088 s on the default capture, with whatever the process had just
-    /// freed).
+    /// Times the warm-cache run is repeated (the best time is reported: a single one,
+    /// right after the cold run in the same process, varied 0.040-0.088 s on the default
+    /// capture).
     #[arg(long, default_value_t = 5)]
     pub warm_runs: usize,
     /// Set a stage parameter (STAGE.PARAM=VALUE). Repeatable.
