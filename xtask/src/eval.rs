@@ -139,6 +139,9 @@ pub struct TrialResult {
     /// Estimated joints no true joint matched, as "name: parent → child", each segment named
     /// by the true segment most of its markers are on.
     pub extra_joints: Vec<String>,
+    /// Per tree joint but rigid pairs (taken before every cost), its name and its
+    /// runner-up's cost over its own (`topo::RunnerUp`; skeleton.json's `runner_up`).
+    pub runner_up_ratios: Vec<(String, f64)>,
 }
 
 /// How one true joint did in a trial.
@@ -285,6 +288,7 @@ pub fn run_trial(spec: &TrialSpec, params: &Params, true_segments: bool) -> Tria
         error: None,
         joints: Vec::new(),
         extra_joints: Vec::new(),
+        runner_up_ratios: Vec::new(),
     };
     if let Err(e) = evaluate(config, params, true_segments, &mut result) {
         result.error = Some(format!("{e:#}"));
@@ -371,6 +375,18 @@ fn evaluate(
         })
         .collect();
     result.extra_joints = extra_joints(&trial.truth, &estimate, &score);
+    if let (Some(t), Some(fits)) = (&products.topology, &products.fits) {
+        result.runner_up_ratios = t
+            .joints
+            .iter()
+            .filter(|j| {
+                fits.pairs
+                    .get(j.pair)
+                    .is_some_and(|p| p.tree_kind() != jointfit::JointKind::Rigid)
+            })
+            .filter_map(|j| Some((j.name.clone(), j.runner_up.as_ref()?.cost / j.cost)))
+            .collect();
+    }
     Ok(())
 }
 
@@ -1194,6 +1210,7 @@ mod tests {
             error: None,
             joints: Vec::new(),
             extra_joints: Vec::new(),
+            runner_up_ratios: Vec::new(),
         }
     }
 

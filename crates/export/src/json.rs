@@ -32,6 +32,13 @@ const LOOSE_CENTRE_GAIN: f64 = 20.0;
 /// human-hard-s20002's knee 3.3 m off (`--markers 1:3`), 1.54 of the size.
 const FAR_CENTRE_SHARE: f64 = 0.5;
 
+/// Below this ratio of a joint's runner-up cost to its own (`topo::RunnerUp`) the tree is
+/// uncertain there. With the true segments (`cargo xtask eval --presets hard
+/// --true-segments`, seeds 20001..20050 and 30001..30050) 47 of the 49 wrong trees have a
+/// joint below it, and 47 of their 68 wrong joints are, against 362 of 7570 right ones
+/// (134 of the 651 right trees have one).
+const RUNNER_UP_WARN_RATIO: f64 = 1.2;
+
 /// Frames sampled, evenly strided, for the distances behind [`FAR_CENTRE_SHARE`].
 const FAR_CENTRE_FRAMES: usize = 200;
 
@@ -160,8 +167,25 @@ pub struct JointJson {
     pub frames_known: usize,
     /// Of those, frames known through an interpolated short pose gap.
     pub frames_interpolated: usize,
+    /// The pair that would join the tree's two sides again were this joint left out;
+    /// absent when no other pair crosses (see [`RunnerUpJson`]).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub runner_up: Option<RunnerUpJson>,
     /// Problems a user should know about.
     pub warnings: Vec<String>,
+}
+
+/// The cheapest other segment pair across the cut a joint makes in the tree: near 1 or
+/// below, the data hardly decide between this joint and that pair (siblings meeting
+/// within a few centimetres, a segment turning little).
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+pub struct RunnerUpJson {
+    /// Its segment on the joint's parent side.
+    pub parent_side_segment: usize,
+    /// Its segment on the joint's child side.
+    pub child_side_segment: usize,
+    /// Its pair cost over this joint's (both `jointfit` pair costs, mm for `score`).
+    pub cost_ratio: f64,
 }
 
 /// The root point.
@@ -375,6 +399,30 @@ pub(crate) fn document(input: &Inputs<'_>) -> Result<SkeletonJson, Error> {
                  place it (too little turn, or a segment posed only through this joint)"
             ));
         }
+        let runner_up = input
+            .topology
+            .joints
+            .iter()
+            .find(|t| t.pair == j.pair)
+            .and_then(|t| {
+                let r = t.runner_up.as_ref()?;
+                Some(RunnerUpJson {
+                    parent_side_segment: r.parent_side,
+                    child_side_segment: r.child_side,
+                    cost_ratio: round(r.cost / t.cost, 3)?,
+                })
+            });
+        // A rigid pair is taken before every cost (topo's `rigid_first`), and says so in
+        // the topology's notes.
+        if let Some(r) = runner_up.as_ref().filter(|r| {
+            r.cost_ratio < RUNNER_UP_WARN_RATIO && pair.tree_kind() != jointfit::JointKind::Rigid
+        }) {
+            warnings.push(format!(
+                "the tree could join segments {} and {} instead: that pair's fit costs {:.2} \
+                 times this joint's (below {RUNNER_UP_WARN_RATIO}), so the tree is uncertain here",
+                r.parent_side_segment, r.child_side_segment, r.cost_ratio
+            ));
+        }
         if pair.seeded {
             warnings.push(
                 "every pose starts here: no segment has three markers of its own, so one of \
@@ -422,6 +470,7 @@ pub(crate) fn document(input: &Inputs<'_>) -> Result<SkeletonJson, Error> {
             offset_mm: vector(j.offset),
             frames_known: j.frames_known,
             frames_interpolated: j.frames_interpolated,
+            runner_up,
             warnings,
         });
     }

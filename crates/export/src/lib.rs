@@ -39,7 +39,9 @@ mod tests;
 mod trc;
 
 pub use error::Error;
-pub use json::{JointJson, LabelSwapJson, MarkerJson, RootJson, SegmentJson, SkeletonJson};
+pub use json::{
+    JointJson, LabelSwapJson, MarkerJson, RootJson, RunnerUpJson, SegmentJson, SkeletonJson,
+};
 
 use std::collections::BTreeMap;
 

@@ -470,6 +470,49 @@ fn the_seeded_joint_warns() {
     }
 }
 
+/// Each joint carries its runner-up pair (topo's) as a cost ratio; one below 1.2 warns,
+/// naming the pair, unless the joint is a rigid pair (taken before every cost).
+#[test]
+fn a_joint_with_a_close_runner_up_warns() {
+    let mut s = scene(60, 60.0);
+    // (child segment, runner-up's cost over the joint's, the runner-up's two sides)
+    let close = [(1, 1.1, (3, 1)), (3, 1.5, (1, 3)), (2, 0.5, (3, 2))];
+    for &(child, ratio, (parent_side, child_side)) in &close {
+        let j = s
+            .topology
+            .joints
+            .iter_mut()
+            .find(|j| j.child_segment == child);
+        let j = j.expect("a joint into that segment");
+        j.runner_up = Some(topo::RunnerUp {
+            parent_side,
+            child_side,
+            pair: j.pair,
+            cost: ratio * j.cost,
+        });
+    }
+    let knee = s.topology.joints.iter().find(|j| j.child_segment == 2);
+    let knee = knee.expect("a knee").pair;
+    s.fits.pairs[knee].first_pass_kind = Some(jointfit::JointKind::Rigid);
+    let doc = json(&files(&s, &Params::default()));
+    for &(child, ratio, (parent_side, child_side)) in &close {
+        let joints = doc["joints"].as_array().into_iter().flatten();
+        let joint = joints.clone().find(|j| j["child_segment"] == child);
+        let joint = joint.expect("the joint in skeleton.json");
+        let r = &joint["runner_up"];
+        assert_eq!(r["parent_side_segment"], parent_side, "{joint}");
+        assert_eq!(r["child_side_segment"], child_side, "{joint}");
+        assert!(
+            (r["cost_ratio"].as_f64().unwrap_or(f64::NAN) - ratio).abs() < 1e-9,
+            "{r}"
+        );
+        let warned = joint["warnings"].to_string().contains(&format!(
+            "could join segments {parent_side} and {child_side} instead"
+        ));
+        assert_eq!(warned, child == 1, "{joint}");
+    }
+}
+
 #[test]
 fn csv_rows_only_where_known() {
     let s = gappy_scene();

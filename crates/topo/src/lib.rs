@@ -35,6 +35,10 @@
 //!   a human and the body of an animal, and not on whichever of two like centres the
 //!   capture's marker order numbered first (the root shapes every chained pose below it).
 //!   `topo.root` forces a segment id (its component becomes the tree).
+//! - Each joint names its runner-up ([`RunnerUp`]): the cheapest other pair across the cut
+//!   the joint makes, the edge that would replace it. Where that costs little more than
+//!   the joint, or less (a rule above chose the joint), the data hardly decide the tree
+//!   there; export says so.
 //!
 //! It does not fit joints, bone lengths or rotations (jointfit and bonefit do), and does
 //! no I/O.

@@ -6,7 +6,7 @@ use std::collections::VecDeque;
 use jointfit::{JointKind, PairFits};
 use segment::Segmentation;
 
-use crate::{Error, Params, Topology, TreeJoint};
+use crate::{Error, Params, RunnerUp, Topology, TreeJoint};
 
 /// Builds the segment tree: Kruskal on the pair costs, a root, joints in BFS order.
 ///
@@ -180,9 +180,14 @@ pub fn run(seg: &Segmentation, fits: &PairFits, params: &Params) -> Result<Topol
                 pair,
                 parent_joint: joint_of_segment[parent],
                 cost,
+                runner_up: None,
             });
             queue.push_back(child);
         }
+    }
+    let runner_ups = runner_ups(&joints, &in_tree, fits);
+    for (joint, runner_up) in joints.iter_mut().zip(runner_ups) {
+        joint.runner_up = runner_up;
     }
 
     Ok(Topology {
@@ -191,6 +196,53 @@ pub fn run(seg: &Segmentation, fits: &PairFits, params: &Params) -> Result<Topol
         detached_segments,
         notes,
     })
+}
+
+/// Per tree joint (in `joints`' order, parents first), the cheapest finite-cost pair
+/// other than its own that crosses the cut the joint makes: one segment in the child's
+/// subtree, the other in the tree outside it.
+fn runner_ups(joints: &[TreeJoint], in_tree: &[bool], fits: &PairFits) -> Vec<Option<RunnerUp>> {
+    let n = in_tree.len();
+    // Children of each segment, for the subtree walk.
+    let mut children: Vec<Vec<usize>> = vec![Vec::new(); n];
+    for j in joints {
+        children[j.parent_segment].push(j.child_segment);
+    }
+    let mut below = vec![false; n];
+    let mut stack = Vec::new();
+    joints
+        .iter()
+        .map(|j| {
+            below.fill(false);
+            stack.clear();
+            stack.push(j.child_segment);
+            while let Some(s) = stack.pop() {
+                below[s] = true;
+                stack.extend(&children[s]);
+            }
+            fits.pairs
+                .iter()
+                .enumerate()
+                .filter(|&(i, p)| {
+                    i != j.pair
+                        && p.cost.is_finite()
+                        && in_tree[p.a]
+                        && in_tree[p.b]
+                        && below[p.a] != below[p.b]
+                })
+                .min_by(|x, y| x.1.cost.total_cmp(&y.1.cost).then(x.0.cmp(&y.0)))
+                .map(|(i, p)| {
+                    let (child_side, parent_side) =
+                        if below[p.a] { (p.a, p.b) } else { (p.b, p.a) };
+                    RunnerUp {
+                        parent_side,
+                        child_side,
+                        pair: i,
+                        cost: p.cost,
+                    }
+                })
+        })
+        .collect()
 }
 
 /// Why a capture gave one segment and no joint: every marker kept its distance to every
@@ -755,6 +807,49 @@ mod tests {
         fit_mut(&mut f, 0, 1).rotation_rms_deg = 25.0;
         let t = run(&seg, &f, &Params::default()).unwrap_or_else(|e| panic!("{e}"));
         assert!(edge_set(&t).contains(&(0, 1)));
+    }
+
+    /// Each joint's runner-up is the cheapest other pair joining the two sides of its cut:
+    /// for a clavicle, the sibling pair, cheaper than the joint itself (the composite rule
+    /// took the joints against the costs); for the upper arm, whose subtree holds the
+    /// forearm, the forearm's pair with the thorax. Two segments have none.
+    #[test]
+    fn runner_ups_are_the_cheapest_other_pair_across_each_cut() {
+        let seg = segmentation(&[3, 3, 6, 3, 3]);
+        let mut f = fits(5, |a, b| match (a, b) {
+            (0, 1) => (7.6, JointKind::Ball),
+            (0, 2) => (8.4, JointKind::Ball),
+            (1, 2) => (8.0, JointKind::Ball),
+            (2, 3) => (5.0, JointKind::Ball),
+            (3, 4) => (4.0, JointKind::Ball),
+            (2, 4) => (9.0, JointKind::Ball),
+            _ => (40.0, JointKind::Ball),
+        });
+        turning(&mut f, |a, b| match (a, b) {
+            (0, 1) => 31.0,
+            (0, 2) => 21.0,
+            (1, 2) => 23.0,
+            _ => 30.0,
+        });
+        let t = run(&seg, &f, &Params::default()).unwrap_or_else(|e| panic!("{e}"));
+        assert_eq!(edge_set(&t), [(0, 2), (1, 2), (2, 3), (3, 4)]);
+        let runner_up = |child: usize| {
+            let j = t.joints.iter().find(|j| j.child_segment == child);
+            let r = j.and_then(|j| j.runner_up.clone());
+            r.map(|r| (r.parent_side, r.child_side, r.cost, f.pairs[r.pair].cost))
+        };
+        assert_eq!(runner_up(0), Some((1, 0, 7.6, 7.6)));
+        assert_eq!(runner_up(1), Some((0, 1, 7.6, 7.6)));
+        assert_eq!(runner_up(3), Some((2, 4, 9.0, 9.0)));
+        assert_eq!(runner_up(4), Some((2, 4, 9.0, 9.0)));
+        let two = run(
+            &segmentation(&[3, 3]),
+            &fits(2, |_, _| (1.0, JointKind::Ball)),
+            &Params::default(),
+        );
+        let two = two.unwrap_or_else(|e| panic!("{e}"));
+        assert_eq!(two.joints.len(), 1);
+        assert_eq!(two.joints[0].runner_up, None);
     }
 
     #[test]

@@ -3,7 +3,7 @@
 use serde::{Deserialize, Serialize};
 
 /// Schema version of [`Topology`]; bump when its fields or the algorithm's output change.
-pub const SCHEMA_VERSION: u32 = 4;
+pub const SCHEMA_VERSION: u32 = 5;
 
 /// A tree over the segments: a root and one joint per edge, parent to child.
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
@@ -36,5 +36,24 @@ pub struct TreeJoint {
     pub parent_joint: Option<usize>,
     /// The pair's cost (`PairFit::cost`) that put this edge in the tree.
     #[serde(default)]
+    pub cost: f64,
+    /// The pair that would join the tree's two sides again were this edge left out;
+    /// `None` when no pair with a finite cost crosses.
+    #[serde(default)]
+    pub runner_up: Option<RunnerUp>,
+}
+
+/// The cheapest pair across a tree edge's cut other than the edge itself: where its cost
+/// is near the edge's (or below it, where a rule chose the edge against the costs), the
+/// data hardly decide between the two trees.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+pub struct RunnerUp {
+    /// Its segment on the parent's side of the cut.
+    pub parent_side: usize,
+    /// Its segment on the child's side.
+    pub child_side: usize,
+    /// Index of its fit in `PairFits::pairs`.
+    pub pair: usize,
+    /// Its cost (`PairFit::cost`).
     pub cost: f64,
 }
