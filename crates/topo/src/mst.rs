@@ -776,17 +776,20 @@ mod tests {
         assert!(edge_set(&t).contains(&(0, 1)));
     }
 
-    #[test]
-    fn composite_pairs_are_taken_after_their_joints() {
-        // Thorax 2 carries clavicles 0 and 1 at nearby points; with skin the clavicle pair
-        // fits a centre a little better than either clavicle fits the thorax, but it turns
-        // the most: its motion composes both sternoclavicular joints'.
-        let seg = segmentation(&[3, 3, 6, 3]);
-        let mut f = fits(4, |a, b| match (a, b) {
+    /// Thorax 2 carrying clavicles 0 and 1 at nearby points, and segment 3 (then 4, with
+    /// `forearm`: its pair with 3 costs 4, with the thorax 9). With skin the clavicle pair
+    /// fits a centre a little better than either clavicle fits the thorax, but it turns
+    /// the most: its motion composes both sternoclavicular joints'.
+    fn clavicles(forearm: bool) -> (Segmentation, PairFits) {
+        let n = if forearm { 5 } else { 4 };
+        let seg = segmentation(&[3, 3, 6, 3, 3][..n]);
+        let mut f = fits(n, |a, b| match (a, b) {
             (0, 1) => (7.6, JointKind::Ball),
             (0, 2) => (8.4, JointKind::Ball),
             (1, 2) => (8.0, JointKind::Ball),
             (2, 3) => (5.0, JointKind::Ball),
+            (3, 4) => (4.0, JointKind::Ball),
+            (2, 4) => (9.0, JointKind::Ball),
             _ => (40.0, JointKind::Ball),
         });
         turning(&mut f, |a, b| match (a, b) {
@@ -795,6 +798,12 @@ mod tests {
             (1, 2) => 23.0,
             _ => 30.0,
         });
+        (seg, f)
+    }
+
+    #[test]
+    fn composite_pairs_are_taken_after_their_joints() {
+        let (seg, mut f) = clavicles(false);
         let t = run(&seg, &f, &Params::default()).unwrap_or_else(|e| panic!("{e}"));
         assert_eq!(edge_set(&t), [(0, 2), (1, 2), (2, 3)]);
         // Off, or with the two only a little apart in rotation, the cheapest pair wins.
@@ -815,22 +824,7 @@ mod tests {
     /// forearm, the forearm's pair with the thorax. Two segments have none.
     #[test]
     fn runner_ups_are_the_cheapest_other_pair_across_each_cut() {
-        let seg = segmentation(&[3, 3, 6, 3, 3]);
-        let mut f = fits(5, |a, b| match (a, b) {
-            (0, 1) => (7.6, JointKind::Ball),
-            (0, 2) => (8.4, JointKind::Ball),
-            (1, 2) => (8.0, JointKind::Ball),
-            (2, 3) => (5.0, JointKind::Ball),
-            (3, 4) => (4.0, JointKind::Ball),
-            (2, 4) => (9.0, JointKind::Ball),
-            _ => (40.0, JointKind::Ball),
-        });
-        turning(&mut f, |a, b| match (a, b) {
-            (0, 1) => 31.0,
-            (0, 2) => 21.0,
-            (1, 2) => 23.0,
-            _ => 30.0,
-        });
+        let (seg, f) = clavicles(true);
         let t = run(&seg, &f, &Params::default()).unwrap_or_else(|e| panic!("{e}"));
         assert_eq!(edge_set(&t), [(0, 2), (1, 2), (2, 3), (3, 4)]);
         let runner_up = |child: usize| {
