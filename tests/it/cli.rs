@@ -60,6 +60,12 @@ fn default_run_writes_the_contract_and_caches_every_stage() {
         );
         assert!(["ball", "hinge", "universal", "rigid"].contains(&j["kind"].as_str().unwrap()));
         assert_ne!(j["child_segment"].as_u64().unwrap(), root);
+        // Clean data decide the tree: every other pair across a joint costs far more.
+        let runner_up = &j["runner_up"];
+        assert!(runner_up["parent_side_segment"].is_u64(), "{j}");
+        assert!(runner_up["child_side_segment"].is_u64(), "{j}");
+        assert!(runner_up["cost_ratio"].as_f64().unwrap() > 1.2, "{j}");
+        assert!(!j["warnings"].to_string().contains("could join"), "{j}");
     }
     let csv = std::fs::read_to_string(tmp.path("out/joints.csv")).unwrap();
     assert!(csv.starts_with("frame,joint,x,y,z"));
