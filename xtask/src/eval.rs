@@ -139,8 +139,8 @@ pub struct TrialResult {
     /// Estimated joints no true joint matched, as "name: parent → child", each segment named
     /// by the true segment most of its markers are on.
     pub extra_joints: Vec<String>,
-    /// Per tree joint but rigid pairs (taken before every cost), its name and its
-    /// runner-up's cost over its own (`topo::RunnerUp`; skeleton.json's `runner_up`).
+    /// Per tree joint whose runner-up applies (`export::runner_up_applies`), its name and
+    /// its runner-up's cost over its own (skeleton.json's `runner_up`).
     pub runner_up_ratios: Vec<(String, f64)>,
 }
 
@@ -382,7 +382,7 @@ fn evaluate(
             .filter(|j| {
                 fits.pairs
                     .get(j.pair)
-                    .is_some_and(|p| p.tree_kind() != jointfit::JointKind::Rigid)
+                    .is_some_and(export::runner_up_applies)
             })
             .filter_map(|j| Some((j.name.clone(), j.runner_up.as_ref()?.cost / j.cost)))
             .collect();

@@ -39,6 +39,12 @@ const FAR_CENTRE_SHARE: f64 = 0.5;
 /// (134 of the 651 right trees have one).
 const RUNNER_UP_WARN_RATIO: f64 = 1.2;
 
+/// Whether a joint's runner-up says anything about the tree: not for a rigid pair, which
+/// topo takes before every cost (`rigid_first`) and says so in the topology's notes.
+pub fn runner_up_applies(pair: &jointfit::PairFit) -> bool {
+    pair.tree_kind() != jointfit::JointKind::Rigid
+}
+
 /// Frames sampled, evenly strided, for the distances behind [`FAR_CENTRE_SHARE`].
 const FAR_CENTRE_FRAMES: usize = 200;
 
@@ -412,11 +418,10 @@ pub(crate) fn document(input: &Inputs<'_>) -> Result<SkeletonJson, Error> {
                     cost_ratio: round(r.cost / t.cost, 3)?,
                 })
             });
-        // A rigid pair is taken before every cost (topo's `rigid_first`), and says so in
-        // the topology's notes.
-        if let Some(r) = runner_up.as_ref().filter(|r| {
-            r.cost_ratio < RUNNER_UP_WARN_RATIO && pair.tree_kind() != jointfit::JointKind::Rigid
-        }) {
+        if let Some(r) = runner_up
+            .as_ref()
+            .filter(|r| r.cost_ratio < RUNNER_UP_WARN_RATIO && runner_up_applies(pair))
+        {
             warnings.push(format!(
                 "the tree could join segments {} and {} instead: that pair's fit costs {:.2} \
                  times this joint's (below {RUNNER_UP_WARN_RATIO}), so the tree is uncertain here",

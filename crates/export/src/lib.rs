@@ -41,6 +41,7 @@ mod trc;
 pub use error::Error;
 pub use json::{
     JointJson, LabelSwapJson, MarkerJson, RootJson, RunnerUpJson, SegmentJson, SkeletonJson,
+    runner_up_applies,
 };
 
 use std::collections::BTreeMap;
