@@ -6,6 +6,9 @@
 //! writes the output files. It is the only crate besides mocap-io and export that does
 //! I/O, and the only one that prints.
 #![allow(clippy::print_stdout)]
+// The clap structs' doc comments are the commands' --help text, where `<name>` and
+// `<project root>` are placeholders a reader of a terminal expects, not HTML.
+#![allow(rustdoc::invalid_html_tags)]
 
 mod bench;
 mod cache;

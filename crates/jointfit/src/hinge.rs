@@ -352,7 +352,7 @@ fn parent_row_floors(
 /// How far (radians, per direction across the axis) a hinge's fitted axis may be off: the
 /// standard error its relative rotation's least wobble leaves on the axis fitted over all
 /// its frames (the wobble over √frames: per-frame noise averages out of the axis; 0 for a
-/// noise-free hinge), or what skin can turn it by unseen ([`skin_tilt`]), whichever is
+/// noise-free hinge), or what skin can turn it by unseen (`skin_tilt`), whichever is
 /// larger. `edges`: the tree's joints as `(pair, parent, child)`. Public so that
 /// diagnostics can compare it with the truth (`synth_eval`'s `along` line).
 pub fn axis_tilt_bound(fits: &PairFits, fit: &PairFit, edges: &[(usize, usize, usize)]) -> f64 {
@@ -872,7 +872,7 @@ pub struct HingePlacements {
     /// Shift along the unit axis (mm) per edge, 0 where the hinge did not move.
     pub shifts: Vec<f64>,
     /// Per edge: the shift ends at a point two neighbouring segments turn about (a point
-    /// the fits measured, [`composite_point_rows`]), not where anatomy says a bone crosses.
+    /// the fits measured, `composite_point_rows`), not where anatomy says a bone crosses.
     pub at_composite_point: Vec<bool>,
 }
 
@@ -888,7 +888,7 @@ pub struct HingePlacements {
 /// - each joint the child carries (a ball centre, or a hinge centre on its own axis,
 ///   itself unknown): `u·(c_g − c_e) = 0`, σ `BONE_SIGMA_FLOOR_MM` (1 mm), the two fits'
 ///   residual RMS and the axis's tilt (the standard error its least wobble leaves on the
-///   mean axis, or what skin can tilt it by unseen, [`skin_tilt`]) times the joint's
+///   mean axis, or what skin can tilt it by unseen, `skin_tilt`) times the joint's
 ///   distance from the axis;
 /// - the child's markers: the midpoint of their extremes along the axis is the centre's
 ///   (markers surround a bone; on the random trees' leaf hinges, from the truth, it misses
@@ -896,32 +896,32 @@ pub struct HingePlacements {
 ///   count from 3 to 6), σ = their scatter about the bone / √n (the larger of their own
 ///   and the scatter pooled over every hinge's child, and at least
 ///   `MARKER_SPREAD_FLOOR_MM` (10 mm), with the tilt's share), plus how far this
-///   capture's markers miss their bones beyond that ([`marker_bias_variance`]: markers on
+///   capture's markers miss their bones beyond that (`marker_bias_variance`: markers on
 ///   one side of a limb). A hinge whose child ends the chain (a hand, a foot, a robot's
 ///   last link) has only this;
 /// - each joint on the parent side (its own parent joint, its siblings), and the parent's
 ///   markers, taken as for the child where each agrees with the child side's solution
 ///   within `PARENT_JOINT_TEST_SIGMAS` (3) (that solution's variance and the row's own),
-///   and only as far as it is believed ([`parent_row_floors`]): in a limb or a robot the
+///   and only as far as it is believed (`parent_row_floors`): in a limb or a robot the
 ///   parent's bone crosses the axis squarely too (the femur and the knee axis), and the
 ///   joint then settles the centre far more precisely than markers; a branch leaving a
 ///   bone at an angle lands near a vague child-side solution only by chance, and then
 ///   must not take it over. How likely "square" is a priori comes from the capture: the
-///   mean over its hinges of [`square_sides`]' probability that both sides are square
+///   mean over its hinges of `square_sides`' probability that both sides are square
 ///   (seed 8101's clean trials: human 0.75, hexapod 0.84, quadruped 0.87, robot arm 0.91,
 ///   snowman 0.93, random tree 0.23). A parent-side joint on the axis itself (a sibling
 ///   on the same tip) is taken as it is: it is the centre;
 /// - two free hinges one segment carries whose axes meet there, within what their fits
 ///   leave and where both hinges' child sides allow: both centres at the meeting point
-///   ([`meeting_rows`]; hinges hung on one tip, where markers alone place each only to the
+///   (`meeting_rows`; hinges hung on one tip, where markers alone place each only to the
 ///   limb's radius);
 /// - the point the hinge's far segment and a neighbouring joint's far segment turn about,
-///   where their pair fit has one on the axis ([`composite_point_rows`]): two joints at
+///   where their pair fit has one on the axis (`composite_point_rows`): two joints at
 ///   one tip, measured by two segments' poses where axes that skin tilts may not meet.
 ///
 /// In the child sides' solve, the parent rows' test against it and the final solve, the
 /// axis's tilt is not an independent error of each joint and marker row but one per
-/// hinge that moves them all by where they lie across the axis ([`TiltSlots`]): rows on
+/// hinge that moves them all by where they lie across the axis (`TiltSlots`): rows on
 /// both sides of the axis read it from their disagreement. Which side is square is
 /// judged with each row's tilt share as its own variance.
 ///
@@ -929,11 +929,11 @@ pub struct HingePlacements {
 /// tree's direction says which side is the child, but a tree rooted elsewhere than the
 /// subject (a random tree's root is arbitrary) puts the subject's child on the parent
 /// side: before the solve, a hinge whose parent side's joints and markers lie square to
-/// the axis while its child side's are tilted, very likely so ([`parent_side_is_square`],
+/// the axis while its child side's are tilted, very likely so (`parent_side_is_square`,
 /// judged with every hinge where its own child side's markers and point joints put it),
 /// takes its sides the other way round, from a prior probability of 10 % when `direction`
-/// is the tree's root ([`SQUARE_PRIOR`]), 1 % when it is the segment that turns least
-/// ([`STEADY_SQUARE_PRIOR`]). `edges` as for [`place_hinge_centres`].
+/// is the tree's root (`SQUARE_PRIOR`), 1 % when it is the segment that turns least
+/// (`STEADY_SQUARE_PRIOR`). `edges` as for [`place_hinge_centres`].
 pub fn place_hinges_across_bones(
     fits: &mut PairFits,
     edges: &[(usize, usize, usize)],
@@ -1300,9 +1300,9 @@ pub fn place_hinges_across_bones(
 const STEADY_ROOT_RATIO: f64 = 2.0;
 
 /// `edges` (pair, parent, child) directed from the segment that turns least in the world
-/// ([`orientation_spread`]): as they are when that is the tree's root, turned so that
+/// (`orientation_spread`): as they are when that is the tree's root, turned so that
 /// every parent is the end nearer it when it turns clearly less than the root (by
-/// [`STEADY_ROOT_RATIO`]); `None` when it turns less than the root, but not clearly.
+/// `STEADY_ROOT_RATIO`); `None` when it turns less than the root, but not clearly.
 ///
 /// The tree is rooted at its centre, which need not be the subject's own root: a robot
 /// arm's chain is rooted at a middle link, a random tree at whichever segment is fewest

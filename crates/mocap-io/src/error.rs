@@ -30,24 +30,41 @@ pub enum IoError {
     /// The file could not be opened or read.
     #[error("{path}: cannot read: {source}")]
     Read {
+        /// The file.
         path: PathBuf,
+        /// What the operating system said.
         source: std::io::Error,
     },
     /// The file could not be written (nothing is left half-written).
     #[error("{path}: cannot write: {source}")]
     Write {
+        /// The file.
         path: PathBuf,
+        /// What the operating system said.
         source: std::io::Error,
     },
     /// The file's content is not a valid capture of its format.
     #[error("{path}: {error}")]
-    Format { path: PathBuf, error: FormatError },
+    Format {
+        /// The file.
+        path: PathBuf,
+        /// Where in it, and what is wrong.
+        error: FormatError,
+    },
     /// The file's extension and content match no format we read.
     #[error("{path}: unknown capture format (expected .c3d, .trc or .csv)")]
-    UnknownFormat { path: PathBuf },
+    UnknownFormat {
+        /// The file.
+        path: PathBuf,
+    },
     /// An artifact that does not decode, or is not what the caller expected.
     #[error("{path}: not a valid ossify artifact: {problem}")]
-    Artifact { path: PathBuf, problem: String },
+    Artifact {
+        /// The artifact file.
+        path: PathBuf,
+        /// What is wrong with it.
+        problem: String,
+    },
     /// Data that violates an in-memory invariant (a bug upstream, or a bad caller).
     #[error("invalid data: {0}")]
     Invalid(String),

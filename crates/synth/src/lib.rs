@@ -1,7 +1,7 @@
 //! synth: synthetic motion-capture trials with known answers, and the scorer.
 //!
 //! Takes a [`SynthConfig`] (subject, degradation preset, frames, rate, seed) and gives a
-//! [`Trial`]: marker [`Trajectories`](mocap_io::Trajectories) (global frame, Z up, mm,
+//! [`Trial`]: marker [`Trajectories`] (global frame, Z up, mm,
 //! NaN triples where missing) with labels `M000`, `M001`, … that reveal nothing, and its
 //! [`Truth`]: which markers ride on which segment, every joint's kind, range of motion
 //! and centre per frame, the tree, the subject's size. [`write_trial`] writes
