@@ -1,5 +1,6 @@
 //! Weighted rotation about a fixed point (Horn's quaternion method without the
-//! translation), with a weak prior rotation that settles what the observations leave free.
+//! translation), with a prior rotation: weak, settling only what the observations leave
+//! free, or of a given weight.
 //!
 //! Allocation-free: this runs once per segment and frame.
 
@@ -44,7 +45,13 @@ impl RotationFit {
 
     /// The rotation maximising Σ w · observed·(R local), plus a weak pull towards `prior`.
     pub(crate) fn solve(&self, prior: DQuat) -> DQuat {
-        let eps = PRIOR_WEIGHT * self.scale.max(1.0);
+        self.solve_with(prior, 0.0)
+    }
+
+    /// [`Self::solve`] with the prior as three unit pairs of weight `weight` (the units of
+    /// the observations' w · |local| · |observed|, mm²), or the weak pull where that is less.
+    pub(crate) fn solve_with(&self, prior: DQuat, weight: f64) -> DQuat {
+        let eps = (PRIOR_WEIGHT * self.scale.max(1.0)).max(weight);
         // The prior as pairs (e_a, R_p e_a): s[a][b] += eps · (R_p)_{b a}.
         let r = DMat3::from_quat(prior);
         let mut s = self.s;
