@@ -1179,6 +1179,11 @@ mod tests {
         for f in range {
             positions[f * markers + m] = [f64::NAN; 3];
         }
+        set_positions(s, positions);
+    }
+
+    /// The scene's capture with these marker positions (frame-major, as the capture's).
+    fn set_positions(s: &mut Scene, positions: Vec<[f64; 3]>) {
         let t = &s.trajectories;
         s.trajectories = Trajectories::new(
             t.labels().to_vec(),
@@ -1673,15 +1678,7 @@ mod tests {
             let p = &mut positions[f * markers + 3 * head];
             *p = (DVec3::from_array(*p) + across).to_array();
         }
-        let t = &s.trajectories;
-        s.trajectories = Trajectories::new(
-            t.labels().to_vec(),
-            t.frame_rate(),
-            t.first_frame(),
-            t.frames(),
-            positions,
-        )
-        .unwrap_or_else(|e| panic!("{e}"));
+        set_positions(&mut s, positions);
         let error_deg = |rotation_prior_deg_s: f64| {
             let k = fit(
                 &s,
