@@ -10,7 +10,7 @@
 use std::time::Instant;
 
 use anyhow::{Context as _, Result, anyhow, bail};
-use glam::{DQuat, DVec3};
+use glam::{DQuat, DVec3, DVec4};
 use mocap_io::{Capture, CaptureInfo, Format};
 use rayon::prelude::*;
 use serde::Serialize;
@@ -130,6 +130,11 @@ pub struct TrialResult {
     pub known_fraction: f64,
     /// Fraction of matched joints whose kind (hinge or not) is right.
     pub kind_accuracy: f64,
+    /// RMS angle (degrees) over the tree's segments and frames between each segment's
+    /// orientation in the skeleton (root rotation chained with the joints' local
+    /// rotations, as the BVH has it) and its true segment's, after the one constant
+    /// rotation that best aligns the two frames; NaN when no segment is matched.
+    pub orientation_error_deg: f64,
     /// Pipeline wall time, segment → export (s).
     pub seconds: f64,
     /// The error, when the pipeline failed on this trial.
@@ -284,6 +289,7 @@ pub fn run_trial(spec: &TrialSpec, params: &Params, true_segments: bool) -> Tria
         worst_error_pct: f64::NAN,
         known_fraction: 0.0,
         kind_accuracy: f64::NAN,
+        orientation_error_deg: f64::NAN,
         seconds: 0.0,
         error: None,
         joints: Vec::new(),
@@ -375,6 +381,10 @@ fn evaluate(
         })
         .collect();
     result.extra_joints = extra_joints(&trial.truth, &estimate, &score);
+    if let Some(skeleton) = &products.skeleton {
+        result.orientation_error_deg =
+            orientation_error_deg(skeleton, &trial.truth, &estimate, &trial.segment_rotations);
+    }
     if let (Some(t), Some(fits)) = (&products.topology, &products.fits) {
         result.runner_up_ratios = t
             .joints
@@ -390,32 +400,109 @@ fn evaluate(
     Ok(())
 }
 
+/// The true segment most of an estimated segment's markers are on (ties to the lower
+/// index); `None` for an unknown segment or one on no true segment.
+fn majority_true_segment(
+    truth: &synth::Truth,
+    estimate: &synth::score::Estimate,
+    segment: usize,
+) -> Option<usize> {
+    let s = estimate.segments.iter().find(|s| s.id == segment)?;
+    let mut counts = vec![0usize; truth.segments.len()];
+    for label in &s.markers {
+        if let Some(t) = truth
+            .segments
+            .iter()
+            .position(|t| t.markers.iter().any(|m| m == label))
+        {
+            counts[t] += 1;
+        }
+    }
+    (0..counts.len())
+        .rev()
+        .max_by_key(|&t| counts[t])
+        .filter(|&t| counts[t] > 0)
+}
+
+/// [`TrialResult::orientation_error_deg`] of `skeleton`, each tree segment against its
+/// majority true segment, whose rotations are `rotations[frame * segments + segment]`.
+fn orientation_error_deg(
+    skeleton: &bonefit::Skeleton,
+    truth: &synth::Truth,
+    estimate: &synth::score::Estimate,
+    rotations: &[[f64; 4]],
+) -> f64 {
+    let (frames, true_segments) = (skeleton.frame_count, truth.segments.len());
+    // Each tree segment's global orientation per frame; joints come parent before child.
+    let root: Vec<DQuat> = skeleton
+        .root_rotations
+        .iter()
+        .map(|&q| DQuat::from_array(q))
+        .collect();
+    let mut global: Vec<(usize, Vec<DQuat>)> = vec![(skeleton.root_segment, root)];
+    for j in &skeleton.joints {
+        let Some((_, parent)) = global.iter().find(|(s, _)| *s == j.parent_segment) else {
+            continue;
+        };
+        let child: Vec<DQuat> = parent
+            .iter()
+            .zip(&j.local_rotations)
+            .map(|(p, &q)| *p * DQuat::from_array(q))
+            .collect();
+        global.push((j.child_segment, child));
+    }
+    let (mut sum_sq, mut count) = (0.0f64, 0usize);
+    for (segment, estimated) in &global {
+        let Some(t) = majority_true_segment(truth, estimate, *segment) else {
+            continue;
+        };
+        let true_rotation = |f: usize| {
+            rotations
+                .get(f * true_segments + t)
+                .map(|&q| DQuat::from_array(q).normalize())
+        };
+        // The constant rotation from the true segment's frame to ours: the mean of
+        // truthᵀ · ours, each on the first one's side of the quaternion sphere.
+        let offsets: Vec<DQuat> = (0..frames.min(estimated.len()))
+            .filter_map(|f| Some(true_rotation(f)?.inverse() * estimated[f]))
+            .collect();
+        let Some(&first) = offsets.first() else {
+            continue;
+        };
+        let first = DVec4::from(first);
+        let mean = offsets
+            .iter()
+            .map(|&q| DVec4::from(q))
+            .fold(
+                DVec4::ZERO,
+                |m, v| {
+                    if v.dot(first) < 0.0 { m - v } else { m + v }
+                },
+            );
+        let align = DQuat::from_vec4(mean).normalize();
+        for (f, e) in estimated.iter().enumerate().take(frames) {
+            if let Some(t) = true_rotation(f) {
+                sum_sq += (t * align).angle_between(*e).to_degrees().powi(2);
+                count += 1;
+            }
+        }
+    }
+    if count > 0 {
+        (sum_sq / count as f64).sqrt()
+    } else {
+        f64::NAN
+    }
+}
+
 /// The estimated joints no true joint matched, named by the true segments they join.
 fn extra_joints(
     truth: &synth::Truth,
     estimate: &synth::score::Estimate,
     score: &synth::score::Score,
 ) -> Vec<String> {
-    let true_segment_of = |label: &str| {
-        truth
-            .segments
-            .iter()
-            .position(|s| s.markers.iter().any(|m| m == label))
-    };
-    // Each estimated segment's majority true segment (ties to the lower index).
-    let name_of = |segment: usize| {
-        let Some(s) = estimate.segments.iter().find(|s| s.id == segment) else {
-            return format!("segment {segment}");
-        };
-        let mut counts = vec![0usize; truth.segments.len()];
-        for t in s.markers.iter().filter_map(|m| true_segment_of(m)) {
-            counts[t] += 1;
-        }
-        let best = (0..counts.len()).rev().max_by_key(|&t| counts[t]);
-        match best {
-            Some(t) if counts[t] > 0 => truth.segments[t].name.clone(),
-            _ => format!("segment {segment}"),
-        }
+    let name_of = |segment: usize| match majority_true_segment(truth, estimate, segment) {
+        Some(t) => truth.segments[t].name.clone(),
+        None => format!("segment {segment}"),
     };
     estimate
         .joints
@@ -663,6 +750,8 @@ struct Aggregate {
     universal_found: usize,
     /// Matched joints estimated universal that are not.
     universal_false: usize,
+    /// Mean over the trials of their segments' RMS orientation error, degrees.
+    mean_orientation_error_deg: f64,
     seconds: f64,
 }
 
@@ -682,9 +771,10 @@ fn aggregate<'a>(results: impl Iterator<Item = &'a TrialResult>) -> Aggregate {
         universal_true: 0,
         universal_found: 0,
         universal_false: 0,
+        mean_orientation_error_deg: 0.0,
         seconds: 0.0,
     };
-    let mut scored = 0usize;
+    let (mut scored, mut oriented) = (0usize, 0usize);
     for r in results {
         a.trials += 1;
         a.seconds += r.seconds;
@@ -717,7 +807,16 @@ fn aggregate<'a>(results: impl Iterator<Item = &'a TrialResult>) -> Aggregate {
             scored += 1;
         }
         a.worst_error_pct = a.worst_error_pct.max(r.worst_error_pct);
+        if r.orientation_error_deg.is_finite() {
+            a.mean_orientation_error_deg += r.orientation_error_deg;
+            oriented += 1;
+        }
     }
+    a.mean_orientation_error_deg = if oriented > 0 {
+        a.mean_orientation_error_deg / oriented as f64
+    } else {
+        f64::NAN
+    };
     let ok = a.trials - a.failed;
     (a.mean_error_pct, a.mean_error_mm) = if scored > 0 {
         (
@@ -808,7 +907,7 @@ fn summary_line(label: &str, results: &[TrialResult], wall: f64) -> String {
         let a = aggregate(results.iter().filter(|r| r.preset == p));
         parts.push(format!(
             "{p}: topology {}/{}{}, mean {}% (worst {}%) of height, known {}%, hinge or not \
-             right {}/{}{}{}",
+             right {}/{}{}, orientations {}° RMS{}",
             a.topology_exact,
             a.trials,
             if a.topology_equivalent > 0 {
@@ -829,6 +928,7 @@ fn summary_line(label: &str, results: &[TrialResult], wall: f64) -> String {
             } else {
                 String::new()
             },
+            fmt_f(a.mean_orientation_error_deg, 2),
             if a.failed > 0 {
                 format!(", {} FAILED", a.failed)
             } else {
@@ -1035,6 +1135,29 @@ mod tests {
         assert_eq!(seg.unassigned[0].reason, "on no true segment");
     }
 
+    /// The skeleton's segments turn as the true ones do, up to each frame's constant
+    /// offset: to within numerical noise on clean data, by degrees under skin (hard).
+    #[test]
+    fn orientations_are_scored_against_the_truth() {
+        let orientation = |preset| {
+            let spec = TrialSpec {
+                config: SynthConfig {
+                    subject: Subject::Snowman,
+                    preset,
+                    frames: 240,
+                    seed: 20001,
+                    ..SynthConfig::default()
+                },
+            };
+            let r = run_trial(&spec, &Params::default(), false);
+            assert!(r.error.is_none(), "{:?}", r.error);
+            r.orientation_error_deg
+        };
+        let (clean, hard) = (orientation(Preset::Clean), orientation(Preset::Hard));
+        assert!(clean < 0.05, "clean {clean}°");
+        assert!(hard > 0.5 && hard < 20.0, "hard {hard}°");
+    }
+
     #[test]
     fn error_in_a_turning_frame_is_steady_when_fixed_in_it() {
         // A frame turning a full circle about z; an offset of 10 mm along its local x.
@@ -1206,6 +1329,7 @@ mod tests {
             worst_error_pct: 2.0 * mean_pct,
             known_fraction: 1.0,
             kind_accuracy: 1.0,
+            orientation_error_deg: 2.0 * mean_pct,
             seconds: 0.1,
             error: None,
             joints: Vec::new(),

@@ -254,18 +254,17 @@ pub const PARAM_DOCS: &[(&str, &str)] = &[
          pairs; s the segment's median marker fit RMS, mm; t this speed over the frame rate, \
          radians), so a frame whose observations fix the turn poorly (a marker hidden, child \
          centres moving with a poorly posed segment, skin) follows them only as far as they \
-         outweigh that turn; exact data (s = 0) are not held. Measured against the truth \
-         (each segment's orientation after the best constant alignment of its frame, hard \
-         seeds 20001-20020, 7 subjects: cargo run --release -p export --example \
-         orientation_error -- human,quadruped,robotarm,snowman,hexapod,random,snake \
-         20001..20020): RMS error 5.13 deg at 0, 4.84 at \
-         600 (leaf segments 6.20 -> 5.71), clean (seeds 20001-20005) 0.000 both; at 0 / 150 / 300 / 600, seeds \
-         20001-20010: 4.88 / - / 4.43 / 4.54, seeds 20011-20020: 5.37 / 5.41 / 5.01 / 5.11: \
-         the generator's joints turn slower than a sprint's, so 600 leaves room for those. Turns over 30 deg from \
-         one frame to the next in the BVH (hard seeds 20001-20030): 61 joints and 238 frames \
-         at 0, 22 and 54 at 600; the shared real captures 26 and 37 -> 24 and 34. cargo xtask \
-         eval --presets hard --seeds 20001..20050,30001..30050: 539 trees, 1.455 % of height \
-         at 0 and 600, clean 0.058 %; CMU 02_01's limbs unchanged; 0 = only the weak prior \
+         outweigh that turn; exact data (s = 0) are not held. cargo xtask eval --presets \
+         hard --seeds 20001..20020 --compare bonefit.rotation_prior_deg_s=0,150,300,600,1200: \
+         orientations (eval's orientation_error_deg, each tree segment against its true \
+         segment after the best constant alignment of the two frames) 4.19 / 4.44 / 3.99 / \
+         4.03 / 4.11 deg RMS, 111 trees and 1.37 % at every value; on seeds 20001..20050, \
+         30001..30050 4.40 -> 4.25 deg at 600, clean 0.00 both, 539 trees and 1.455 % \
+         both. The generator's joints turn slower than a sprint's, so 600 rather than 300 \
+         leaves room for those. Turns over 30 deg from one frame to the next in the BVH \
+         (a one-off count, hard seeds 20001-20030): 61 joints and 238 frames at 0, 22 and \
+         54 at 600; the shared real captures 26 and 37 -> 24 and 34; CMU 02_01's limbs \
+         unchanged; 0 = only the weak prior \
          that settles what the observations leave free; default 600",
     ),
     (
