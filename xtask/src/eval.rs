@@ -470,15 +470,11 @@ fn orientation_error_deg(
             continue;
         };
         let first = DVec4::from(first);
-        let mean = offsets
-            .iter()
-            .map(|&q| DVec4::from(q))
-            .fold(
-                DVec4::ZERO,
-                |m, v| {
-                    if v.dot(first) < 0.0 { m - v } else { m + v }
-                },
-            );
+        let mut mean = DVec4::ZERO;
+        for &q in &offsets {
+            let v = DVec4::from(q);
+            mean += if v.dot(first) < 0.0 { -v } else { v };
+        }
         let align = DQuat::from_vec4(mean).normalize();
         for (f, e) in estimated.iter().enumerate().take(frames) {
             if let Some(t) = true_rotation(f) {
