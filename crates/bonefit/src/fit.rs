@@ -1614,6 +1614,28 @@ mod tests {
         }
     }
 
+    /// The scene's exact rotations of `segment`, one per frame.
+    fn true_rotations(s: &Scene, segment: usize) -> Vec<DQuat> {
+        s.fits.poses[segment]
+            .rotations
+            .iter()
+            .map(|&q| DQuat::from_array(q))
+            .collect()
+    }
+
+    /// How far (degrees) a segment hung on the root turns from `truth` at frame `f` in the
+    /// skeleton: the root's rotation chained with its joint's local rotation.
+    fn off_truth_deg(k: &Skeleton, segment: usize, truth: &[DQuat], f: usize) -> f64 {
+        let joint = k
+            .joints
+            .iter()
+            .find(|j| j.child_segment == segment && j.parent_segment == k.root_segment)
+            .unwrap_or_else(|| panic!("no joint from the root to segment {segment}"));
+        let global =
+            DQuat::from_array(k.root_rotations[f]) * DQuat::from_array(joint.local_rotations[f]);
+        global.angle_between(truth[f]).to_degrees()
+    }
+
     /// Where a segment's visible markers lie on one line through its joint, they fix that
     /// line's direction and not the spin about it: the spin carries on from the frames
     /// before (the local rotation held), not from the pose track's fill across the gap,
@@ -1622,11 +1644,7 @@ mod tests {
     fn markers_in_line_with_the_joint_keep_the_spin_they_had() {
         let mut s = scene(40, 100.0);
         let head = 3;
-        let truth: Vec<DQuat> = s.fits.poses[head]
-            .rotations
-            .iter()
-            .map(|&q| DQuat::from_array(q))
-            .collect();
+        let truth = true_rotations(&s, head);
         let turned = DQuat::from_rotation_x(std::f64::consts::FRAC_PI_2);
         for (f, q) in s.fits.poses[head].rotations.iter_mut().enumerate() {
             *q = (truth[f] * turned).to_array();
@@ -1641,15 +1659,8 @@ mod tests {
             hide_marker(&mut s, m, gap.clone());
         }
         let k = fit(&s, &Params::default());
-        let joint = k
-            .joints
-            .iter()
-            .find(|j| j.child_segment == head)
-            .unwrap_or_else(|| panic!("no joint to the head"));
         for f in gap {
-            let global = DQuat::from_array(k.root_rotations[f])
-                * DQuat::from_array(joint.local_rotations[f]);
-            let off = global.angle_between(truth[f]).to_degrees();
+            let off = off_truth_deg(&k, head, &truth, f);
             // The nod turns at most 0.4 × 2.5 rad/s, 5.7° over the 0.1 s gap; the fill is
             // 90° off.
             assert!(off < 8.0, "frame {f}: {off:.1}° from the truth");
@@ -1665,11 +1676,7 @@ mod tests {
     fn the_frame_before_steadies_a_scattering_segment() {
         let mut s = scene(60, 100.0);
         let head = 3;
-        let truth: Vec<DQuat> = s.fits.poses[head]
-            .rotations
-            .iter()
-            .map(|&q| DQuat::from_array(q))
-            .collect();
+        let truth = true_rotations(&s, head);
         s.fits.poses[head].rms_mm = vec![8.0; 60];
         let markers = s.trajectories.markers();
         let mut positions = s.trajectories.positions().to_vec();
@@ -1687,17 +1694,8 @@ mod tests {
                     ..Params::default()
                 },
             );
-            let joint = k
-                .joints
-                .iter()
-                .find(|j| j.child_segment == head)
-                .unwrap_or_else(|| panic!("no joint to the head"));
             let sq: f64 = (10..60)
-                .map(|f| {
-                    let global = DQuat::from_array(k.root_rotations[f])
-                        * DQuat::from_array(joint.local_rotations[f]);
-                    global.angle_between(truth[f]).to_degrees().powi(2)
-                })
+                .map(|f| off_truth_deg(&k, head, &truth, f).powi(2))
                 .sum();
             (sq / 50.0).sqrt()
         };
