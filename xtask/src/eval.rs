@@ -74,9 +74,10 @@ pub struct Args {
     /// Under each trial, one line per true joint: kind, estimated joint and kind, mean and
     /// worst error, its steady and varying parts in the parent's frame (mm), for a hinge the
     /// steady part along its axis (mm), known %; then
-    /// each estimated joint no true joint matched, by the true segments it joins. With
-    /// --compare, each variant's estimated kind, mean and worst error and a hinge's steady
-    /// part along its axis side by side.
+    /// each estimated joint no true joint matched, by the true segments it joins; then each
+    /// tree segment's orientation error (RMS degrees). With --compare, each variant's
+    /// estimated kind, mean and worst error and a hinge's steady part along its axis side
+    /// by side.
     #[arg(long)]
     pub joints: bool,
     /// Give the later stages the true segments instead of the segment stage's, to tell
@@ -135,6 +136,8 @@ pub struct TrialResult {
     /// rotations, as the BVH has it) and its true segment's, after the one constant
     /// rotation that best aligns the two frames; NaN when no segment is matched.
     pub orientation_error_deg: f64,
+    /// The same per tree segment, root first, joints' children after in tree order.
+    pub segment_orientations: Vec<SegmentOrientation>,
     /// Pipeline wall time, segment → export (s).
     pub seconds: f64,
     /// The error, when the pipeline failed on this trial.
@@ -147,6 +150,19 @@ pub struct TrialResult {
     /// Per tree joint whose runner-up applies (`export::runner_up_applies`), its name and
     /// its runner-up's cost over its own (skeleton.json's `runner_up`).
     pub runner_up_ratios: Vec<(String, f64)>,
+}
+
+/// How one tree segment's orientation did in a trial.
+#[derive(Clone, Debug, Serialize)]
+pub struct SegmentOrientation {
+    /// The tree segment's id in the segmentation.
+    pub segment: usize,
+    /// The true segment most of its markers are on, whose orientation it is scored against.
+    pub truth: String,
+    /// RMS angle (degrees) over the frames, after the constant alignment.
+    pub error_deg: f64,
+    /// Frames scored (the truth's, where the skeleton has the segment).
+    pub frames: usize,
 }
 
 /// How one true joint did in a trial.
@@ -290,6 +306,7 @@ pub fn run_trial(spec: &TrialSpec, params: &Params, true_segments: bool) -> Tria
         known_fraction: 0.0,
         kind_accuracy: f64::NAN,
         orientation_error_deg: f64::NAN,
+        segment_orientations: Vec::new(),
         seconds: 0.0,
         error: None,
         joints: Vec::new(),
@@ -382,8 +399,9 @@ fn evaluate(
         .collect();
     result.extra_joints = extra_joints(&trial.truth, &estimate, &score);
     if let Some(skeleton) = &products.skeleton {
-        result.orientation_error_deg =
-            orientation_error_deg(skeleton, &trial.truth, &estimate, &trial.segment_rotations);
+        result.segment_orientations =
+            segment_orientations(skeleton, &trial.truth, &estimate, &trial.segment_rotations);
+        result.orientation_error_deg = pooled_orientation_error_deg(&result.segment_orientations);
     }
     if let (Some(t), Some(fits)) = (&products.topology, &products.fits) {
         result.runner_up_ratios = t
@@ -424,14 +442,14 @@ fn majority_true_segment(
         .filter(|&t| counts[t] > 0)
 }
 
-/// [`TrialResult::orientation_error_deg`] of `skeleton`, each tree segment against its
+/// [`TrialResult::segment_orientations`] of `skeleton`, each tree segment against its
 /// majority true segment, whose rotations are `rotations[frame * segments + segment]`.
-fn orientation_error_deg(
+fn segment_orientations(
     skeleton: &bonefit::Skeleton,
     truth: &synth::Truth,
     estimate: &synth::score::Estimate,
     rotations: &[[f64; 4]],
-) -> f64 {
+) -> Vec<SegmentOrientation> {
     let (frames, true_segments) = (skeleton.frame_count, truth.segments.len());
     // Each tree segment's global orientation per frame; joints come parent before child.
     let root: Vec<DQuat> = skeleton
@@ -451,7 +469,7 @@ fn orientation_error_deg(
             .collect();
         global.push((j.child_segment, child));
     }
-    let (mut sum_sq, mut count) = (0.0f64, 0usize);
+    let mut scored = Vec::with_capacity(global.len());
     for (segment, estimated) in &global {
         let Some(t) = majority_true_segment(truth, estimate, *segment) else {
             continue;
@@ -476,13 +494,32 @@ fn orientation_error_deg(
             mean += if v.dot(first) < 0.0 { -v } else { v };
         }
         let align = DQuat::from_vec4(mean).normalize();
+        let (mut sum_sq, mut count) = (0.0f64, 0usize);
         for (f, e) in estimated.iter().enumerate().take(frames) {
             if let Some(t) = true_rotation(f) {
                 sum_sq += (t * align).angle_between(*e).to_degrees().powi(2);
                 count += 1;
             }
         }
+        scored.push(SegmentOrientation {
+            segment: *segment,
+            truth: truth.segments[t].name.clone(),
+            error_deg: (sum_sq / count as f64).sqrt(),
+            frames: count,
+        });
     }
+    scored
+}
+
+/// [`TrialResult::orientation_error_deg`]: the segments' errors pooled over every scored
+/// frame; NaN with none.
+fn pooled_orientation_error_deg(segments: &[SegmentOrientation]) -> f64 {
+    let (sum_sq, count) = segments.iter().fold((0.0, 0usize), |(sum, n), s| {
+        (
+            sum + s.error_deg * s.error_deg * s.frames as f64,
+            n + s.frames,
+        )
+    });
     if count > 0 {
         (sum_sq / count as f64).sqrt()
     } else {
@@ -653,7 +690,7 @@ fn fmt_f(x: f64, digits: usize) -> String {
 
 fn print_table(results: &[TrialResult], joints: bool) {
     println!(
-        "{:<22} {:>7} {:>5} {:>5} {:>5} {:>5} {:>8} {:>8} {:>6} {:>6} {:>6} {:>5} {:>7}",
+        "{:<22} {:>7} {:>5} {:>5} {:>5} {:>5} {:>8} {:>8} {:>6} {:>6} {:>6} {:>5} {:>7} {:>7}",
         "trial",
         "seg",
         "ARI",
@@ -666,6 +703,7 @@ fn print_table(results: &[TrialResult], joints: bool) {
         "worst%",
         "known%",
         "kind",
+        "orient°",
         "s"
     );
     for r in results {
@@ -674,7 +712,7 @@ fn print_table(results: &[TrialResult], joints: bool) {
             continue;
         }
         println!(
-            "{:<22} {:>7} {:>5} {:>5} {:>5} {:>5} {:>8} {:>8} {:>6} {:>6} {:>6} {:>5} {:>7}",
+            "{:<22} {:>7} {:>5} {:>5} {:>5} {:>5} {:>8} {:>8} {:>6} {:>6} {:>6} {:>5} {:>7} {:>7}",
             r.trial,
             format!("{}/{}", r.segments, r.true_segments),
             fmt_f(r.adjusted_rand, 2),
@@ -692,6 +730,7 @@ fn print_table(results: &[TrialResult], joints: bool) {
             fmt_f(r.worst_error_pct, 2),
             fmt_f(r.known_fraction * 100.0, 1),
             fmt_f(r.kind_accuracy, 2),
+            fmt_f(r.orientation_error_deg, 2),
             fmt_f(r.seconds, 2),
         );
         if joints {
@@ -699,6 +738,7 @@ fn print_table(results: &[TrialResult], joints: bool) {
             for extra in &r.extra_joints {
                 println!("    extra          {extra}");
             }
+            print_segment_orientations(&r.segment_orientations);
         }
     }
 }
@@ -718,6 +758,20 @@ fn print_joints(joints: &[JointResult]) {
             opt(j.varying_mm),
             opt(j.steady_along_axis_mm),
             fmt_f(j.known_fraction * 100.0, 1),
+        );
+    }
+}
+
+/// Under `--joints`, one line per tree segment: the true segment it is scored against,
+/// its id and its orientation's RMS error.
+fn print_segment_orientations(segments: &[SegmentOrientation]) {
+    for s in segments {
+        println!(
+            "    orientation    {:<14} segment {:<3} {:>6}° RMS over {} frames",
+            s.truth,
+            s.segment,
+            fmt_f(s.error_deg, 2),
+            s.frames
         );
     }
 }
@@ -869,8 +923,8 @@ fn summary_json(results: &[TrialResult]) -> serde_json::Value {
     serde_json::Value::Object(map)
 }
 
-/// One line per preset with each subject's exact trees and mean error, when the suite
-/// has more than one subject.
+/// One line per preset with each subject's exact trees, mean joint error and mean
+/// orientation error, when the suite has more than one subject.
 fn subject_lines(results: &[TrialResult]) -> Vec<String> {
     let subjects = subjects_of(results);
     if subjects.len() < 2 {
@@ -884,11 +938,12 @@ fn subject_lines(results: &[TrialResult]) -> Vec<String> {
                 .map(|s| {
                     let a = aggregate(results.iter().filter(|r| r.preset == p && &r.subject == s));
                     format!(
-                        "{s} {}/{} {}% ({} mm)",
+                        "{s} {}/{} {}% ({} mm, {}°)",
                         a.topology_exact,
                         a.trials,
                         fmt_f(a.mean_error_pct, 2),
-                        fmt_f(a.mean_error_mm, 1)
+                        fmt_f(a.mean_error_mm, 1),
+                        fmt_f(a.mean_orientation_error_deg, 1)
                     )
                 })
                 .collect();
@@ -1132,7 +1187,8 @@ mod tests {
     }
 
     /// The skeleton's segments turn as the true ones do, up to each frame's constant
-    /// offset: to within numerical noise on clean data, by degrees under skin (hard).
+    /// offset: to within numerical noise on clean data, by degrees under skin (hard), per
+    /// segment and pooled.
     #[test]
     fn orientations_are_scored_against_the_truth() {
         let orientation = |preset| {
@@ -1147,11 +1203,46 @@ mod tests {
             };
             let r = run_trial(&spec, &Params::default(), false);
             assert!(r.error.is_none(), "{:?}", r.error);
-            r.orientation_error_deg
+            // Every segment of the snowman's tree is scored, each against its own true
+            // segment, over every frame, and the trial's figure pools them.
+            let mut names: Vec<&str> = r
+                .segment_orientations
+                .iter()
+                .map(|s| s.truth.as_str())
+                .collect();
+            names.sort_unstable();
+            assert_eq!(
+                names,
+                [
+                    "bottom",
+                    "head",
+                    "l_arm",
+                    "l_forearm",
+                    "middle",
+                    "r_arm",
+                    "r_forearm"
+                ]
+            );
+            assert!(r.segment_orientations.iter().all(|s| s.frames == 240));
+            let mean_square = r
+                .segment_orientations
+                .iter()
+                .map(|s| s.error_deg.powi(2))
+                .sum::<f64>()
+                / r.segment_orientations.len() as f64;
+            assert!((mean_square.sqrt() - r.orientation_error_deg).abs() < 1e-9);
+            (r.orientation_error_deg, r.segment_orientations)
         };
-        let (clean, hard) = (orientation(Preset::Clean), orientation(Preset::Hard));
+        let ((clean, _), (hard, segments)) =
+            (orientation(Preset::Clean), orientation(Preset::Hard));
         assert!(clean < 0.05, "clean {clean}°");
         assert!(hard > 0.5 && hard < 20.0, "hard {hard}°");
+        assert!(
+            segments
+                .iter()
+                .all(|s| s.error_deg > 0.1 && s.error_deg < 30.0),
+            "{segments:?}"
+        );
     }
 
     #[test]
@@ -1326,6 +1417,7 @@ mod tests {
             known_fraction: 1.0,
             kind_accuracy: 1.0,
             orientation_error_deg: 2.0 * mean_pct,
+            segment_orientations: Vec::new(),
             seconds: 0.1,
             error: None,
             joints: Vec::new(),
@@ -1346,8 +1438,8 @@ mod tests {
         assert_eq!(
             subject_lines(&results),
             [
-                "  clean by subject: human 1/2 0.20% (2.0 mm), snowman 1/1 0.00% (0.0 mm)",
-                "  hard by subject: human 1/1 1.00% (10.0 mm), snowman 0/1 2.00% (20.0 mm)",
+                "  clean by subject: human 1/2 0.20% (2.0 mm, 0.4°), snowman 1/1 0.00% (0.0 mm, 0.0°)",
+                "  hard by subject: human 1/1 1.00% (10.0 mm, 2.0°), snowman 0/1 2.00% (20.0 mm, 4.0°)",
             ]
         );
         let json = summary_json(&results);
