@@ -34,9 +34,9 @@ const FAR_CENTRE_SHARE: f64 = 0.5;
 
 /// Below this ratio of a joint's runner-up cost to its own (`topo::RunnerUp`) the tree is
 /// uncertain there. With the true segments (`cargo xtask eval --presets hard
-/// --true-segments`, seeds 20001..20050 and 30001..30050) 47 of the 49 wrong trees have a
-/// joint below it, and 47 of their 68 wrong joints are, against 362 of 7570 right ones
-/// (134 of the 651 right trees have one).
+/// --true-segments`, seeds 20001..20050 and 30001..30050) 40 of the 43 wrong trees have a
+/// joint below it, and 40 of their 61 wrong joints are, against 315 of 7577 right ones
+/// (116 of the 657 right trees have one).
 const RUNNER_UP_WARN_RATIO: f64 = 1.2;
 
 /// Whether a joint's runner-up says anything about the tree: not for a rigid pair, which

@@ -200,6 +200,7 @@ pub(crate) fn fit_pair(
             centre_from_distances: false,
             seeded: false,
             first_pass_kind: None,
+            misfit_over_noise: f64::NAN,
         };
     }
     let motion = relative_motion(pa, pb, &co);
@@ -371,6 +372,7 @@ pub(crate) fn fit_pair(
         }
     };
     let residual = residual_rms(pa, pb, &co, c_a, c_b);
+    let misfit_over_noise = misfit_over_noise((c_a, c_b), (&va, &vb), &co);
     let positions = joint_positions(c_a, c_b, sa.posed(), sb.posed());
     let hinge = kind == JointKind::Hinge;
     PairFit {
@@ -394,9 +396,73 @@ pub(crate) fn fit_pair(
         centre_from_distances: false,
         seeded: false,
         first_pass_kind: None,
+        misfit_over_noise,
     }
 }
 
+/// A pose scatter below this (mm) is float rounding on exact data (about 1e-12 mm at
+/// millimetre coordinates), far below any capture's resolution (0.01 mm and up).
+const ROUNDING_MM: f64 = 1e-6;
+
+/// [`PairFit::misfit_over_noise`] of centres `(c_a, c_b)` over `frames`: each frame's
+/// disagreement between the two segments' views of the centre, measured against the sum of
+/// their covariances there ([`PoseScatter::covariance_between`], turned with the poses and
+/// scaled by each frame's fit); NaN where either side has no such measure or the two have
+/// no noise to speak of (exact data).
+fn misfit_over_noise(
+    (c_a, c_b): (DVec3, DVec3),
+    (sa, sb): (&SegmentView<'_>, &SegmentView<'_>),
+    frames: &[usize],
+) -> f64 {
+    let (Some(cov_a), Some(cov_b)) = (
+        sa.scatter.covariance_between(c_a, c_a),
+        sb.scatter.covariance_between(c_b, c_b),
+    ) else {
+        return f64::NAN;
+    };
+    if poses::trace(cov_a + cov_b) < ROUNDING_MM * ROUNDING_MM {
+        return f64::NAN;
+    }
+    let (mut sum, mut n) = (0.0, 0usize);
+    for &f in frames {
+        if let (Some(x), Some(y)) = (&sa.track[f], &sb.track[f]) {
+            let covariance = x.rot * cov_a * x.rot.transpose() * sa.scatter.scale(f)
+                + y.rot * cov_b * y.rot.transpose() * sb.scatter.scale(f);
+            let determinant = covariance.determinant();
+            if determinant.is_finite() && determinant > 0.0 {
+                let d = x.apply(c_a) - y.apply(c_b);
+                sum += d.dot(covariance.inverse() * d) / 3.0;
+                n += 1;
+            }
+        }
+    }
+    if n == 0 {
+        f64::NAN
+    } else {
+        (sum / n as f64).sqrt()
+    }
+}
+
+/// Weighs every pair's cost by its [`PairFit::misfit_over_noise`] to `power`
+/// (`Params::cost_noise_power`), if every pair with a finite cost has that measure, and
+/// says so in its evidence; otherwise leaves every cost as it is, since the tree compares
+/// costs across pairs and a weighed cost is not comparable with a bare one (a two-marker
+/// segment has no measure). Returns whether it weighed them.
+pub(crate) fn weigh_costs_by_noise(pairs: &mut [PairFit], power: f64) -> bool {
+    let measured = |p: &PairFit| !p.cost.is_finite() || p.misfit_over_noise.is_finite();
+    if !(power > 0.0 && pairs.iter().any(|p| p.cost.is_finite()) && pairs.iter().all(measured)) {
+        return false;
+    }
+    for p in pairs.iter_mut().filter(|p| p.cost.is_finite()) {
+        let weighed = p.cost * p.misfit_over_noise.powf(power);
+        p.evidence.push_str(&format!(
+            "; cost {:.2} mm × its misfit over the poses' noise {:.2} to the power {power} = {weighed:.2}",
+            p.cost, p.misfit_over_noise
+        ));
+        p.cost = weighed;
+    }
+    true
+}
 /// SCoRE's centres `(c_a, c_b)` with each frame weighted by the precision of the two poses'
 /// disagreement at the centre (`Params::weighted_centres`): each segment's covariance of
 /// the point its pose puts at `unweighted`'s centre ([`PoseScatter::precision_at`]), turned
@@ -610,9 +676,43 @@ pub(crate) fn apply_recentred(
 mod tests {
     use glam::{DMat3, DQuat, DVec3};
 
-    use super::{PosedSegment, joint_positions};
+    use super::{PosedSegment, joint_positions, weigh_costs_by_noise};
     use crate::pairfits::SegmentPoses;
     use crate::poses::{Pose, PoseScatter, pose_track};
+    use crate::testkit::point_fit;
+
+    /// Costs are weighed by the noise only where every pair with a cost can be: one pair
+    /// without the measure (a two-marker segment's) leaves every cost in millimetres, since
+    /// the tree compares them with each other. A pair with no cost needs no measure.
+    #[test]
+    fn costs_are_weighed_by_the_noise_all_or_none() {
+        let pairs = || {
+            let mut pairs = vec![
+                point_fit(0, 1, [[0.0; 3]; 2], 4.0),
+                point_fit(1, 2, [[0.0; 3]; 2], 8.0),
+                point_fit(0, 2, [[0.0; 3]; 2], f64::INFINITY),
+            ];
+            pairs[0].misfit_over_noise = 16.0;
+            pairs[1].misfit_over_noise = 1.0;
+            pairs
+        };
+        let mut all = pairs();
+        assert!(weigh_costs_by_noise(&mut all, 0.25));
+        assert_eq!([all[0].cost, all[1].cost], [8.0, 8.0]);
+        assert!(
+            all[0]
+                .evidence
+                .contains("misfit over the poses' noise 16.00")
+        );
+        assert!(all[2].cost.is_infinite());
+        let mut one_unmeasured = pairs();
+        one_unmeasured[1].misfit_over_noise = f64::NAN;
+        assert!(!weigh_costs_by_noise(&mut one_unmeasured, 0.25));
+        assert_eq!([one_unmeasured[0].cost, one_unmeasured[1].cost], [4.0, 8.0]);
+        let mut off = pairs();
+        assert!(!weigh_costs_by_noise(&mut off, 0.0));
+        assert_eq!([off[0].cost, off[1].cost], [4.0, 8.0]);
+    }
 
     /// A segment at rest with `reference` markers fitted to `rms_mm` in every frame.
     fn segment(reference: &[[f64; 3]], rms_mm: f64, frames: usize) -> SegmentPoses {

@@ -1778,6 +1778,7 @@ fn normal_equations(rows: &[ShiftRow], count: usize) -> (Vec<Vec<f64>>, Vec<f64>
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::testkit::point_fit;
 
     /// A child's markers seen along its hinge axis: midpoint `mid`, scatter 10 mm.
     fn markers(mid: f64) -> MarkerEvidence {
@@ -1907,32 +1908,6 @@ mod tests {
             sum += value / own.max(floor);
         }
         sum / precision
-    }
-
-    /// A pair fit between segments a < b, centres and residual given, nothing else.
-    fn point_fit(a: usize, b: usize, centres: [[f64; 3]; 2], residual: f64) -> PairFit {
-        PairFit {
-            a,
-            b,
-            method: "test".into(),
-            cost: residual,
-            centre_in_a: centres[0],
-            centre_in_b: centres[1],
-            positions: Vec::new(),
-            kind: crate::JointKind::Ball,
-            axis_in_a: None,
-            axis_in_b: None,
-            universal_axes: None,
-            residual_rms_mm: residual,
-            frames_used: 100,
-            rotation_rms_deg: 30.0,
-            rotation_max_deg: 60.0,
-            wobble_deg: [10.0; 3],
-            evidence: String::new(),
-            centre_from_distances: false,
-            seeded: false,
-            first_pass_kind: None,
-        }
     }
 
     /// Two segments turning about their common origin, segment 1 by `turn(f)`.

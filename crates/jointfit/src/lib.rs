@@ -159,7 +159,8 @@ fn fit_passes(
     }
     // Every segment's poses from its own markers: both passes start from them.
     let own_poses = poses::all_segment_poses(traj, segments, poses::FitRules::of(params));
-    let own = fit_all(traj, segments, params, own_poses.clone(), None);
+    let mut own = fit_all(traj, segments, params, own_poses.clone(), None);
+    fit::weigh_costs_by_noise(&mut own.fits.pairs, params.cost_noise_power);
     if !params.tree_poses {
         return Ok(own.fits);
     }
@@ -213,6 +214,7 @@ fn fit_passes(
         if fit.kind != first.kind {
             fit.first_pass_kind = Some(first.kind);
         }
+        fit.misfit_over_noise = first.misfit_over_noise;
         let same = |x: f64, y: f64| x.to_bits() == y.to_bits();
         if !same(fit.cost, first.cost) || !same(fit.rotation_rms_deg, first.rotation_rms_deg) {
             fit.cost = first.cost;

@@ -3,7 +3,7 @@
 use serde::{Deserialize, Serialize};
 
 /// Schema version of [`PairFits`]; bump when its fields or the algorithm's output change.
-pub const SCHEMA_VERSION: u32 = 23;
+pub const SCHEMA_VERSION: u32 = 24;
 
 /// Per-frame rigid poses of every segment and the joint fitted to every segment pair.
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
@@ -126,6 +126,18 @@ pub struct PairFit {
     /// so the tree is the one those poses support; `kind` fits this pair's centre.
     #[serde(default)]
     pub first_pass_kind: Option<JointKind>,
+    /// How far the two segments disagree about the centre against what their poses' noise
+    /// predicts, in the first pass (like `cost`): the RMS over frames of the disagreement's
+    /// Mahalanobis length per coordinate, about 1 for a joint whose residual that noise
+    /// explains; NaN where either segment has no noise measure (fewer than three markers
+    /// fitted together) or the data are exact. See `Params::cost_noise_power`.
+    #[serde(default = "not_measured")]
+    pub misfit_over_noise: f64,
+}
+
+/// What an artifact written before a measure existed reads for it.
+fn not_measured() -> f64 {
+    f64::NAN
 }
 
 impl PairFit {

@@ -3,6 +3,7 @@
 use glam::{DQuat, DVec3};
 use mocap_io::Trajectories;
 
+use crate::PairFit;
 use crate::horn::tests::TestRng;
 
 /// How a body moves relative to its parent.
@@ -132,5 +133,32 @@ pub(crate) fn generate(
         segments,
         joints,
         axes,
+    }
+}
+
+/// A pair fit between segments a < b, centres and residual given, nothing else.
+pub(crate) fn point_fit(a: usize, b: usize, centres: [[f64; 3]; 2], residual: f64) -> PairFit {
+    PairFit {
+        a,
+        b,
+        method: "test".into(),
+        cost: residual,
+        centre_in_a: centres[0],
+        centre_in_b: centres[1],
+        positions: Vec::new(),
+        kind: crate::JointKind::Ball,
+        axis_in_a: None,
+        axis_in_b: None,
+        universal_axes: None,
+        residual_rms_mm: residual,
+        frames_used: 100,
+        rotation_rms_deg: 30.0,
+        rotation_max_deg: 60.0,
+        wobble_deg: [10.0; 3],
+        evidence: String::new(),
+        centre_from_distances: false,
+        seeded: false,
+        first_pass_kind: None,
+        misfit_over_noise: f64::NAN,
     }
 }

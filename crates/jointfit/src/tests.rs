@@ -197,6 +197,58 @@ fn non_adjacent_pair_costs_more() {
     }
 }
 
+/// Under white noise the poses' noise accounts for a joint's residual (its misfit over
+/// noise near 1), not for a pair across two joints, and the cost weighs the residual by
+/// it; exact data have no noise to measure by, and their costs are the residuals.
+#[test]
+fn a_joints_residual_is_what_its_poses_noise_predicts() {
+    let residual_only = Params {
+        cost_noise_power: 0.0,
+        ..Params::default()
+    };
+    for noise_mm in [0.5, 0.0] {
+        let mut rng = TestRng(24);
+        let bodies = chain(
+            &mut rng,
+            &[
+                Articulation::Ball(50.0),
+                Articulation::Hinge(DVec3::Y, 50.0),
+            ],
+            4,
+        );
+        let trial = generate(&mut rng, &bodies, 300, noise_mm, |_, _, _| false);
+        let fits = run_on_segments(&trial.traj, &trial.segments, &Params::default()).unwrap();
+        let plain = run_on_segments(&trial.traj, &trial.segments, &residual_only).unwrap();
+        let ratio = |a, b| pair(&fits, a, b).misfit_over_noise;
+        if noise_mm > 0.0 {
+            for (a, b) in [(0, 1), (1, 2)] {
+                assert!(
+                    (0.8..1.25).contains(&ratio(a, b)),
+                    "{a}-{b}: {}",
+                    ratio(a, b)
+                );
+            }
+            assert!(ratio(0, 2) > 10.0, "0-2: {}", ratio(0, 2));
+        }
+        for (fit, plain) in fits.pairs.iter().zip(&plain.pairs) {
+            let weight = if noise_mm > 0.0 {
+                fit.misfit_over_noise.powf(0.25)
+            } else {
+                assert!(fit.misfit_over_noise.is_nan(), "{}", fit.misfit_over_noise);
+                1.0
+            };
+            let expected = plain.cost * weight;
+            assert!(
+                (fit.cost - expected).abs() <= 1e-9 * expected,
+                "{}-{}: {} against {expected}",
+                fit.a,
+                fit.b,
+                fit.cost
+            );
+        }
+    }
+}
+
 #[test]
 fn gaps_are_handled() {
     let mut rng = TestRng(25);

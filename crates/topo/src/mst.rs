@@ -550,6 +550,7 @@ mod tests {
                     centre_from_distances: false,
                     seeded: false,
                     first_pass_kind: None,
+                    misfit_over_noise: f64::NAN,
                 });
             }
         }
