@@ -463,6 +463,7 @@ pub(crate) fn weigh_costs_by_noise(pairs: &mut [PairFit], power: f64) -> bool {
     }
     true
 }
+
 /// SCoRE's centres `(c_a, c_b)` with each frame weighted by the precision of the two poses'
 /// disagreement at the centre (`Params::weighted_centres`): each segment's covariance of
 /// the point its pose puts at `unweighted`'s centre ([`PoseScatter::precision_at`]), turned

@@ -160,7 +160,9 @@ fn fit_passes(
     // Every segment's poses from its own markers: both passes start from them.
     let own_poses = poses::all_segment_poses(traj, segments, poses::FitRules::of(params));
     let mut own = fit_all(traj, segments, params, own_poses.clone(), None);
-    fit::weigh_costs_by_noise(&mut own.fits.pairs, params.cost_noise_power);
+    if params.method == Method::Score {
+        fit::weigh_costs_by_noise(&mut own.fits.pairs, params.cost_noise_power);
+    }
     if !params.tree_poses {
         return Ok(own.fits);
     }

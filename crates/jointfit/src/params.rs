@@ -80,8 +80,9 @@ pub struct Params {
     /// precision of the two poses' disagreement at the centre (each pose's fit scatter
     /// through its markers' lever); the pair's cost stays the unweighted fit's.
     pub weighted_centres: bool,
-    /// Each pair's cost is its residual (mm) times its `misfit_over_noise` to this power,
-    /// where every pair of the capture has that measure (default 0.25; 0 = the residual).
+    /// `score` only: each pair's cost is its residual (mm) times its `misfit_over_noise` to
+    /// this power, where every pair of the capture has that measure (default 0.25; 0 = the
+    /// residual).
     pub cost_noise_power: f64,
     /// A marker farther than this × the segment's median per-frame fit RMS from its fitted
     /// place leaves that frame's pose fit (and the reference shape), while ≥ 3 others stay
@@ -309,7 +310,31 @@ pub const PARAM_DOCS: &[(&str, &str)] = &[
     ),
     (
         "cost_noise_power",
-        "first pass: each pair's cost (its centres' RMS disagreement, mm) is multiplied by its          misfit_over_noise to this power: the disagreement measured against the covariance          both poses' noise gives it at the centre (σ²(I/n + [d]× J⁻¹ [d]×ᵀ) per segment, as          weighted_centres reads it), RMS over frames of the Mahalanobis length per          coordinate, about 1 for a joint that noise explains (0.94 for both joints of a          chain under 0.5 mm white noise, 26 for the pair across them). A segment with few or          bunched markers makes all its pairs dear in mm: human-hard-s20015's thorax (three          markers) hung the head from a clavicle, 14.6 against 15.6 mm for head-thorax. The          misfit alone forgives a false centre far along a small segment's lever, where that          segment's turn noise is large (quadruped-hard-s20007: upper leg-paw 1.30 against          the true upper-lower leg's 1.32), hence a small power that lets the noise decide          between pairs of like residual. Only where every pair with a cost has the measure          (a segment needs three markers fitted together for a noise figure, and exact data          have none): a weighed cost is not comparable with a bare one (AlbertoINT's right          forearm went from its upper arm to a two-marker segment when only the first was          weighed). cargo xtask eval --presets hard --compare          jointfit.cost_noise_power=0,0.25: seeds 20001..20050,30001..30050 539 -> 543/700          trees (human 73 -> 77, no subject fewer), 1.4547 -> 1.4533 %; 40001..40100 520 ->          523 (human 74 -> 77, hexapod 24 -> 25, random 70 -> 69), 1.4484 -> 1.4477 %; with          --true-segments on the first set 651 -> 657; powers 0.5 / 0.75 / 1 (weighing every          pair): 542 / 538 / 523 on the first set. Seeds 20001..20020: messy 110 -> 112/140,          skin 98 -> 99, --marker-arc 120 100 -> 101, clean, noise, gaps, --markers 2:3,          --markers 1:3 and --sweep 0.2:0.4 trees unchanged; every real capture's tree          unchanged (10 of 29 weighed, their runner-up ratios up: Walking_Hybrid 3.30 ->          4.58 at its first joint); 0 = off; default 0.25",
+        "first pass, method score: each pair's cost (its centres' RMS disagreement, mm) is \
+         multiplied by its misfit_over_noise to this power: the disagreement measured against \
+         the covariance both poses' noise gives it at the centre (σ²(I/n + [d]× J⁻¹ [d]×ᵀ) \
+         per segment, as weighted_centres reads it), RMS over frames of the Mahalanobis \
+         length per coordinate, about 1 for a joint that noise explains (0.94 for both joints \
+         of a chain under 0.5 mm white noise, 26 for the pair across them). A segment with \
+         few or bunched markers makes all its pairs dear in mm: human-hard-s20015's thorax \
+         (three markers) hung the head from a clavicle, 14.6 against 15.6 mm for head-thorax. \
+         The misfit alone forgives a false centre far along a small segment's lever, where \
+         that segment's turn noise is large (quadruped-hard-s20007: upper leg-paw 1.30 \
+         against the true upper-lower leg's 1.32), hence a small power that lets the noise \
+         decide between pairs of like residual. Only where every pair with a cost has the \
+         measure (a segment needs three markers fitted together for a noise figure, and exact \
+         data have none): a weighed cost is not comparable with a bare one (AlbertoINT's \
+         right forearm went from its upper arm to a two-marker segment when only the first \
+         was weighed). cargo xtask eval --presets hard --compare \
+         jointfit.cost_noise_power=0,0.25: seeds 20001..20050,30001..30050 539 -> 543/700 \
+         trees (human 73 -> 77, no subject fewer), 1.4547 -> 1.4533 %; 40001..40100 520 -> \
+         523 (human 74 -> 77, hexapod 24 -> 25, random 70 -> 69), 1.4484 -> 1.4477 %; with \
+         --true-segments on the first set 651 -> 657; powers 0.5 / 0.75 / 1 (weighing every \
+         pair): 542 / 538 / 523 on the first set. Seeds 20001..20020: messy 110 -> 112/140, \
+         skin 98 -> 99, --marker-arc 120 100 -> 101, clean, noise, gaps, --markers 2:3, \
+         --markers 1:3 and --sweep 0.2:0.4 trees unchanged; every real capture's tree \
+         unchanged (10 of 29 weighed, their runner-up ratios up: Walking_Hybrid 3.30 -> 4.58 \
+         at its first joint); 0 = off; default 0.25",
     ),
     (
         "spin_corrected_cost",
