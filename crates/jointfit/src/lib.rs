@@ -47,10 +47,11 @@
 //! far. So a second pass (`Params::tree_poses`) runs along the minimum spanning tree of the
 //! first pass's costs: such segments are posed through a tree neighbour's joint, anchors
 //! are sought among tree neighbours first, and a two-marker segment is posed from both its
-//! joints' centres (`Params::anchor_two_centres`). Its pairs keep the first pass's costs
-//! and relative rotations, and the kinds topo's rules read (`PairFit::first_pass_kind`),
-//! so the tree topo chooses is the one the first pass's poses support. Where it would
-//! leave a pair the first pass fitted without a centre, the first pass's fits stand.
+//! joints' centres (`Params::anchor_two_centres`). Topo reads its pairs' costs, relative
+//! rotations and kinds (`Params::tree_from_second_pass`; off, the pairs keep the first
+//! pass's for it, `PairFit::first_pass_kind`, and the tree is the one the segments' own
+//! poses support). Where it would leave a pair the first pass fitted without a centre,
+//! the first pass's fits stand.
 //!
 //! It does not choose which pairs are joints (topo does, from the costs); hinge centres
 //! are placed on their axes from the tree by [`place_hinges_across_bones`] (or the older
@@ -175,12 +176,11 @@ fn fit_passes(
         })
         .collect();
     // Second pass along the tree the costs make: poses through the joints the topology
-    // will most likely keep. The costs and relative rotations topo builds the tree from
-    // stay the first pass's (and the kinds its rules read), so it is the tree the
-    // segments' own poses support (only a pair turning rigid in this pass could change
-    // it). The second pass's kinds fit its centres and are the ones written: the first
-    // pass's kinds on these fits measured worse (cargo xtask eval --presets hard:
-    // 8101-8124 1.95 → 1.98 %, --markers 2:3 3.08 → 3.15 %).
+    // will most likely keep. Topo then reads this pass's costs, relative rotations and
+    // kinds (`tree_from_second_pass`), or the first pass's for all three. The second
+    // pass's kinds fit its centres and are the ones written: the first pass's kinds on
+    // these fits measured worse (cargo xtask eval --presets hard: 8101-8124 1.95 → 1.98 %,
+    // --markers 2:3 3.08 → 3.15 %).
     let tree = cheapest_tree(segments.len(), &own.fits);
     let off_tree = |(s, nb): (usize, &Option<usize>)| nb.is_some_and(|nb| !tree[s][nb]);
     // A two-marker segment with two tree neighbours to take centres from
@@ -211,6 +211,14 @@ fn fit_passes(
         .any(|(x, first)| fitted(first) && !fitted(x))
     {
         return Ok(own.fits);
+    }
+    if params.tree_from_second_pass {
+        // The tree from the better poses: a loose segment posed through its tentative
+        // neighbour's joint no longer makes all its pairs dear.
+        if params.method == Method::Score {
+            fit::weigh_costs_by_noise(&mut along.pairs, params.cost_noise_power);
+        }
+        return Ok(along);
     }
     for (fit, first) in along.pairs.iter_mut().zip(&own.fits.pairs) {
         if fit.kind != first.kind {

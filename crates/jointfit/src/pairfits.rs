@@ -3,7 +3,7 @@
 use serde::{Deserialize, Serialize};
 
 /// Schema version of [`PairFits`]; bump when its fields or the algorithm's output change.
-pub const SCHEMA_VERSION: u32 = 24;
+pub const SCHEMA_VERSION: u32 = 25;
 
 /// Per-frame rigid poses of every segment and the joint fitted to every segment pair.
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
@@ -122,15 +122,17 @@ pub struct PairFit {
     #[serde(default)]
     pub seeded: bool,
     /// The kind the first pass (the segments' own poses) gave, where a second pass along
-    /// the tree changed it: topo's rules read it with the first pass's cost and rotation,
-    /// so the tree is the one those poses support; `kind` fits this pair's centre.
+    /// the tree changed it and `Params::tree_from_second_pass` is off: topo's rules read it
+    /// with the first pass's cost and rotation, so the tree is the one those poses
+    /// support; `kind` fits this pair's centre.
     #[serde(default)]
     pub first_pass_kind: Option<JointKind>,
     /// How far the two segments disagree about the centre against what their poses' noise
-    /// predicts, in the first pass (like `cost`): the RMS over frames of the disagreement's
-    /// Mahalanobis length per coordinate, about 1 for a joint whose residual that noise
-    /// explains; NaN where either segment has no noise measure (fewer than three markers
-    /// fitted together) or the data are exact. See `Params::cost_noise_power`.
+    /// predicts, from the same pass as `cost` (`Params::tree_from_second_pass`): the RMS
+    /// over frames of the disagreement's Mahalanobis length per coordinate, about 1 for a
+    /// joint whose residual that noise explains; NaN where either segment has no noise
+    /// measure (fewer than three markers fitted together) or the data are exact. See
+    /// `Params::cost_noise_power`.
     #[serde(default = "not_measured")]
     pub misfit_over_noise: f64,
 }
@@ -141,7 +143,7 @@ fn not_measured() -> f64 {
 }
 
 impl PairFit {
-    /// The kind topo's rules read: the first pass's (see `first_pass_kind`).
+    /// The kind topo's rules read: the first pass's where it is kept (see `first_pass_kind`).
     pub fn tree_kind(&self) -> JointKind {
         self.first_pass_kind.unwrap_or(self.kind)
     }

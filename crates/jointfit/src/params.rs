@@ -72,6 +72,9 @@ pub struct Params {
     /// anchors and gap fills through tree neighbours first; costs and relative rotations
     /// stay the first pass's.
     pub tree_poses: bool,
+    /// Where the second pass runs, topo reads its costs, relative rotations and kinds
+    /// (default true); false keeps the first pass's (the segments' own poses) for them.
+    pub tree_from_second_pass: bool,
     /// First pass, `score` only: a pair with one loose segment (beyond `max_spin_deg`)
     /// corrects that segment's spin about its marker line per frame as noise of its
     /// predicted size, in the pair's centres and cost.
@@ -151,6 +154,7 @@ impl Default for Params {
             min_spread_mm: 2.0,
             max_spin_deg: 10.0,
             tree_poses: true,
+            tree_from_second_pass: true,
             spin_corrected_cost: true,
             weighted_centres: true,
             cost_noise_power: 0.25,
@@ -286,12 +290,33 @@ pub const PARAM_DOCS: &[(&str, &str)] = &[
          segment is loose or anchored off that tree: a segment whose own poses turn beyond \
          max_spin_deg even with all its markers seen is posed through a tree neighbour's \
          joint (its own poses kept where none qualifies), and anchors and gap fills go \
-         through tree neighbours first; the pairs keep the first pass's costs and relative \
-         rotations, so the tree does not change, and if a pair the first pass fitted would \
-         lose its centre the first pass stands (cargo xtask eval --presets hard, before → \
+         through tree neighbours first; (as measured then, the pairs kept the first pass's \
+         costs and relative rotations, so the tree did not change; see \
+         tree_from_second_pass); if a pair the first pass fitted would lose its centre the \
+         first pass stands (cargo xtask eval --presets hard, before → \
          after: seeds 8101..8124 2.06 → 1.95 % of height, 8201..8230 2.06 → 2.03 %, 16 seeds \
          1.88 → 1.86 %, trees unchanged; --markers 2:3 3.21 → 3.08 %; skin / messy 2.17 → \
          2.11 / 2.19 → 2.13 %; clean identical); default true",
+    ),
+    (
+        "tree_from_second_pass",
+        "where the second pass (tree_poses) runs, topo reads its pairs' costs, relative \
+         rotations and kinds instead of the first pass's: a segment posed again along the \
+         tentative tree no longer makes all its pairs dear (human-hard-s30036's thorax: \
+         thorax-right clavicle cost 27.9 on the first pass's poses, 7.6 on the second's, \
+         against 15.1 for the false clavicle-clavicle pair, and the tree comes out exact). The pair through which a \
+         segment is posed costs little by construction, but that pair is already in the first \
+         pass's tree; only pairs the better poses make cheaper than its edges move it. cargo \
+         xtask eval --presets hard --compare jointfit.tree_from_second_pass=false,true: seeds \
+         20001..20050,30001..30050 543 -> 545/700 trees (human 77 -> 78, random 76 -> 77), \
+         1.4533 -> 1.4490 %; 40001..40100 523 -> 530 (random 69 -> 74, human 77 -> 78, \
+         quadruped 71 -> 72), 1.4477 -> 1.4486 %; --true-segments on the first set 657 -> \
+         662. Seeds 20001..20020: skin 99 -> 100/140, --markers 2:3 50 -> 51 (3.30 -> 3.18 \
+         %), --marker-arc 120 101 -> 102, --markers 1:3 5.25 -> 5.10 %, noise 0.208 -> 0.196 \
+         %, messy 1.400 -> 1.391 %, clean and gaps unchanged, --sweep 0.2:0.4 21 -> 21; every \
+         real capture's tree and kinds unchanged, runner-up warnings 16 -> 8 of 251 joints; \
+         false: the first pass's, as before (topo's tree is then the one the segments' own \
+         poses support); default true",
     ),
     (
         "weighted_centres",
@@ -310,7 +335,7 @@ pub const PARAM_DOCS: &[(&str, &str)] = &[
     ),
     (
         "cost_noise_power",
-        "first pass, method score: each pair's cost (its centres' RMS disagreement, mm) is \
+        "method score: each pair's cost (its centres' RMS disagreement, mm) is \
          multiplied by its misfit_over_noise to this power: the disagreement measured against \
          the covariance both poses' noise gives it at the centre (σ²(I/n + [d]× J⁻¹ [d]×ᵀ) \
          per segment, as weighted_centres reads it), RMS over frames of the Mahalanobis \
@@ -326,7 +351,8 @@ pub const PARAM_DOCS: &[(&str, &str)] = &[
          data have none): a weighed cost is not comparable with a bare one (AlbertoINT's \
          right forearm went from its upper arm to a two-marker segment when only the first \
          was weighed). cargo xtask eval --presets hard --compare \
-         jointfit.cost_noise_power=0,0.25: seeds 20001..20050,30001..30050 539 -> 543/700 \
+         jointfit.cost_noise_power=0,0.25 (on the first pass's costs, before \
+         tree_from_second_pass): seeds 20001..20050,30001..30050 539 -> 543/700 \
          trees (human 73 -> 77, no subject fewer), 1.4547 -> 1.4533 %; 40001..40100 520 -> \
          523 (human 74 -> 77, hexapod 24 -> 25, random 70 -> 69), 1.4484 -> 1.4477 %; with \
          --true-segments on the first set 651 -> 657; powers 0.5 / 0.75 / 1 (weighing every \

@@ -1184,8 +1184,8 @@ fn nearest_marker_distance_skips_unknown_frames() {
 /// A middle segment whose three markers lie within 3 mm of a line 250 mm from both its
 /// joints: under 2 mm scatter (a 3.7 mm lever) its own poses turn ~31° about that line,
 /// which throws both joints' images tens of mm. Posed again along the tree (through a
-/// neighbour's joint), its joints come out far closer; the costs and relative rotations
-/// topo reads are the first pass's.
+/// neighbour's joint), its joints come out far closer, and so do the costs topo reads
+/// (`tree_from_second_pass`; without it they stay the first pass's, bit for bit).
 #[test]
 fn a_loosely_spread_segment_is_posed_through_its_tree_joint() {
     let mut rng = TestRng(41);
@@ -1200,20 +1200,32 @@ fn a_loosely_spread_segment_is_posed_through_its_tree_joint() {
         DVec3::new(60.0, -3.0, -250.0),
     ];
     let trial = generate(&mut rng, &bodies, 600, 2.0, |_, _, _| false);
-    let run = |tree_poses: bool| {
+    let run = |tree_poses: bool, tree_from_second_pass: bool| {
         let params = Params {
             tree_poses,
+            tree_from_second_pass,
             ..Params::default()
         };
         run_on_segments(&trial.traj, &trial.segments, &params).unwrap()
     };
-    let (along, own) = (run(true), run(false));
-    // What topo builds the tree from is the first pass's.
-    for (x, y) in along.pairs.iter().zip(&own.pairs) {
+    let (along, own) = (run(true, true), run(false, true));
+    // Without tree_from_second_pass what topo builds the tree from is the first pass's.
+    for (x, y) in run(true, false).pairs.iter().zip(&own.pairs) {
         assert_eq!(x.cost.to_bits(), y.cost.to_bits(), "pair {}-{}", x.a, x.b);
         let rotation = |p: &PairFit| p.rotation_rms_deg.to_bits();
         assert_eq!(rotation(x), rotation(y), "pair {}-{}", x.a, x.b);
     }
+    // With it, the joints cost less from the better poses, and the pair across both
+    // joints still more than either.
+    let cost = |fits: &crate::PairFits, a, b| pair(fits, a, b).cost;
+    for (a, b) in [(0, 1), (1, 2)] {
+        let (c_along, c_own) = (cost(&along, a, b), cost(&own, a, b));
+        assert!(
+            c_along < 0.8 * c_own,
+            "{a}-{b}: {c_along:.2} against {c_own:.2}"
+        );
+    }
+    assert!(cost(&along, 0, 2) > 2.0 * cost(&along, 0, 1).max(cost(&along, 1, 2)));
     for (a, b) in [(0, 1), (1, 2)] {
         let (e_along, e_own) = (
             mean_error(pair(&along, a, b), &trial.joints[b]),

@@ -8,8 +8,9 @@
 //! Choices, documented here because they shape every output downstream:
 //! - Pairs whose cost is NaN or infinite are not edges (no usable fit). Segments left
 //!   without an edge, and components other than the tree's, are `detached_segments`.
-//! - Pairs of kind `rigid` (no relative motion: the two are one body; the first pass's
-//!   kind, like every kind the rules read) are taken before every other edge, because two
+//! - Pairs of kind `rigid` (no relative motion: the two are one body; the kind
+//!   `PairFit::tree_kind` gives, like every kind the rules read) are taken before every
+//!   other edge, because two
 //!   segments that never move relative to each other are certainly neighbours; the
 //!   topology's `notes` say so, since a rigid pair usually means the segmentation split
 //!   one body in two.
@@ -25,8 +26,8 @@
 //!   clavicles on the sternum fit a common centre as well as each fits the thorax.
 //!   Kinds are stronger evidence than costs: a pair that is not a hinge, turning at least
 //!   as much as two hinges through a third segment, is their composite even when they
-//!   cost more (`composite_hinge_cost_ratio`; the kinds the first pass gave, read with its
-//!   costs, see `PairFit::tree_kind`): two hinges on one hub compose to two
+//!   cost more (`composite_hinge_cost_ratio`; the kinds read with the costs, see
+//!   `PairFit::tree_kind`): two hinges on one hub compose to two
 //!   degrees of freedom, and were it a joint, one of those two pairs would compose its
 //!   motion with another joint's and read as no hinge.
 //! - Root: the tree's centre (minimum eccentricity in hops), ties by the smaller sum of
