@@ -10,10 +10,9 @@
 //!   without an edge, and components other than the tree's, are `detached_segments`.
 //! - Pairs of kind `rigid` (no relative motion: the two are one body; the kind
 //!   `PairFit::tree_kind` gives, like every kind the rules read) are taken before every
-//!   other edge, because two
-//!   segments that never move relative to each other are certainly neighbours; the
-//!   topology's `notes` say so, since a rigid pair usually means the segmentation split
-//!   one body in two.
+//!   other edge, because two segments that never move relative to each other are
+//!   certainly neighbours; the topology's `notes` say so, since a rigid pair usually means
+//!   the segmentation split one body in two.
 //! - Near-ties in cost (within `tie_absolute + tie_relative × cost` of a run's cheapest
 //!   edge) are taken in order of the pair's RMS relative rotation, smallest first: where
 //!   segments meet at one point (siblings on one parent) every pair among them fits the
