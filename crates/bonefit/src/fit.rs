@@ -308,12 +308,7 @@ pub fn run(
             if !(fitted && turn > 0.0 && turn.is_finite()) {
                 return None;
             }
-            let mut rms: Vec<f64> = p.rms_mm.iter().copied().filter(|r| r.is_finite()).collect();
-            if rms.is_empty() {
-                return None;
-            }
-            rms.sort_by(f64::total_cmp);
-            let scatter = rms[rms.len() / 2];
+            let scatter = p.median_rms_mm()?;
             let weight = params.marker_weight.max(0.0) * scatter * scatter / (turn * turn);
             // Exact data (no scatter) keep the weak prior of their own poses.
             (weight > 0.0).then_some(weight)

@@ -400,8 +400,9 @@ pub(crate) fn fit_pair(
     }
 }
 
-/// A pose scatter below this (mm) is float rounding on exact data (about 1e-12 mm at
-/// millimetre coordinates), far below any capture's resolution (0.01 mm and up).
+/// A pose scatter below this (mm) is float rounding on exact data (the jointfit test
+/// chain's exact joints disagree by 2e-11 mm), far below the scatter of real marker fits
+/// (the README's shared walks: 1.3–2.1 mm of ρ inside a segment).
 const ROUNDING_MM: f64 = 1e-6;
 
 /// [`PairFit::misfit_over_noise`] of centres `(c_a, c_b)` over `frames`: each frame's
@@ -443,12 +444,18 @@ fn misfit_over_noise(
     }
 }
 
-/// Weighs every pair's cost by its [`PairFit::misfit_over_noise`] to `power`
-/// (`Params::cost_noise_power`), if every pair with a finite cost has that measure, and
-/// says so in its evidence; otherwise leaves every cost as it is, since the tree compares
-/// costs across pairs and a weighed cost is not comparable with a bare one (a two-marker
-/// segment has no measure). Returns whether it weighed them.
-pub(crate) fn weigh_costs_by_noise(pairs: &mut [PairFit], power: f64) -> bool {
+/// Weighs every pair's cost by its [`PairFit::misfit_over_noise`] to
+/// `Params::cost_noise_power`, for method `score` (`aguiar`'s cost is the paper's
+/// objective, `local`'s a radial RMS), if every pair with a finite cost has that measure,
+/// and says so in its evidence; otherwise leaves every cost as it is, since the tree
+/// compares costs across pairs and a weighed cost is not comparable with a bare one (a
+/// two-marker segment has no measure). Returns whether it weighed them.
+pub(crate) fn weigh_costs_by_noise(pairs: &mut [PairFit], params: &Params) -> bool {
+    let power = if params.method == Method::Score {
+        params.cost_noise_power
+    } else {
+        0.0
+    };
     let measured = |p: &PairFit| !p.cost.is_finite() || p.misfit_over_noise.is_finite();
     if !(power > 0.0 && pairs.iter().any(|p| p.cost.is_finite()) && pairs.iter().all(measured)) {
         return false;
@@ -678,13 +685,15 @@ mod tests {
     use glam::{DMat3, DQuat, DVec3};
 
     use super::{PosedSegment, joint_positions, weigh_costs_by_noise};
+    use crate::Params;
     use crate::pairfits::SegmentPoses;
     use crate::poses::{Pose, PoseScatter, pose_track};
     use crate::testkit::point_fit;
 
     /// Costs are weighed by the noise only where every pair with a cost can be: one pair
     /// without the measure (a two-marker segment's) leaves every cost in millimetres, since
-    /// the tree compares them with each other. A pair with no cost needs no measure.
+    /// the tree compares them with each other. A pair with no cost needs no measure; the
+    /// `aguiar` method's costs are never weighed.
     #[test]
     fn costs_are_weighed_by_the_noise_all_or_none() {
         let pairs = || {
@@ -697,8 +706,12 @@ mod tests {
             pairs[1].misfit_over_noise = 1.0;
             pairs
         };
+        let power = |cost_noise_power| Params {
+            cost_noise_power,
+            ..Params::default()
+        };
         let mut all = pairs();
-        assert!(weigh_costs_by_noise(&mut all, 0.25));
+        assert!(weigh_costs_by_noise(&mut all, &power(0.25)));
         assert_eq!([all[0].cost, all[1].cost], [8.0, 8.0]);
         assert!(
             all[0]
@@ -708,11 +721,19 @@ mod tests {
         assert!(all[2].cost.is_infinite());
         let mut one_unmeasured = pairs();
         one_unmeasured[1].misfit_over_noise = f64::NAN;
-        assert!(!weigh_costs_by_noise(&mut one_unmeasured, 0.25));
+        assert!(!weigh_costs_by_noise(&mut one_unmeasured, &power(0.25)));
         assert_eq!([one_unmeasured[0].cost, one_unmeasured[1].cost], [4.0, 8.0]);
         let mut off = pairs();
-        assert!(!weigh_costs_by_noise(&mut off, 0.0));
+        assert!(!weigh_costs_by_noise(&mut off, &power(0.0)));
         assert_eq!([off[0].cost, off[1].cost], [4.0, 8.0]);
+        // The paper's method keeps its own objective as the cost.
+        let mut aguiar = pairs();
+        let paper = Params {
+            method: crate::Method::Aguiar,
+            ..power(0.25)
+        };
+        assert!(!weigh_costs_by_noise(&mut aguiar, &paper));
+        assert_eq!([aguiar[0].cost, aguiar[1].cost], [4.0, 8.0]);
     }
 
     /// A segment at rest with `reference` markers fitted to `rms_mm` in every frame.

@@ -39,8 +39,8 @@ use glam::{DMat3, DVec3};
 use crate::fit::{PosedSegment, joint_positions};
 use crate::pairfits::{PairFit, PairFits};
 use crate::poses::{
-    Pose, PoseScatter, inverse_inertia, median_rms_mm, misfit_smoothness, pose_track,
-    reference_points, scatter_from_rms, trace,
+    Pose, PoseScatter, inverse_inertia, misfit_smoothness, pose_track, reference_points,
+    scatter_from_rms, trace,
 };
 
 /// Moves every hinge centre of the tree along its axis (see the module docs) and
@@ -400,7 +400,7 @@ fn smooth_pose_rotation(poses: &crate::pairfits::SegmentPoses) -> f64 {
     if points.len() < 3 {
         return 0.0;
     }
-    let (Some(inverse), Some(median)) = (inverse_inertia(&points), median_rms_mm(poses)) else {
+    let (Some(inverse), Some(median)) = (inverse_inertia(&points), poses.median_rms_mm()) else {
         return 0.0;
     };
     let gain = trace(inverse).max(0.0).sqrt();

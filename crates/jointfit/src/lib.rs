@@ -161,9 +161,7 @@ fn fit_passes(
     // Every segment's poses from its own markers: both passes start from them.
     let own_poses = poses::all_segment_poses(traj, segments, poses::FitRules::of(params));
     let mut own = fit_all(traj, segments, params, own_poses.clone(), None);
-    if params.method == Method::Score {
-        fit::weigh_costs_by_noise(&mut own.fits.pairs, params.cost_noise_power);
-    }
+    fit::weigh_costs_by_noise(&mut own.fits.pairs, params);
     if !params.tree_poses {
         return Ok(own.fits);
     }
@@ -215,9 +213,7 @@ fn fit_passes(
     if params.tree_from_second_pass {
         // The tree from the better poses: a loose segment posed through its tentative
         // neighbour's joint no longer makes all its pairs dear.
-        if params.method == Method::Score {
-            fit::weigh_costs_by_noise(&mut along.pairs, params.cost_noise_power);
-        }
+        fit::weigh_costs_by_noise(&mut along.pairs, params);
         return Ok(along);
     }
     for (fit, first) in along.pairs.iter_mut().zip(&own.fits.pairs) {

@@ -465,6 +465,21 @@ fn principal_variances(points: impl Iterator<Item = DVec3> + Clone) -> [f64; 3] 
 }
 
 impl SegmentPoses {
+    /// The median over frames of the segment's RMS marker misfit (mm); `None` without a fit.
+    pub fn median_rms_mm(&self) -> Option<f64> {
+        let mut rms: Vec<f64> = self
+            .rms_mm
+            .iter()
+            .copied()
+            .filter(|r| r.is_finite())
+            .collect();
+        if rms.is_empty() {
+            return None;
+        }
+        rms.sort_by(f64::total_cmp);
+        Some(rms[rms.len() / 2])
+    }
+
     /// Drops every frame's pose (the reference shape stays).
     pub(crate) fn forget(&mut self) {
         self.rotations.fill([f64::NAN; 4]);
@@ -495,7 +510,7 @@ fn fit_scatter(poses: &SegmentPoses) -> Option<(f64, Vec<DVec3>)> {
     if n < 3.0 {
         return None;
     }
-    Some((scatter_from_rms(median_rms_mm(poses)?, n), reference))
+    Some((scatter_from_rms(poses.median_rms_mm()?, n), reference))
 }
 
 /// A segment's reference points that were ever seen together with the others (mm, local).
@@ -506,21 +521,6 @@ pub(crate) fn reference_points(poses: &SegmentPoses) -> Vec<DVec3> {
         .map(|r| DVec3::from_array(*r))
         .filter(|r| r.is_finite())
         .collect()
-}
-
-/// The median over frames of a segment's RMS marker misfit (mm); `None` without a fit.
-pub(crate) fn median_rms_mm(poses: &SegmentPoses) -> Option<f64> {
-    let mut rms: Vec<f64> = poses
-        .rms_mm
-        .iter()
-        .copied()
-        .filter(|r| r.is_finite())
-        .collect();
-    if rms.is_empty() {
-        return None;
-    }
-    rms.sort_by(f64::total_cmp);
-    Some(rms[rms.len() / 2])
 }
 
 /// The inverse of the inertia tensor of `points` about their centroid (mm⁻²): how far a
@@ -694,7 +694,7 @@ fn cross_matrix(d: DVec3) -> DMat3 {
 /// of freedom (three with three markers): white noise alone would make it scatter.
 fn misfit_scales(poses: &SegmentPoses) -> Vec<f64> {
     let n = poses.rms_mm.len();
-    let Some(median) = median_rms_mm(poses).filter(|m| *m > 0.0) else {
+    let Some(median) = poses.median_rms_mm().filter(|m| *m > 0.0) else {
         return vec![1.0; n];
     };
     // Prefix sums of the finite squares and their count.
