@@ -147,6 +147,13 @@ pub struct JointJson {
     /// distance of their markers from the centre (degrees). A few degrees of skin on a
     /// joint; far more where the segments do not turn about one point.
     pub centre_misfit_deg: Option<f64>,
+    /// `residual_rms_mm` against what the two segments' pose noise predicts at the centre
+    /// (`jointfit::PairFit::misfit_over_noise`: RMS over frames of the Mahalanobis length
+    /// per coordinate): about 1 where the joint fits as well as its markers allow, several
+    /// where the segments do not turn about one point. Absent where a segment has fewer
+    /// than three markers fitted together, or the data are exact.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub residual_over_noise: Option<f64>,
     /// How far an error in the two segments' poses can move the centre along the
     /// direction their relative rotation fixes least, in times that error
     /// (`jointfit::centre_gain`): 2–6 for a ball joint turning every way, large for a hinge
@@ -465,6 +472,7 @@ pub(crate) fn document(input: &Inputs<'_>) -> Result<SkeletonJson, Error> {
             residual_rms_mm: round(pair.residual_rms_mm, 3),
             fk_residual_rms_mm: round(j.fit_rms_mm, 3),
             centre_misfit_deg: misfit.and_then(|m| round(m, 3)),
+            residual_over_noise: round(pair.misfit_over_noise, 3),
             centre_gain: gain.and_then(|g| round(g, 1)),
             range_of_motion_deg: rom,
             kind_evidence: pair.evidence.clone(),

@@ -191,8 +191,8 @@ fn drawing(out: &mut String, doc: &SkeletonJson) {
 fn joints(out: &mut String, doc: &SkeletonJson) {
     out.push_str(
         "<h2>Joints</h2>\n<table>\n<tr><th>joint</th><th>parent joint</th><th>segments \
-         (parent → child)</th><th>kind</th><th>method</th><th>residual RMS, mm</th><th>centre \
-         misfit, °</th><th>FK residual RMS, mm</th><th>range of motion, °</th><th>bone, mm</th><th>frames known \
+         (parent → child)</th><th>kind</th><th>method</th><th>residual RMS, mm</th><th>residual \
+         / noise</th><th>centre misfit, °</th><th>FK residual RMS, mm</th><th>range of motion, °</th><th>bone, mm</th><th>frames known \
          (interpolated)</th><th>warnings</th></tr>\n",
     );
     for j in &doc.joints {
@@ -201,7 +201,7 @@ fn joints(out: &mut String, doc: &SkeletonJson) {
             out,
             "<tr><td>{}</td><td>{}</td><td>{} → {}</td><td title=\"{}\">{}</td><td>{}</td>\
              <td class=\"num\">{}</td><td class=\"num\">{}</td><td class=\"num\">{}</td>\
-             <td class=\"num\">{}</td><td class=\"num\">{}</td><td class=\"num\">{} ({})</td><td class=\"warn\">{}</td></tr>",
+             <td class=\"num\">{}</td><td class=\"num\">{}</td><td class=\"num\">{}</td><td class=\"num\">{} ({})</td><td class=\"warn\">{}</td></tr>",
             escape(&j.name),
             j.parent
                 .as_deref()
@@ -212,6 +212,7 @@ fn joints(out: &mut String, doc: &SkeletonJson) {
             escape(&j.kind),
             escape(&j.method),
             number(j.residual_rms_mm, 2),
+            number(j.residual_over_noise, 2),
             number(j.centre_misfit_deg, 1),
             number(j.fk_residual_rms_mm, 2),
             number(j.range_of_motion_deg, 1),

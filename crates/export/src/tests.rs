@@ -432,6 +432,33 @@ fn a_joint_its_segments_disagree_about_warns() {
     }
 }
 
+/// A joint's residual over its poses' noise is written where the pair fit has it (rounded
+/// to 0.001) and left out where it has none (a two-marker segment, exact data).
+#[test]
+fn a_joints_residual_over_noise_is_written_where_measured() {
+    let mut s = scene(60, 60.0);
+    let knee = s.topology.joints[2].pair;
+    s.fits.pairs[knee].misfit_over_noise = 1.23456;
+    let doc = json(&files(&s, &Params::default()));
+    let (a, b) = (s.fits.pairs[knee].a as u64, s.fits.pairs[knee].b as u64);
+    let mut written = 0;
+    for joint in doc["joints"].as_array().into_iter().flatten() {
+        let ends = [
+            joint["parent_segment"].as_u64(),
+            joint["child_segment"].as_u64(),
+        ];
+        let is_knee = ends == [Some(a), Some(b)] || ends == [Some(b), Some(a)];
+        let ratio = joint.get("residual_over_noise");
+        if is_knee {
+            assert_eq!(ratio.and_then(Value::as_f64), Some(1.235), "{joint}");
+            written += 1;
+        } else {
+            assert!(ratio.is_none(), "{joint}");
+        }
+    }
+    assert_eq!(written, 1);
+}
+
 /// A joint whose centre lies far from every marker of its two segments (more than half the
 /// capture's size) says the data did not place it; the scene's others, among their
 /// markers, do not.
