@@ -802,7 +802,60 @@ struct Aggregate {
     universal_false: usize,
     /// Mean over the trials of their segments' RMS orientation error, degrees.
     mean_orientation_error_deg: f64,
+    /// Wrong trees by where they went wrong, from the segmentation on.
+    wrong_trees: WrongTrees,
     seconds: f64,
+}
+
+/// Trials whose tree is not exact, by the first place they differ from the truth: the
+/// segmentation (fewer segments, more, or as many with markers elsewhere) or, every
+/// segment right, the tree itself (jointfit's costs and topo's rules).
+#[derive(Clone, Copy, Debug, Default, PartialEq, Serialize)]
+struct WrongTrees {
+    /// Fewer segments than the truth: neighbours merged.
+    fewer_segments: usize,
+    /// More segments than the truth: a segment split.
+    more_segments: usize,
+    /// As many segments, some markers in another's.
+    markers_elsewhere: usize,
+    /// Every segment right, the tree wrong.
+    tree_only: usize,
+}
+
+impl WrongTrees {
+    /// Counts `r` where its tree is wrong.
+    fn add(&mut self, r: &TrialResult) {
+        if r.topology_exact || r.error.is_some() {
+            return;
+        }
+        // The adjusted Rand index is 1 exactly for the same partition.
+        let counter = match r.segments.cmp(&r.true_segments) {
+            std::cmp::Ordering::Less => &mut self.fewer_segments,
+            std::cmp::Ordering::Greater => &mut self.more_segments,
+            std::cmp::Ordering::Equal if r.adjusted_rand < 1.0 => &mut self.markers_elsewhere,
+            std::cmp::Ordering::Equal => &mut self.tree_only,
+        };
+        *counter += 1;
+    }
+
+    /// "; wrong: 2 fewer segments, ..." for the by-subject lines; empty when none is.
+    fn describe(&self) -> String {
+        let parts: Vec<String> = [
+            (self.fewer_segments, "fewer segments"),
+            (self.more_segments, "more segments"),
+            (self.markers_elsewhere, "markers elsewhere"),
+            (self.tree_only, "tree only"),
+        ]
+        .into_iter()
+        .filter(|(n, _)| *n > 0)
+        .map(|(n, what)| format!("{n} {what}"))
+        .collect();
+        if parts.is_empty() {
+            String::new()
+        } else {
+            format!("; wrong: {}", parts.join(", "))
+        }
+    }
 }
 
 fn aggregate<'a>(results: impl Iterator<Item = &'a TrialResult>) -> Aggregate {
@@ -822,12 +875,14 @@ fn aggregate<'a>(results: impl Iterator<Item = &'a TrialResult>) -> Aggregate {
         universal_found: 0,
         universal_false: 0,
         mean_orientation_error_deg: 0.0,
+        wrong_trees: WrongTrees::default(),
         seconds: 0.0,
     };
     let (mut scored, mut oriented) = (0usize, 0usize);
     for r in results {
         a.trials += 1;
         a.seconds += r.seconds;
+        a.wrong_trees.add(r);
         if r.error.is_some() {
             a.failed += 1;
             continue;
@@ -924,7 +979,8 @@ fn summary_json(results: &[TrialResult]) -> serde_json::Value {
 }
 
 /// One line per preset with each subject's exact trees, mean joint error and mean
-/// orientation error, when the suite has more than one subject.
+/// orientation error, and where its wrong trees went wrong, when the suite has more than
+/// one subject.
 fn subject_lines(results: &[TrialResult]) -> Vec<String> {
     let subjects = subjects_of(results);
     if subjects.len() < 2 {
@@ -938,12 +994,13 @@ fn subject_lines(results: &[TrialResult]) -> Vec<String> {
                 .map(|s| {
                     let a = aggregate(results.iter().filter(|r| r.preset == p && &r.subject == s));
                     format!(
-                        "{s} {}/{} {}% ({} mm, {}°)",
+                        "{s} {}/{} {}% ({} mm, {}°{})",
                         a.topology_exact,
                         a.trials,
                         fmt_f(a.mean_error_pct, 2),
                         fmt_f(a.mean_error_mm, 1),
-                        fmt_f(a.mean_orientation_error_deg, 1)
+                        fmt_f(a.mean_orientation_error_deg, 1),
+                        a.wrong_trees.describe()
                     )
                 })
                 .collect();
@@ -1426,24 +1483,42 @@ mod tests {
         }
     }
 
+    /// Each subject's line says how many trees are exact and where the others went wrong:
+    /// fewer or more segments than the truth, markers elsewhere, or the tree alone.
     #[test]
     fn subjects_are_summarised_per_preset() {
+        let with_segments = |mut r: TrialResult, segments: usize, adjusted_rand: f64| {
+            (r.segments, r.adjusted_rand) = (segments, adjusted_rand);
+            r
+        };
         let results = [
             result("human", "clean", true, 0.1),
             result("human", "clean", false, 0.3),
             result("snowman", "clean", true, 0.0),
             result("human", "hard", true, 1.0),
-            result("snowman", "hard", false, 2.0),
+            with_segments(result("snowman", "hard", false, 2.0), 6, 0.8),
+            with_segments(result("snowman", "hard", false, 2.0), 8, 0.9),
+            with_segments(result("snowman", "hard", false, 2.0), 7, 0.95),
+            // A wrong segmentation with an exact tree is not a wrong tree.
+            with_segments(result("snowman", "hard", true, 2.0), 7, 0.95),
         ];
         assert_eq!(
             subject_lines(&results),
             [
-                "  clean by subject: human 1/2 0.20% (2.0 mm, 0.4°), snowman 1/1 0.00% (0.0 mm, 0.0°)",
-                "  hard by subject: human 1/1 1.00% (10.0 mm, 2.0°), snowman 0/1 2.00% (20.0 mm, 4.0°)",
+                "  clean by subject: human 1/2 0.20% (2.0 mm, 0.4°; wrong: 1 tree only), snowman 1/1 0.00% (0.0 mm, 0.0°)",
+                "  hard by subject: human 1/1 1.00% (10.0 mm, 2.0°), snowman 1/4 2.00% (20.0 mm, 4.0°; wrong: 1 fewer segments, 1 more segments, 1 markers elsewhere)",
             ]
         );
         let json = summary_json(&results);
-        assert_eq!(json["by_subject"]["hard"]["snowman"]["topology_exact"], 0);
+        assert_eq!(json["by_subject"]["hard"]["snowman"]["topology_exact"], 1);
+        assert_eq!(
+            json["by_subject"]["hard"]["snowman"]["wrong_trees"]["fewer_segments"],
+            1
+        );
+        assert_eq!(
+            json["by_subject"]["clean"]["human"]["wrong_trees"]["tree_only"],
+            1
+        );
         assert_eq!(json["by_subject"]["clean"]["human"]["trials"], 2);
         // One subject: the summary line says it all.
         assert!(subject_lines(&results[..2]).is_empty());
