@@ -309,8 +309,9 @@ fn break_near_ties(edges: &mut [(u8, f64, usize, usize, usize)], fits: &PairFits
 /// two joints composes both joints' motions, so it turns more than either; where the
 /// joints are close (two clavicles on the sternum, two legs on one tip) it can still fit
 /// a centre as well as they do. It is a composite when
-/// - a–b and a–c both cost at most `composite_cost_ratio` × its cost and it turns at least
-///   `composite_rotation_ratio` × as much as either, or
+/// - a–b and a–c both cost at most `composite_cost_ratio` × its cost, it turns at least
+///   `composite_rotation_ratio` × as much as either, and the quieter of the two turns at
+///   least `composite_turn_share` of the other, or
 /// - it is not a hinge, a–b and a–c are both hinges costing at most
 ///   `composite_hinge_cost_ratio` × its cost, and it turns at least as much as either:
 ///   two hinges compose to more than one axis, while in a chain through a hinge the
@@ -328,9 +329,13 @@ fn composite_of(fits: &PairFits, n: usize, b: usize, c: usize, params: &Params) 
             let (ab, ac) = (pair(a, b)?, pair(a, c)?);
             let dearer = ab.cost.max(ac.cost);
             let turns = ab.rotation_rms_deg.max(ac.rotation_rms_deg);
+            // Where one of the two barely turns, the pair across it turns about as much as
+            // the other joint whichever is the composite: the rotations cannot tell.
+            let quieter = ab.rotation_rms_deg.min(ac.rotation_rms_deg);
             let by_motion = params.composite_rotation_ratio > 0.0
                 && dearer <= params.composite_cost_ratio * own.cost
-                && own.rotation_rms_deg >= params.composite_rotation_ratio * turns;
+                && own.rotation_rms_deg >= params.composite_rotation_ratio * turns
+                && quieter >= params.composite_turn_share * turns;
             let by_kinds = own_not_hinge
                 && ab.tree_kind() == JointKind::Hinge
                 && ac.tree_kind() == JointKind::Hinge
@@ -817,6 +822,15 @@ mod tests {
         fit_mut(&mut f, 0, 1).rotation_rms_deg = 25.0;
         let t = run(&seg, &f, &Params::default()).unwrap_or_else(|e| panic!("{e}"));
         assert!(edge_set(&t).contains(&(0, 1)));
+        // Nor where one clavicle barely turns on the thorax: the pair across it then turns
+        // as much as the other joint, whichever is the composite.
+        let (seg, mut f) = clavicles(false);
+        fit_mut(&mut f, 0, 2).rotation_rms_deg = 8.0;
+        let t = run(&seg, &f, &Params::default()).unwrap_or_else(|e| panic!("{e}"));
+        assert!(edge_set(&t).contains(&(0, 1)), "{:?}", edge_set(&t));
+        fit_mut(&mut f, 0, 2).rotation_rms_deg = 10.0;
+        let t = run(&seg, &f, &Params::default()).unwrap_or_else(|e| panic!("{e}"));
+        assert_eq!(edge_set(&t), [(0, 2), (1, 2), (2, 3)]);
     }
 
     /// Each joint's runner-up is the cheapest other pair joining the two sides of its cut:
