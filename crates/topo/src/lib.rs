@@ -136,8 +136,9 @@ pub const PARAM_DOCS: &[(&str, &str)] = &[
          composite_turn_share 0.4): a composite of a joint turning r1 and one turning r2 < r1 \
          turns about √(r1² + r2²), only 1.1 r1 at r2 = 0.47 r1 (human-hard-s30019: head-left \
          clavicle 44.4° against neck 38.8° and sternoclavicular 18.2°, which 1.2 let in \
-         as the head's joint). cargo xtask eval --presets hard --compare \
-         topo.composite_rotation_ratio=1.2,1.1: seeds 20001..20050,30001..30050 545 -> \
+         as the head's joint). cargo xtask eval --presets hard with --set \
+         topo.composite_rotation_ratio=1.2 --set topo.composite_turn_share=0 (as before) \
+         against the defaults: seeds 20001..20050,30001..30050 545 -> \
          548/700 trees (human 78 -> 81; 5 gained, 2 random trees lost), 1.4490 -> 1.4492 % \
          of height; 40001..40100 530 -> 536 (7 gained, 1 lost), 1.4486 -> 1.4477 %; \
          --true-segments on the first set 662 -> 664; seeds 20001..20020: noise 135 -> \
