@@ -407,6 +407,16 @@ fn low_range_of_motion_warns() {
     assert!(warnings.contains("below 20"), "{warnings}");
 }
 
+/// Whether skeleton.json's `joint` joins the two segments of `pair`, either way round.
+fn joins(joint: &Value, pair: &jointfit::PairFit) -> bool {
+    let ends = [
+        joint["parent_segment"].as_u64(),
+        joint["child_segment"].as_u64(),
+    ];
+    let (a, b) = (Some(pair.a as u64), Some(pair.b as u64));
+    ends == [a, b] || ends == [b, a]
+}
+
 /// A joint whose two segments disagree about their centre by more than skin would (its
 /// residual a sizeable fraction of its markers' distance from the centre) says so, with the
 /// angle in `centre_misfit_deg`; the scene's other joints, fitted exactly, do not.
@@ -421,12 +431,7 @@ fn a_joint_its_segments_disagree_about_warns() {
             .as_f64()
             .expect("a misfit for every joint");
         let warned = joint["warnings"].to_string().contains("common centre");
-        let (a, b) = (s.fits.pairs[knee].a as u64, s.fits.pairs[knee].b as u64);
-        let ends = [
-            joint["parent_segment"].as_u64(),
-            joint["child_segment"].as_u64(),
-        ];
-        let is_knee = ends == [Some(a), Some(b)] || ends == [Some(b), Some(a)];
+        let is_knee = joins(joint, &s.fits.pairs[knee]);
         assert_eq!(warned, is_knee, "{joint}");
         assert_eq!(misfit > 8.0, is_knee, "{misfit}");
     }
@@ -440,16 +445,10 @@ fn a_joints_residual_over_noise_is_written_where_measured() {
     let knee = s.topology.joints[2].pair;
     s.fits.pairs[knee].misfit_over_noise = 1.23456;
     let doc = json(&files(&s, &Params::default()));
-    let (a, b) = (s.fits.pairs[knee].a as u64, s.fits.pairs[knee].b as u64);
     let mut written = 0;
     for joint in doc["joints"].as_array().into_iter().flatten() {
-        let ends = [
-            joint["parent_segment"].as_u64(),
-            joint["child_segment"].as_u64(),
-        ];
-        let is_knee = ends == [Some(a), Some(b)] || ends == [Some(b), Some(a)];
         let ratio = joint.get("residual_over_noise");
-        if is_knee {
+        if joins(joint, &s.fits.pairs[knee]) {
             assert_eq!(ratio.and_then(Value::as_f64), Some(1.235), "{joint}");
             written += 1;
         } else {
