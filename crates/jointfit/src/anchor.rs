@@ -1326,6 +1326,28 @@ pub(crate) fn centre_in_segment(
     (count >= min_frames.max(1)).then(|| sum / count as f64)
 }
 
+/// How well spread the points of a gap fill (S's visible markers and the anchor's centre)
+/// must be: as for a pose from S's own markers (`Params::max_spin_deg`), the spin their
+/// scatter leaves is bounded, that scatter being S's fit scatter, or the centre's radial
+/// residual where larger, over their lever; and as there, only a lever clearly worse than
+/// S's whole marker set's is refused (a set poorly spread even when all are seen keeps
+/// its fills). Two markers in line with the centre (a sphere's marker beside the shoulder
+/// it hangs from) leave the spin about that line to noise: snowman-hard-s30038's middle
+/// sphere, filled so in half its frames, put its waist and neck 130-150 mm off.
+fn fill_spread(poses: &SegmentPoses, fit: &CentreFit, params: &Params) -> Spread {
+    let mut spread = Spread::fixed(params.min_spread_mm);
+    if params.max_spin_deg > 0.0
+        && let Some(sigma) = crate::poses::fit_scatter_mm(poses)
+    {
+        let sigma = sigma.max(fit.rms_mm);
+        let full_lever = crate::poses::reference_lever_mm(poses);
+        if sigma.is_finite() {
+            spread.min_lever_mm = (sigma / params.max_spin_deg.to_radians()).min(0.5 * full_lever);
+        }
+    }
+    spread
+}
+
 /// Fills frames where `poses` (S's own, ≥ 3 markers) is missing from S's visible markers
 /// plus the anchor's centre; returns which frames were filled.
 fn fill_gaps(
@@ -1347,6 +1369,7 @@ fn fill_gaps(
         .iter()
         .map(|r| DVec3::from_array(*r))
         .collect();
+    let spread = fill_spread(poses, fit, params);
     let mut buf = Vec::with_capacity(markers.len() + 1);
     for f in 0..traj.frames() {
         let (None, Some(nb)) = (&s_track[f], &n_track[f]) else {
@@ -1364,7 +1387,7 @@ fn fill_gaps(
             continue;
         }
         buf.push((centre_in_s, nb.apply(fit.centre)));
-        if let Some(rf) = fit_pairs(&buf, Spread::fixed(params.min_spread_mm)) {
+        if let Some(rf) = fit_pairs(&buf, spread) {
             poses.rotations[f] = rf.rotation.to_array();
             poses.translations[f] = rf.translation.to_array();
             poses.rms_mm[f] = rf.rms_mm;
@@ -1372,4 +1395,79 @@ fn fill_gaps(
         }
     }
     filled
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// A segment of three markers 200-370 mm apart, fitted with 2 mm of misfit, and an
+    /// anchor centre fitted to 1 mm.
+    fn sphere_and_centre() -> (SegmentPoses, CentreFit) {
+        let poses = SegmentPoses {
+            segment: 0,
+            reference: vec![
+                [-76.0, 140.5, -24.1],
+                [-112.8, -26.9, 68.0],
+                [188.8, -113.7, -43.9],
+            ],
+            rotations: vec![[0.0, 0.0, 0.0, 1.0]; 10],
+            translations: vec![[0.0; 3]; 10],
+            rms_mm: vec![2.0; 10],
+        };
+        let fit = CentreFit {
+            centre: DVec3::ZERO,
+            rms_mm: 1.0,
+            excursion_deg: 30.0,
+            samples: 100,
+            axis: None,
+            radii: Vec::new(),
+            identified: true,
+        };
+        (poses, fit)
+    }
+
+    /// Fit of the first and third reference markers plus the centre at `centre` (S-local),
+    /// all seen where they are (identity pose).
+    fn fill_with(poses: &SegmentPoses, spread: Spread, centre: DVec3) -> Option<()> {
+        let r = |k: usize| DVec3::from_array(poses.reference[k]);
+        let buf = [(r(0), r(0)), (r(2), r(2)), (centre, centre)];
+        fit_pairs(&buf, spread).map(|_| ())
+    }
+
+    #[test]
+    fn a_fill_whose_centre_is_in_line_with_its_two_markers_is_refused() {
+        let (poses, fit) = sphere_and_centre();
+        let spread = fill_spread(&poses, &fit, &Params::default());
+        // The snowman's right shoulder, 9 mm off the line through the two markers left:
+        // their scatter turns the fill tens of degrees about that line.
+        let in_line = DVec3::new(200.4, -137.3, -47.9);
+        assert!(fill_with(&poses, spread, in_line).is_none());
+        // Without the bound the same three points are fitted (the old behaviour).
+        let fixed = Spread::fixed(Params::default().min_spread_mm);
+        assert!(fill_with(&poses, fixed, in_line).is_some());
+        // A centre well off that line fixes the spin: filled.
+        assert!(fill_with(&poses, spread, DVec3::new(0.0, 0.0, 150.0)).is_some());
+    }
+
+    #[test]
+    fn fills_are_bounded_only_where_the_segment_has_a_spread_to_lose() {
+        let (mut poses, fit) = sphere_and_centre();
+        // Markers nearly in one line even when all are seen: the bound is at most half
+        // their own lever, so the fill is kept as their own poses are.
+        poses.reference = vec![[0.0, 0.0, 0.0], [150.0, 1.0, 0.0], [300.0, 0.0, 1.0]];
+        let spread = fill_spread(&poses, &fit, &Params::default());
+        let full = crate::poses::reference_lever_mm(&poses);
+        assert!(
+            spread.min_lever_mm <= 0.5 * full + 1e-12,
+            "{} {full}",
+            spread.min_lever_mm
+        );
+        // No bound at all with max_spin_deg 0.
+        let off = Params {
+            max_spin_deg: 0.0,
+            ..Params::default()
+        };
+        assert_eq!(fill_spread(&poses, &fit, &off).min_lever_mm, 0.0);
+    }
 }

@@ -281,8 +281,18 @@ pub const PARAM_DOCS: &[(&str, &str)] = &[
          hidden from a well-spread set); three markers nearly on a line under skin turn tens \
          of degrees about it; the frame is left to the anchor's centre (with the visible \
          markers) or to gap filling (cargo xtask eval --presets hard: seeds 8201-8230 2.09 → \
-         2.06 % of height, trees unchanged; snowman-hard-s6001's neck 174 → 33 mm); degrees; \
-         0 = off; default 10",
+         2.06 % of height, trees unchanged; snowman-hard-s6001's neck 174 → 33 mm). A gap \
+         fill (two visible markers and the anchor's centre) is held to the same bound, its \
+         scatter the larger of the segment's and the centre's radial residual: two markers in \
+         line with the centre leave its spin to noise (snowman-hard-s30038's waist and neck \
+         134 / 152 → 31 / 12 mm; cargo xtask eval --presets hard, seeds \
+         20001..20050,30001..30050 1.4492 → 1.4429 %, trees 548 → 547; 40001..40100 \
+         1.4477 → 1.4346 %, 536 → 535; the trees lost are random ones whose runner-ups \
+         cost less than the joints the rules chose; seeds 20001..20020 messy 1.394 → 1.401 \
+         %, --markers 2:3 3.18 → 3.17 %, noise, skin and gaps unchanged, trees unchanged; \
+         real captures' trees unchanged, Walking_Hybrid_1_1's left knee ball where it was a \
+         hinge by a hair, wobble ratio 0.297 → 0.301 without 34 fills in line with its \
+         shank); degrees; 0 = off; default 10",
     ),
     (
         "tree_poses",

@@ -501,6 +501,17 @@ pub(crate) fn spin_error_deg(poses: &SegmentPoses) -> Option<f64> {
     })
 }
 
+/// The lever (mm, [`lever_mm`]) of a segment's reference points, all seen together.
+pub(crate) fn reference_lever_mm(poses: &SegmentPoses) -> f64 {
+    lever_mm(reference_points(poses).into_iter())
+}
+
+/// A segment's per-coordinate fit scatter (mm, see [`fit_scatter`]); `None` for fewer than
+/// 3 points or no fit.
+pub(crate) fn fit_scatter_mm(poses: &SegmentPoses) -> Option<f64> {
+    fit_scatter(poses).map(|(sigma, _)| sigma)
+}
+
 /// A segment's per-coordinate fit scatter (mm: its median frame's RMS, all markers seen
 /// in a segment without many gaps) and its reference points; `None` for fewer than 3
 /// points or no fit.
