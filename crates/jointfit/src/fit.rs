@@ -223,14 +223,18 @@ pub(crate) fn fit_pair(
     // from each segment. Topology-aware placement (nearest the adjacent joints) is later.
     let n = co.len() as f64;
     let (mut mid_a, mut mid_b) = (DVec3::ZERO, DVec3::ZERO);
+    let mut apart = 0.0;
     for &f in &co {
         if let (Some(x), Some(y)) = (&pa[f], &pb[f]) {
             let mid = 0.5 * (x.trans + y.trans);
             mid_a += x.inverse_apply(mid);
             mid_b += y.inverse_apply(mid);
+            apart += x.trans.distance(y.trans);
         }
     }
     let target = (mid_a / n, mid_b / n);
+    // How far apart the two segments' origins are (mm, mean): the scale of the centre prior.
+    let apart = apart / n;
 
     let (c_a, c_b, cost) = match params.method {
         Method::Score => {
@@ -258,6 +262,21 @@ pub(crate) fn fit_pair(
                     sol = full;
                     rms = rms_full;
                     used_drop = 0;
+                }
+            }
+            // The prior that the centre lies between the two segments, as strong as the
+            // pair's residual is against their distance (`Params::centre_prior`): on exact
+            // data it vanishes; under skin it holds the directions the motion barely fixes.
+            let prior = if params.centre_prior > 0.0 && apart > 0.0 && rms.is_finite() {
+                params.centre_prior * (rms / apart).powi(2)
+            } else {
+                0.0
+            };
+            if prior > 0.0 {
+                let held = score::solve_with_prior(pa, pb, &co, used_drop, target, prior);
+                if held.c_a.is_finite() && held.c_b.is_finite() {
+                    sol.c_a = held.c_a;
+                    sol.c_b = held.c_b;
                 }
             }
             let mut cost = rms;
@@ -296,7 +315,7 @@ pub(crate) fn fit_pair(
                     (sa.scatter, sb.scatter),
                     (pa, pb, &co),
                     used_drop,
-                    target,
+                    (target, prior),
                     &sol,
                 )
             {
@@ -482,7 +501,7 @@ fn weighted_centres(
     (scatter_a, scatter_b): (&PoseScatter, &PoseScatter),
     (pa, pb, frames): (&[Option<Pose>], &[Option<Pose>], &[usize]),
     drop: usize,
-    target: (DVec3, DVec3),
+    (target, prior): ((DVec3, DVec3), f64),
     unweighted: &score::ScoreSolution,
 ) -> Option<(DVec3, DVec3)> {
     let covariance_a = scatter_a.precision_at(unweighted.c_a)?.inverse();
@@ -509,6 +528,7 @@ fn weighted_centres(
                 scales: &scatter_b.scales,
             },
         ),
+        prior,
     );
     (weighted.c_a.is_finite() && weighted.c_b.is_finite()).then_some((weighted.c_a, weighted.c_b))
 }
