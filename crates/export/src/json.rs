@@ -35,8 +35,8 @@ const FAR_CENTRE_SHARE: f64 = 0.5;
 /// Below this ratio of a joint's runner-up cost to its own (`topo::RunnerUp`) the tree is
 /// uncertain there. With the true segments (`cargo xtask eval --presets hard
 /// --true-segments`, seeds 20001..20050 and 30001..30050) 36 of the 37 wrong trees have a
-/// joint below it, and 36 of their 52 wrong joints are, against 316 of 7586 right ones
-/// (121 of the 663 right trees have one).
+/// joint below it, and 35 of their 52 wrong joints are, against 317 of 7586 right ones
+/// (123 of the 663 right trees have one).
 const RUNNER_UP_WARN_RATIO: f64 = 1.2;
 
 /// Whether a joint's runner-up says anything about the tree: not for a rigid pair, which
