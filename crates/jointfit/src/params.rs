@@ -591,7 +591,9 @@ pub const PARAM_DOCS: &[(&str, &str)] = &[
          trees 547 / 547 / 548 / 547; 40001..40100 (0, 1, 3) 1.4346 / 1.4071 / 1.4069 %, \
          535 / 535 / 534; clean identical (0.0581 %, 700 trees, kinds 7625/7625); seeds \
          20001..20020 (0 → 1) skin 1.337 → 1.301 %, messy 1.401 → 1.366, noise 0.196 → \
-         0.200, gaps unchanged, --markers 2:3 3.17 → 3.15, trees unchanged; every real \
+         0.200, gaps unchanged, --markers 2:3 3.17 → 3.15, --markers 1:3 5.21 → 5.13, \
+         --marker-arc 120 2.05 → 2.04, --sweep 0.2:0.4 3.89 → 3.66, trees unchanged (but \
+         --marker-arc 120 100 → 101); every real \
          capture's tree and kinds unchanged (bone lengths move up to 41 mm: AlbertoINT, \
          OpenSim's walk); 0 = none; default 1.0",
     ),
