@@ -9,7 +9,8 @@
 //! evidence, and the hinge axis or a universal joint's two axes. Methods
 //! (`Params::method`): `score` (symmetrical centre of rotation with SARA hinge axes, closed
 //! form, its centres weighted frame by frame by each pose's precision at the centre,
-//! `Params::weighted_centres`; default), `aguiar` (the paper's Eq. 2 by L-BFGS) and
+//! `Params::weighted_centres`, and held between the two segments where the motion barely
+//! fixes them, `Params::centre_prior`; default), `aguiar` (the paper's Eq. 2 by L-BFGS) and
 //! `local` (per-marker density-weighted sphere/circle fits by Levenberg–Marquardt in the
 //! other segment's frame, averaged with weight attachment / radius; see `local.rs`).
 //!
