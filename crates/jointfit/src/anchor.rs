@@ -1337,10 +1337,10 @@ pub(crate) fn centre_in_segment(
 fn fill_spread(poses: &SegmentPoses, fit: &CentreFit, params: &Params) -> Spread {
     let mut spread = Spread::fixed(params.min_spread_mm);
     if params.max_spin_deg > 0.0
-        && let Some(sigma) = crate::poses::fit_scatter_mm(poses)
+        && let Some((sigma, reference)) = crate::poses::fit_scatter(poses)
     {
         let sigma = sigma.max(fit.rms_mm);
-        let full_lever = crate::poses::reference_lever_mm(poses);
+        let full_lever = crate::poses::lever_mm(reference.into_iter());
         if sigma.is_finite() {
             spread.min_lever_mm = (sigma / params.max_spin_deg.to_radians()).min(0.5 * full_lever);
         }
@@ -1457,7 +1457,7 @@ mod tests {
         // their own lever, so the fill is kept as their own poses are.
         poses.reference = vec![[0.0, 0.0, 0.0], [150.0, 1.0, 0.0], [300.0, 0.0, 1.0]];
         let spread = fill_spread(&poses, &fit, &Params::default());
-        let full = crate::poses::reference_lever_mm(&poses);
+        let full = crate::poses::lever_mm(crate::poses::reference_points(&poses).into_iter());
         assert!(
             spread.min_lever_mm <= 0.5 * full + 1e-12,
             "{} {full}",

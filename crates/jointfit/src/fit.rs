@@ -273,7 +273,7 @@ pub(crate) fn fit_pair(
                 0.0
             };
             if prior > 0.0 {
-                let held = score::solve_with_prior(pa, pb, &co, used_drop, target, prior);
+                let held = sol.with_prior(used_drop, target, prior);
                 if held.c_a.is_finite() && held.c_b.is_finite() {
                     sol.c_a = held.c_a;
                     sol.c_b = held.c_b;

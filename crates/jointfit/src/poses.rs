@@ -386,7 +386,7 @@ pub(crate) fn fit_pairs(buf: &[(DVec3, DVec3)], spread: Spread) -> Option<RigidF
 
 /// √ of the least eigenvalue of the points' inertia tensor about their centroid (mm):
 /// √(n × the sum of the two smaller principal variances).
-fn lever_mm(points: impl Iterator<Item = DVec3> + Clone) -> f64 {
+pub(crate) fn lever_mm(points: impl Iterator<Item = DVec3> + Clone) -> f64 {
     let n = points.clone().count() as f64;
     let [_, second, third] = principal_variances(points);
     (n * (second + third)).sqrt()
@@ -501,21 +501,10 @@ pub(crate) fn spin_error_deg(poses: &SegmentPoses) -> Option<f64> {
     })
 }
 
-/// The lever (mm, [`lever_mm`]) of a segment's reference points, all seen together.
-pub(crate) fn reference_lever_mm(poses: &SegmentPoses) -> f64 {
-    lever_mm(reference_points(poses).into_iter())
-}
-
-/// A segment's per-coordinate fit scatter (mm, see [`fit_scatter`]); `None` for fewer than
-/// 3 points or no fit.
-pub(crate) fn fit_scatter_mm(poses: &SegmentPoses) -> Option<f64> {
-    fit_scatter(poses).map(|(sigma, _)| sigma)
-}
-
 /// A segment's per-coordinate fit scatter (mm: its median frame's RMS, all markers seen
 /// in a segment without many gaps) and its reference points; `None` for fewer than 3
 /// points or no fit.
-fn fit_scatter(poses: &SegmentPoses) -> Option<(f64, Vec<DVec3>)> {
+pub(crate) fn fit_scatter(poses: &SegmentPoses) -> Option<(f64, Vec<DVec3>)> {
     let reference = reference_points(poses);
     let n = reference.len() as f64;
     if n < 3.0 {

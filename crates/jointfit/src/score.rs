@@ -27,6 +27,28 @@ pub(crate) struct ScoreSolution {
     pub c_b: DVec3,
     /// Eigenvalues of the normal matrix divided by the frame count, descending.
     pub eigenvalues: [f64; 6],
+    /// The normal matrix's eigenvectors (rows, in `eigenvalues`' order) and right-hand
+    /// side, divided by the frame count: [`Self::with_prior`] solves again from them.
+    vectors: [[f64; 6]; 6],
+    rhs: [f64; 6],
+}
+
+impl ScoreSolution {
+    /// The same system solved with a prior pulling the centres toward `target` in every
+    /// direction the data keep (the `drop` least-determined ones go to `target` as in
+    /// [`solve`]): `prior` is added to each kept eigenvalue (per frame), so a direction
+    /// the motion fixes firmly (eigenvalue ≫ `prior`) hardly moves, and one it barely
+    /// fixes goes most of the way to the target. No pass over the frames.
+    pub(crate) fn with_prior(&self, drop: usize, target: (DVec3, DVec3), prior: f64) -> Self {
+        solve_normal(
+            self.eigenvalues,
+            self.vectors,
+            self.rhs,
+            drop,
+            target,
+            prior,
+        )
+    }
 }
 
 /// Solves SCoRE over `frames`, leaving the `drop` least-determined directions to `target`
@@ -39,21 +61,6 @@ pub(crate) fn solve(
     target: (DVec3, DVec3),
 ) -> ScoreSolution {
     solve_with(pa, pb, frames, drop, target, None, 0.0)
-}
-
-/// [`solve`] with a prior pulling the centres toward `target` in every direction the data
-/// keep: `prior` is added to each kept eigenvalue of the normal matrix (per frame), so a
-/// direction the motion fixes firmly (eigenvalue ≫ `prior`) hardly moves, and one it
-/// barely fixes goes most of the way to the target.
-pub(crate) fn solve_with_prior(
-    pa: &[Option<Pose>],
-    pb: &[Option<Pose>],
-    frames: &[usize],
-    drop: usize,
-    target: (DVec3, DVec3),
-    prior: f64,
-) -> ScoreSolution {
-    solve_with(pa, pb, frames, drop, target, None, prior)
 }
 
 /// Where one segment's pose puts a point fixed in it, per frame, for [`solve_weighted`].
@@ -89,7 +96,7 @@ pub(crate) fn solve_weighted(
 }
 
 /// [`solve`], weighted as [`solve_weighted`] with `covariances`, with the prior of
-/// [`solve_with_prior`] (0: none).
+/// [`ScoreSolution::with_prior`] (0: none).
 fn solve_with(
     pa: &[Option<Pose>],
     pb: &[Option<Pose>],
@@ -159,6 +166,20 @@ fn solve_with(
         *x /= n;
     }
     let (values, vectors) = sym_eigen(normal);
+    solve_normal(values, vectors, rhs, drop, target, prior)
+}
+
+/// The centres from the normal matrix's eigen-decomposition (`values` descending, `vectors`
+/// as rows) and right-hand side: the kept directions by least squares with `prior` added to
+/// their eigenvalues, the `drop` least-determined (and the null ones) set to `target`.
+fn solve_normal(
+    values: [f64; 6],
+    vectors: [[f64; 6]; 6],
+    rhs: [f64; 6],
+    drop: usize,
+    target: (DVec3, DVec3),
+    prior: f64,
+) -> ScoreSolution {
     let lmax = values[0].max(f64::MIN_POSITIVE);
     let t = [
         target.0.x, target.0.y, target.0.z, target.1.x, target.1.y, target.1.z,
@@ -202,6 +223,8 @@ fn solve_with(
         c_a: DVec3::new(x[0], x[1], x[2]),
         c_b: DVec3::new(x[3], x[4], x[5]),
         eigenvalues: values,
+        vectors,
+        rhs,
     }
 }
 
@@ -556,10 +579,10 @@ mod tests {
         let shift = DVec3::new(50.0, 0.0, 100.0);
         let target = (c_a + shift, c_b + shift);
         let plain = solve(&pa, &pb, &frames, 0, target);
-        let none = solve_with_prior(&pa, &pb, &frames, 0, target, 0.0);
+        let none = plain.with_prior(0, target, 0.0);
         assert_eq!((plain.c_a, plain.c_b), (none.c_a, none.c_b));
         assert!(plain.c_a.distance(c_a) < 1e-6, "{}", plain.c_a);
-        let held = solve_with_prior(&pa, &pb, &frames, 0, target, 1e-3);
+        let held = plain.with_prior(0, target, 1e-3);
         let moved = held.c_a - c_a;
         // Along z most of the way to the target; across it, hardly at all.
         assert!(moved.z > 50.0 && moved.z < 100.0, "{moved}");
