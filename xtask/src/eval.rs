@@ -150,6 +150,60 @@ pub struct TrialResult {
     /// Per tree joint whose runner-up applies (`export::runner_up_applies`), its name and
     /// its runner-up's cost over its own (skeleton.json's `runner_up`).
     pub runner_up_ratios: Vec<(String, f64)>,
+    /// The segmentation's near joints against the truth.
+    pub near_joints: NearJointTally,
+}
+
+/// How the segments the segmentation lists as maybe two (`segment::NearJoint`) fall against
+/// the truth, over the segments of ≥ 6 markers (the only ones it weighs): those holding
+/// ≥ 3 markers of each of two true segments (merged) and the rest (whole), and of each,
+/// the ones listed.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Serialize)]
+pub struct NearJointTally {
+    /// Segments holding ≥ 3 markers of each of two true segments.
+    pub merged: usize,
+    /// Of those, the ones listed.
+    pub merged_listed: usize,
+    /// The other segments of ≥ 6 markers.
+    pub whole: usize,
+    /// Of those, the ones listed.
+    pub whole_listed: usize,
+}
+
+impl NearJointTally {
+    /// Adds `other`'s counts.
+    fn add(&mut self, other: &Self) {
+        self.merged += other.merged;
+        self.merged_listed += other.merged_listed;
+        self.whole += other.whole;
+        self.whole_listed += other.whole_listed;
+    }
+}
+
+/// The tally of `estimate`'s segments (labels) whose ids `listed` names, against `truth`.
+fn near_joint_tally(
+    truth: &synth::Truth,
+    estimate: &synth::score::Estimate,
+    listed: &[usize],
+) -> NearJointTally {
+    let mut tally = NearJointTally::default();
+    for s in estimate.segments.iter().filter(|s| s.markers.len() >= 6) {
+        let mut counts: Vec<usize> = truth
+            .segments
+            .iter()
+            .map(|t| s.markers.iter().filter(|m| t.markers.contains(m)).count())
+            .collect();
+        counts.sort_unstable_by(|a, b| b.cmp(a));
+        let is_listed = usize::from(listed.contains(&s.id));
+        if counts.get(1).is_some_and(|&n| n >= 3) {
+            tally.merged += 1;
+            tally.merged_listed += is_listed;
+        } else {
+            tally.whole += 1;
+            tally.whole_listed += is_listed;
+        }
+    }
+    tally
 }
 
 /// How one tree segment's orientation did in a trial.
@@ -312,6 +366,7 @@ pub fn run_trial(spec: &TrialSpec, params: &Params, true_segments: bool) -> Tria
         joints: Vec::new(),
         extra_joints: Vec::new(),
         runner_up_ratios: Vec::new(),
+        near_joints: NearJointTally::default(),
     };
     if let Err(e) = evaluate(config, params, true_segments, &mut result) {
         result.error = Some(format!("{e:#}"));
@@ -354,6 +409,10 @@ fn evaluate(
         .context("skeleton.json does not parse as an Estimate")?;
     let score = synth::score::score(&trial.truth, &estimate);
     fill_from_score(result, &score);
+    let listed: Vec<usize> = products.segmentation.as_ref().map_or_else(Vec::new, |s| {
+        s.near_joints.iter().map(|n| n.segment).collect()
+    });
+    result.near_joints = near_joint_tally(&trial.truth, &estimate, &listed);
     let (scale, segments) = (estimate.scale(), trial.truth.segments.len());
     result.joints = trial
         .truth
@@ -804,6 +863,8 @@ struct Aggregate {
     mean_orientation_error_deg: f64,
     /// Wrong trees by where they went wrong, from the segmentation on.
     wrong_trees: WrongTrees,
+    /// The segments listed as maybe two, against the truth.
+    near_joints: NearJointTally,
     seconds: f64,
 }
 
@@ -876,6 +937,7 @@ fn aggregate<'a>(results: impl Iterator<Item = &'a TrialResult>) -> Aggregate {
         universal_false: 0,
         mean_orientation_error_deg: 0.0,
         wrong_trees: WrongTrees::default(),
+        near_joints: NearJointTally::default(),
         seconds: 0.0,
     };
     let (mut scored, mut oriented) = (0usize, 0usize);
@@ -883,6 +945,7 @@ fn aggregate<'a>(results: impl Iterator<Item = &'a TrialResult>) -> Aggregate {
         a.trials += 1;
         a.seconds += r.seconds;
         a.wrong_trees.add(r);
+        a.near_joints.add(&r.near_joints);
         if r.error.is_some() {
             a.failed += 1;
             continue;
@@ -1015,7 +1078,7 @@ fn summary_line(label: &str, results: &[TrialResult], wall: f64) -> String {
         let a = aggregate(results.iter().filter(|r| r.preset == p));
         parts.push(format!(
             "{p}: topology {}/{}{}, mean {}% (worst {}%) of height, known {}%, hinge or not \
-             right {}/{}{}, orientations {}° RMS{}",
+             right {}/{}{}, orientations {}° RMS{}{}",
             a.topology_exact,
             a.trials,
             if a.topology_equivalent > 0 {
@@ -1037,6 +1100,18 @@ fn summary_line(label: &str, results: &[TrialResult], wall: f64) -> String {
                 String::new()
             },
             fmt_f(a.mean_orientation_error_deg, 2),
+            {
+                let n = a.near_joints;
+                if n.merged + n.whole_listed > 0 {
+                    format!(
+                        ", listed as maybe two: {}/{} segments holding two true ones, {}/{} \
+                         holding one",
+                        n.merged_listed, n.merged, n.whole_listed, n.whole
+                    )
+                } else {
+                    String::new()
+                }
+            },
             if a.failed > 0 {
                 format!(", {} FAILED", a.failed)
             } else {
@@ -1188,6 +1263,66 @@ mod tests {
         );
     }
 
+    /// A segment holding ≥ 3 markers of each of two true segments counts as merged, one
+    /// holding a true segment and ≤ 2 markers of another as whole; under 6 markers, neither.
+    #[test]
+    fn near_joints_are_tallied_against_the_truth() {
+        let trial = synth::generate(&SynthConfig {
+            subject: Subject::Human,
+            frames: 60,
+            seed: 11,
+            markers_per_segment: (3, 3),
+            ..SynthConfig::default()
+        })
+        .unwrap();
+        let truth = &trial.truth;
+        let labels = |name: &str| {
+            truth
+                .segments
+                .iter()
+                .find(|s| s.name == name)
+                .unwrap()
+                .markers
+                .clone()
+        };
+        let segment =
+            |id: usize, markers: Vec<String>| synth::score::EstimatedSegment { id, markers };
+        let estimate = synth::score::Estimate {
+            segments: vec![
+                segment(0, [labels("l_thigh"), labels("l_shank")].concat()),
+                segment(
+                    1,
+                    [
+                        labels("l_foot"),
+                        labels("r_foot"),
+                        labels("r_shank")[..1].to_vec(),
+                    ]
+                    .concat(),
+                ),
+                segment(
+                    2,
+                    [
+                        labels("r_thigh"),
+                        labels("r_shank")[1..].to_vec(),
+                        labels("r_upperarm")[..1].to_vec(),
+                    ]
+                    .concat(),
+                ),
+                segment(3, labels("head")),
+            ],
+            ..synth::score::Estimate::from_truth(truth)
+        };
+        assert_eq!(
+            near_joint_tally(truth, &estimate, &[0, 2]),
+            NearJointTally {
+                merged: 2,
+                merged_listed: 1,
+                whole: 1,
+                whole_listed: 1,
+            }
+        );
+    }
+
     #[test]
     fn true_segments_replace_the_stages_groups() {
         let diagnostics = |segment| segment::MarkerDiagnostics {
@@ -1227,6 +1362,7 @@ mod tests {
             eigengap_segments: 2,
             swaps: Vec::new(),
             glitches: Vec::new(),
+            near_joints: Vec::new(),
         };
         // The truth: {3, 4} and {2, 0}; marker 1 on none; an empty segment.
         seg.regroup(&[vec![3, 4], vec![2, 0], vec![]], super::TRUTH_LEFT_OUT);
@@ -1480,6 +1616,7 @@ mod tests {
             joints: Vec::new(),
             extra_joints: Vec::new(),
             runner_up_ratios: Vec::new(),
+            near_joints: NearJointTally::default(),
         }
     }
 

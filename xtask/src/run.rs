@@ -275,6 +275,28 @@ pub fn findings(document: &export::SkeletonJson, spin_limit_deg: f64) -> Vec<Str
             loose.join("; ")
         ));
     }
+    let near: Vec<String> = document
+        .segments
+        .iter()
+        .filter_map(|s| {
+            let n = s.near_joint.as_ref()?;
+            Some(format!(
+                "{} (rotation z {:.1}, travel z {:.1}: {} | {})",
+                s.id,
+                n.rotation_z,
+                n.travel_z,
+                n.parts[0].join(", "),
+                n.parts[1].join(", ")
+            ))
+        })
+        .collect();
+    if !near.is_empty() {
+        out.push(format!(
+            "segments that may be two turning little about a joint (the joint test came near \
+             cutting them where shown; skin can hide such a joint): {}",
+            near.join("; ")
+        ));
+    }
     if !document.detached_segments.is_empty() {
         out.push(format!(
             "segments not in the tree: {:?}",
@@ -442,6 +464,11 @@ mod tests {
         doc.notes = vec!["a rigid pair".into()];
         doc.segments[1].spin_deg = Some(14.2);
         doc.segments[2].spin_deg = Some(9.9);
+        doc.segments[0].near_joint = Some(export::NearJointJson {
+            parts: [vec!["M000".into()], vec!["M001".into(), "M002".into()]],
+            rotation_z: 3.46,
+            travel_z: 2.0,
+        });
         doc.label_swaps = vec![export::LabelSwapJson {
             markers: ["M001".into(), "M007".into()],
             frames: vec![[10, 19], [40, 41]],
@@ -493,6 +520,12 @@ mod tests {
             "markers that jumped off their partners in some frames (those samples read as \
              gaps): 1 — {} (26 frames)",
             doc.markers[10].label
+        )));
+        assert!(found.contains(&format!(
+            "segments that may be two turning little about a joint (the joint test came near \
+             cutting them where shown; skin can hide such a joint): {} (rotation z 3.5, travel \
+             z 2.0: M000 | M001, M002)",
+            doc.segments[0].id
         )));
         assert!(found.contains(&"segments not in the tree: [2]".to_owned()));
         assert!(found.contains(&"topology: a rigid pair".to_owned()));

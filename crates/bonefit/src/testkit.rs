@@ -165,6 +165,7 @@ pub fn scene(frames: usize, rate: f64) -> Scene {
         eigengap_segments: 4,
         swaps: Vec::new(),
         glitches: Vec::new(),
+        near_joints: Vec::new(),
     };
 
     let topology = Topology {

@@ -120,6 +120,22 @@ pub struct SegmentJson {
     /// where they do not fix that turn at all. Absent for fewer than 3 markers.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub spin_deg: Option<f64>,
+    /// Where the segment may be two that turn little about a joint: the cut the joint test
+    /// weighed came near its bounds without passing them. Absent otherwise.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub near_joint: Option<NearJointJson>,
+}
+
+/// A cut of a segment that came near the joint test's bounds.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+pub struct NearJointJson {
+    /// The two parts' marker labels.
+    pub parts: [Vec<String>; 2],
+    /// Rotation score of the parts' relative turn (the test cuts above `segment.joint_split_z`).
+    pub rotation_z: f64,
+    /// Travel score of one part's centroid in the other's frame (the test cuts above
+    /// `segment.joint_travel_z`).
+    pub travel_z: f64,
 }
 
 /// One joint.
@@ -293,12 +309,28 @@ pub(crate) fn document(input: &Inputs<'_>) -> Result<SkeletonJson, Error> {
             .get(s.id)
             .and_then(jointfit::segment_spin_deg)
             .map(|d| (d * 100.0).round() / 100.0);
+        let near_joint = match seg.near_joints.iter().find(|n| n.segment == s.id) {
+            Some(n) => {
+                let names = |part: &[usize]| {
+                    part.iter()
+                        .map(|&m| label(m, &format!("segment {}'s near joint", s.id)))
+                        .collect::<Result<Vec<_>, _>>()
+                };
+                Some(NearJointJson {
+                    parts: [names(&n.parts[0])?, names(&n.parts[1])?],
+                    rotation_z: (n.rotation_z * 100.0).round() / 100.0,
+                    travel_z: (n.travel_z * 100.0).round() / 100.0,
+                })
+            }
+            None => None,
+        };
         segments.push(SegmentJson {
             id: s.id,
             marker_count: markers.len(),
             markers,
             frames_with_pose,
             spin_deg,
+            near_joint,
         });
     }
     let unassigned_markers = seg

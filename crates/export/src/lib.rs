@@ -40,8 +40,8 @@ mod trc;
 
 pub use error::Error;
 pub use json::{
-    JointJson, LabelSwapJson, MarkerJson, RootJson, RunnerUpJson, SegmentJson, SkeletonJson,
-    runner_up_applies,
+    JointJson, LabelSwapJson, MarkerJson, NearJointJson, RootJson, RunnerUpJson, SegmentJson,
+    SkeletonJson, runner_up_applies,
 };
 
 use std::collections::BTreeMap;

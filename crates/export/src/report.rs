@@ -228,7 +228,8 @@ fn joints(out: &mut String, doc: &SkeletonJson) {
 fn segments(out: &mut String, doc: &SkeletonJson) {
     out.push_str(
         "<h2>Segments</h2>\n<table>\n<tr><th>segment</th><th>markers</th><th>frames with a \
-         pose</th><th>spin about the markers' line, °</th></tr>\n",
+         pose</th><th>spin about the markers' line, °</th><th>maybe two (the joint test \
+         came near cutting it)</th></tr>\n",
     );
     for s in &doc.segments {
         let labels: Vec<String> = s.markers.iter().map(|m| escape(m)).collect();
@@ -239,10 +240,20 @@ fn segments(out: &mut String, doc: &SkeletonJson) {
         } else {
             ""
         };
+        let near = s.near_joint.as_ref().map_or(String::new(), |n| {
+            let part = |p: &[String]| p.iter().map(|m| escape(m)).collect::<Vec<_>>().join(", ");
+            format!(
+                "<span class=\"warn\">{} | {}</span> (rotation z {:.1}, travel z {:.1})",
+                part(&n.parts[0]),
+                part(&n.parts[1]),
+                n.rotation_z,
+                n.travel_z
+            )
+        });
         let _ = writeln!(
             out,
             "<tr><td>{}{detached}</td><td>{} ({})</td><td class=\"num\">{} of {}</td><td \
-             class=\"num\">{}</td></tr>",
+             class=\"num\">{}</td><td>{near}</td></tr>",
             s.id,
             labels.join(", "),
             s.marker_count,

@@ -718,6 +718,60 @@ fn zxy_euler_is_rz_rx_ry_and_round_trips() {
     }
 }
 
+/// A segment the segmentation lists as maybe two carries the cut's labels and scores in
+/// skeleton.json and the report; one naming a marker the capture lacks is a mismatch.
+#[test]
+fn a_near_joint_names_its_parts_by_label() {
+    let s = gappy_scene();
+    let skeleton = bonefit::run(
+        &s.trajectories,
+        &s.segmentation,
+        &s.fits,
+        &s.topology,
+        &bonefit::Params::default(),
+    )
+    .unwrap_or_else(|e| panic!("{e}"));
+    let mut seg = s.segmentation.clone();
+    let markers = seg.segments[1].markers.clone();
+    seg.near_joints = vec![segment::NearJoint {
+        segment: 1,
+        parts: [markers[..1].to_vec(), markers[1..].to_vec()],
+        rotation_z: 3.456,
+        travel_z: 2.0,
+    }];
+    let input = Inputs {
+        trajectories: &s.trajectories,
+        segmentation: &seg,
+        fits: &s.fits,
+        topology: &s.topology,
+        skeleton: &skeleton,
+    };
+    let out = run(&input, &Params::default()).unwrap_or_else(|e| panic!("{e}"));
+    let doc = json(&out);
+    let near = &doc["segments"][1]["near_joint"];
+    assert_eq!(
+        near["parts"],
+        serde_json::json!([["M003"], ["M004", "M005"]])
+    );
+    assert_eq!(near["rotation_z"].as_f64(), Some(3.46));
+    assert!(doc["segments"][0].get("near_joint").is_none());
+    let report = String::from_utf8_lossy(out.files.get("report.html").map_or(&[][..], |v| v));
+    assert!(
+        report.contains("M003 | M004, M005"),
+        "the report lists the cut"
+    );
+    let mut bad = seg.clone();
+    bad.near_joints[0].parts[1].push(99);
+    let input = Inputs {
+        segmentation: &bad,
+        ..input
+    };
+    assert!(matches!(
+        run(&input, &Params::default()),
+        Err(crate::Error::Mismatch(_))
+    ));
+}
+
 #[test]
 fn mismatched_inputs_are_errors() {
     let s = scene(10, 60.0);

@@ -50,7 +50,8 @@
 //! of a body of ≥ 3 (a sphere or, about a hinge, a circle in that body's frame;
 //! `singleton_swing_factor`, see `swing`) or its steadiest partner is in a group too small
 //! to pose (`singleton_next_to_small`), else unassigned. Unassigned means too little data,
-//! or moving against every marker.
+//! or moving against every marker. A segment of ≥ 6 markers whose best cut came near the
+//! joint test's bounds is listed as maybe two (`near_joint_fraction`; nothing is cut).
 //! Or agglomeration alone (`method = "linkage"`) or rigid cliques (`method = "cliques"`).
 //!
 //! It does not estimate poses, joints or topology (jointfit, topo) and does no I/O.
@@ -335,15 +336,7 @@ fn segment_capture(
         // Skin leaves a segment's fit σ as large as two segments' at a low-motion joint; how
         // the parts turn relative to each other does not (see `jointsplit`). After the
         // reassignment, so a single misplaced marker does not pass for a joint.
-        let typical = typical_sigma(traj, &clusters, &mut sigma_memo);
-        let test = jointsplit::JointTest {
-            min_z: params.joint_split_z,
-            min_travel_z: params.joint_travel_z,
-            centre_fraction: params.joint_centre_fraction,
-            typical_sigma_mm: typical,
-            // Each part must fit like the ordinary segment the fit split accepts.
-            max_part_sigma_mm: segment_sigma_mm(typical),
-        };
+        let test = joint_test(params, typical_sigma(traj, &clusters, &mut sigma_memo));
         // A new joint leaves its near-axis markers to settle, as after the fit split; a
         // cluster the settling changed is tested again (hexapod-noise-s10003: a body split
         // from a leg took back two markers that had joined a coxa, and body + coxa stood
@@ -503,6 +496,19 @@ fn segment_capture(
     });
     unassigned.sort_by_key(|u| u.marker);
 
+    let near_joints = if params.near_joint_fraction > 0.0 && params.joint_split_z > 0.0 {
+        let test = joint_test(params, typical_sigma(traj, &clusters, &mut sigma_memo));
+        jointsplit::near_joints(
+            traj,
+            &stats,
+            min_overlap,
+            &clusters,
+            test,
+            params.near_joint_fraction,
+        )
+    } else {
+        Vec::new()
+    };
     let segments: Vec<Segment> = clusters
         .into_iter()
         .enumerate()
@@ -530,7 +536,20 @@ fn segment_capture(
         eigengap_segments,
         swaps: Vec::new(),
         glitches,
+        near_joints,
     })
+}
+
+/// The joint test `params` set, for a capture whose typical segment fit σ is `typical_mm`.
+fn joint_test(params: &Params, typical_mm: f64) -> jointsplit::JointTest {
+    jointsplit::JointTest {
+        min_z: params.joint_split_z,
+        min_travel_z: params.joint_travel_z,
+        centre_fraction: params.joint_centre_fraction,
+        typical_sigma_mm: typical_mm,
+        // Each part must fit like the ordinary segment the fit split accepts.
+        max_part_sigma_mm: params.segment_sigma_mm(typical_mm),
+    }
 }
 
 /// Rigid-fit σ of the marker group `markers` (mm, per coordinate, degrees-of-freedom

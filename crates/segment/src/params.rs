@@ -146,6 +146,14 @@ pub struct Params {
     pub repair_swaps: bool,
     /// A sample is a glitch (a gap to segmentation) when most of its marker's steadiest partners are off by more than this × their robust scatter; 0 = off.
     pub glitch_factor: f64,
+    /// A segment the joint test left whole is reported as maybe two (`Segmentation::near_joints`) when its best cut scores this fraction of joint_split_z or joint_travel_z; 0 = off.
+    #[serde(default = "default_near_joint_fraction")]
+    pub near_joint_fraction: f64,
+}
+
+/// `Params::near_joint_fraction`'s default, for artifacts written before it existed.
+fn default_near_joint_fraction() -> f64 {
+    0.75
 }
 
 impl Default for Params {
@@ -200,6 +208,7 @@ impl Default for Params {
             join_small: true,
             repair_swaps: true,
             glitch_factor: 8.0,
+            near_joint_fraction: default_near_joint_fraction(),
         }
     }
 }
@@ -408,6 +417,10 @@ pub const PARAM_DOCS: &[(&str, &str)] = &[
         "joint_centre_fraction",
         "joint test: the best centre of rotation fixed in both parts must leave a residual (75th-percentile frame, mm) of at most this fraction of the parts' relative translation (B's centroid about its median in A's frame); default 1.0",
     ),
+    (
+        "near_joint_fraction",
+        "a diagnostic, nothing is cut: a final segment of ≥ 6 markers whose best cut (the one the joint test weighs, smallest pooled σ) scores at least this fraction of joint_split_z on its rotation or of joint_travel_z on its centroid's travel is listed in Segmentation::near_joints, in skeleton.json (the segment's near_joint, with both parts) and among the run's findings, as possibly two segments that turn little about a joint: skin leaves such joints under the test (a hexapod's coxae merged into its body, a quadruped's carpus into its forearm). The parts are the test's best cut, which skin can put elsewhere than the joint. cargo xtask eval --presets hard (its 'listed as maybe two' figures: segments of ≥ 6 markers holding ≥ 3 markers of each of two true segments, and the rest): seeds 20001-20050,30001-30050 98 of 138 and 126 of 2002 (hexapod 81 of 112 and 31 of 351, quadruped 13 of 18 and 34 of 443); at 0.7 108 and 217, at 0.8 78 and 78; seeds 40001-40100 114 of 172 and 140 of 2030. Of the real captures' 16 segments of ≥ 6 markers, 3 are listed: btk Res16bits' head, shoulder and arm with the hand as the other part (rotation z 4.67, failing the test's centre condition) in its C3D and its TRC, and OpenSim subject01_walk1's right foot (z 3.10). Costs the segment stage about 0.01 s of 0.27 on cargo xtask bench's capture; 0 = off; default 0.75",
+    ),
 ];
 
 impl Params {
@@ -513,6 +526,7 @@ impl Params {
         non_negative("pair_hold", self.pair_hold)?;
         non_negative("pair_rejoin_ratio", self.pair_rejoin_ratio)?;
         non_negative("glitch_factor", self.glitch_factor)?;
+        non_negative("near_joint_fraction", self.near_joint_fraction)?;
         Ok(())
     }
 }

@@ -6,7 +6,7 @@ use mocap_io::{MISSING, Trajectories};
 use serde::{Deserialize, Serialize};
 
 /// Schema version of [`Segmentation`]; bump when its fields or the algorithm's output change.
-pub const SCHEMA_VERSION: u32 = 36;
+pub const SCHEMA_VERSION: u32 = 37;
 
 /// The rigid segments found in a capture.
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
@@ -39,6 +39,25 @@ pub struct Segmentation {
     /// capture with the swaps undone); later stages read them as gaps too.
     #[serde(default)]
     pub glitches: Vec<Glitch>,
+    /// Segments the joint test left whole whose best cut came near its bounds
+    /// (`Params::near_joint_fraction`): maybe two segments that turn little about a joint.
+    #[serde(default)]
+    pub near_joints: Vec<NearJoint>,
+}
+
+/// A segment the joint test left whole although its best cut came near the test's bounds:
+/// maybe two segments that turn little about a joint, as skin leaves it (a diagnostic).
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+pub struct NearJoint {
+    /// Index into [`Segmentation::segments`].
+    pub segment: usize,
+    /// The cut's two parts (marker indices, ascending), the first holding the segment's
+    /// smallest marker index.
+    pub parts: [Vec<usize>; 2],
+    /// The joint test's rotation score of the cut (it cuts above `joint_split_z`).
+    pub rotation_z: f64,
+    /// The joint test's centroid travel score of the cut (it cuts above `joint_travel_z`).
+    pub travel_z: f64,
 }
 
 /// The frames in which one marker was off its steadiest partners (`glitch_factor`): a
@@ -65,8 +84,8 @@ pub struct LabelSwap {
 impl Segmentation {
     /// Replaces the segments by `groups` (marker indices; empty groups dropped), in the
     /// stage's order (by smallest marker); a marker in none is unassigned, with the stage's
-    /// reason where it gave one and `why_left_out` otherwise. The other diagnostics stay
-    /// the stage's. For diagnostics that feed later stages other segments (the truth).
+    /// reason where it gave one and `why_left_out` otherwise. The near joints go; the other
+    /// diagnostics stay the stage's. For diagnostics that feed later stages other segments (the truth).
     pub fn regroup(&mut self, groups: &[Vec<usize>], why_left_out: &str) {
         let mut groups: Vec<Vec<usize>> = groups
             .iter()
@@ -83,6 +102,8 @@ impl Segmentation {
             .enumerate()
             .map(|(id, markers)| Segment { id, markers })
             .collect();
+        // The stage's near joints name its own segments.
+        self.near_joints.clear();
         for d in &mut self.markers {
             d.segment = None;
         }

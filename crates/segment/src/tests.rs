@@ -989,6 +989,7 @@ fn untangle_exchanges_the_swapped_frames_back() {
                 frames: vec![[0, 3]],
             },
         ],
+        near_joints: Vec::new(),
     };
     let repaired = beyond.repaired(&traj);
     for f in 0..4 {

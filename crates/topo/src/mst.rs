@@ -501,6 +501,7 @@ mod tests {
             eigengap_segments: 0,
             swaps: Vec::new(),
             glitches: Vec::new(),
+            near_joints: Vec::new(),
         }
     }
 
