@@ -161,14 +161,35 @@ pub fn run(
             // it is several-fold (CMU 02_01's elbows, 1.0 -> 5.8 mm for a 121 mm slide).
             // (Its gain, a pass over the frames, only for a slide the residual refused;
             // it reads the poses alone, which the placement leaves as they were.)
-            let free = || {
-                params.hinge_free_gain > 0.0
-                    && r1 <= r0 * (1.0 + params.hinge_free_residual_increase.max(0.0)) + 0.1
-                    && jointfit::centre_gain(copy, pair)
-                        .is_some_and(|g| g >= params.hinge_free_gain)
+            // Below that gain the slide is kept in part: the pair fit places the centre
+            // along the axis to about the gain times its poses' error, the placement to
+            // about hinge_free_gain times it, so each counts by the other's variance.
+            let loose = r1 <= r0 * (1.0 + params.hinge_free_residual_increase.max(0.0)) + 0.1;
+            let gain = || {
+                (params.hinge_free_gain > 0.0 && loose)
+                    .then(|| jointfit::centre_gain(copy, pair))
+                    .flatten()
             };
-            if short && (steady || measured_point[e] || free()) {
+            if short && (steady || measured_point[e]) {
                 *h = s;
+            } else if let Some(g) = short.then(gain).flatten() {
+                let share = if g >= params.hinge_free_gain {
+                    1.0
+                } else {
+                    g * g / (g * g + params.hinge_free_gain * params.hinge_free_gain)
+                };
+                if share < 1.0 {
+                    let mut part = slid_part(before, after, share);
+                    part.residual_rms_mm = pair_residual(copy, &part);
+                    part.evidence.push_str(&format!(
+                        "; kept {:.0} % of a {s:.1} mm slide along the axis (centre gain {g:.1} \
+                         against hinge_free_gain {})",
+                        100.0 * share,
+                        params.hinge_free_gain
+                    ));
+                    copy.pairs[pair] = part;
+                }
+                *h = share * s;
             } else {
                 copy.pairs[pair] = before.clone();
             }
@@ -823,6 +844,25 @@ fn bone_length_before(fits: &PairFits, topo: &Topology, e: usize) -> f64 {
         }
     };
     (centre(joint.pair) - anchor).length()
+}
+
+/// `before` with its centre moved `share` of the way to `after`'s along the slide between
+/// them, positions alike (each frame's position is linear in the two centres, so the
+/// positions between are the positions of the centres between).
+fn slid_part(before: &PairFit, after: &PairFit, share: f64) -> PairFit {
+    let between = |x: [f64; 3], y: [f64; 3]| -> [f64; 3] {
+        std::array::from_fn(|i| x[i] + share * (y[i] - x[i]))
+    };
+    let mut part = after.clone();
+    part.centre_in_a = between(before.centre_in_a, after.centre_in_a);
+    part.centre_in_b = between(before.centre_in_b, after.centre_in_b);
+    part.positions = before
+        .positions
+        .iter()
+        .zip(&after.positions)
+        .map(|(x, y)| between(*x, *y))
+        .collect();
+    part
 }
 
 /// RMS over the frames where both segments are posed of the distance between the pair's
