@@ -164,9 +164,10 @@ pub fn run(
             // Below that gain the slide is kept in part: the pair fit places the centre
             // along the axis to about the gain times its poses' error, the placement to
             // about hinge_free_gain times it, so each counts by the other's variance.
-            let loose = r1 <= r0 * (1.0 + params.hinge_free_residual_increase.max(0.0)) + 0.1;
+            let residual_bound_holds =
+                r1 <= r0 * (1.0 + params.hinge_free_residual_increase.max(0.0)) + 0.1;
             let gain = || {
-                (params.hinge_free_gain > 0.0 && loose)
+                (params.hinge_free_gain > 0.0 && residual_bound_holds)
                     .then(|| jointfit::centre_gain(copy, pair))
                     .flatten()
             };

@@ -121,7 +121,8 @@ pub struct SegmentJson {
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub spin_deg: Option<f64>,
     /// Where the segment may be two that turn little about a joint: the cut the joint test
-    /// weighed came near its bounds without passing them. Absent otherwise.
+    /// weighed came near its bounds (or passed one, failing its other conditions) and was
+    /// not made. Absent otherwise.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub near_joint: Option<NearJointJson>,
 }

@@ -85,7 +85,8 @@ impl Segmentation {
     /// Replaces the segments by `groups` (marker indices; empty groups dropped), in the
     /// stage's order (by smallest marker); a marker in none is unassigned, with the stage's
     /// reason where it gave one and `why_left_out` otherwise. The near joints go; the other
-    /// diagnostics stay the stage's. For diagnostics that feed later stages other segments (the truth).
+    /// diagnostics stay the stage's. For diagnostics that feed later stages other segments
+    /// (the truth).
     pub fn regroup(&mut self, groups: &[Vec<usize>], why_left_out: &str) {
         let mut groups: Vec<Vec<usize>> = groups
             .iter()
