@@ -182,12 +182,6 @@ pub fn run(
                 if share < 1.0 {
                     let mut part = slid_part(before, after, share);
                     part.residual_rms_mm = pair_residual(copy, &part);
-                    part.evidence.push_str(&format!(
-                        "; kept {:.0} % of a {s:.1} mm slide along the axis (centre gain {g:.1} \
-                         against hinge_free_gain {})",
-                        100.0 * share,
-                        params.hinge_free_gain
-                    ));
                     copy.pairs[pair] = part;
                 }
                 *h = share * s;
