@@ -426,11 +426,7 @@ fn a_fill_in_line_with_its_joint_does_not_turn_the_body() {
 /// with it.
 #[test]
 fn a_free_hinge_axis_slides_despite_its_wobble() {
-    let tmp = Scratch::new("accuracy-random-hard-free-axis");
-    let dir = synthesize(&tmp, "random", "hard", 30034);
-    let score = run_and_score(&tmp, &dir, "random-hard-s30034", &[]);
-    let error = mean_error_mm(&score, "joint06");
-    assert!(error < 20.0, "joint06: {error:.1} mm\n{score}");
+    joints_within("random", "hard", 30034, &["joint06"], 20.0);
 }
 
 /// A hinge whose axis is less free keeps part of its slide: random-hard-s30021's joint02,
@@ -439,11 +435,7 @@ fn a_free_hinge_axis_slides_despite_its_wobble() {
 /// left it 139 mm off, nearly all along its axis; g² / (g² + 20²) of it puts it 79 mm off.
 #[test]
 fn a_less_free_hinge_axis_keeps_part_of_its_slide() {
-    let tmp = Scratch::new("accuracy-random-hard-partial-slide");
-    let dir = synthesize(&tmp, "random", "hard", 30021);
-    let score = run_and_score(&tmp, &dir, "random-hard-s30021", &[]);
-    let error = mean_error_mm(&score, "joint02");
-    assert!(error < 100.0, "joint02: {error:.1} mm\n{score}");
+    joints_within("random", "hard", 30021, &["joint02"], 100.0);
 }
 
 /// A segment's own hinge and the hinge it carries are the two ends of its bone, not one

@@ -723,14 +723,7 @@ fn zxy_euler_is_rz_rx_ry_and_round_trips() {
 #[test]
 fn a_near_joint_names_its_parts_by_label() {
     let s = gappy_scene();
-    let skeleton = bonefit::run(
-        &s.trajectories,
-        &s.segmentation,
-        &s.fits,
-        &s.topology,
-        &bonefit::Params::default(),
-    )
-    .unwrap_or_else(|e| panic!("{e}"));
+    let skeleton = skeleton(&s);
     let mut seg = s.segmentation.clone();
     let markers = seg.segments[1].markers.clone();
     seg.near_joints = vec![segment::NearJoint {
@@ -755,7 +748,7 @@ fn a_near_joint_names_its_parts_by_label() {
     );
     assert_eq!(near["rotation_z"].as_f64(), Some(3.46));
     assert!(doc["segments"][0].get("near_joint").is_none());
-    let report = String::from_utf8_lossy(out.files.get("report.html").map_or(&[][..], |v| v));
+    let report = text(&out, "report.html");
     assert!(
         report.contains("M003 | M004, M005"),
         "the report lists the cut"
@@ -775,14 +768,7 @@ fn a_near_joint_names_its_parts_by_label() {
 #[test]
 fn mismatched_inputs_are_errors() {
     let s = scene(10, 60.0);
-    let skeleton = bonefit::run(
-        &s.trajectories,
-        &s.segmentation,
-        &s.fits,
-        &s.topology,
-        &bonefit::Params::default(),
-    )
-    .unwrap_or_else(|e| panic!("{e}"));
+    let skeleton = skeleton(&s);
     let mut seg = s.segmentation.clone();
     seg.segments[0].markers.push(99);
     let input = Inputs {
