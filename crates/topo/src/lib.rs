@@ -23,7 +23,8 @@
 //!   of those pairs about as cheap and both turning, and it turns clearly more than
 //!   either: its motion composes theirs) is taken after them (`composite_rotation_ratio`,
 //!   `composite_turn_share`): with skin, two clavicles on the sternum fit a common centre
-//!   as well as each fits the thorax.
+//!   as well as each fits the thorax. "After them" is when they are taken: two siblings'
+//!   pairs with a third sibling are composites too, and wait for the hub's joints.
 //!   Kinds are stronger evidence than costs: a pair that is not a hinge, turning at least
 //!   as much as two hinges through a third segment, is their composite even when they
 //!   cost more (`composite_hinge_cost_ratio`; the kinds read with the costs, see

@@ -54,11 +54,7 @@ pub fn run(seg: &Segmentation, fits: &PairFits, params: &Params) -> Result<Topol
         edges.push((rank, p.cost, p.a, p.b, i));
     }
     if params.composite_rotation_ratio > 0.0 || params.composite_hinge_cost_ratio > 0.0 {
-        for e in edges.iter_mut().filter(|e| e.0 == 1) {
-            if let Some(after) = composite_of(fits, n, e.2, e.3, params) {
-                e.1 = e.1.max(after);
-            }
-        }
+        take_composites_after_their_joints(&mut edges, fits, n, params);
     }
     edges.sort_by(|x, y| {
         x.0.cmp(&y.0)
@@ -304,8 +300,44 @@ fn break_near_ties(edges: &mut [(u8, f64, usize, usize, usize)], fits: &PairFits
     }
 }
 
+/// Raises each composite pair's cost (see [`composite_of`]) to when its two joints are
+/// taken. A joint of a composite may itself be raised as another pair's composite (two
+/// siblings' pairs across a hub and a third sibling), so the raise is repeated on the
+/// raised costs until none moves; costs only rise, so it ends.
+fn take_composites_after_their_joints(
+    edges: &mut [(u8, f64, usize, usize, usize)],
+    fits: &PairFits,
+    n: usize,
+    params: &Params,
+) {
+    let mut taken_at = vec![vec![f64::NAN; n]; n];
+    for e in edges.iter() {
+        taken_at[e.2][e.3] = e.1;
+        taken_at[e.3][e.2] = e.1;
+    }
+    // Each round raises at least one cost to another pair's: at most one round per edge.
+    for _ in 0..=edges.len() {
+        let mut raised = false;
+        for e in edges.iter_mut().filter(|e| e.0 == 1) {
+            let Some(after) = composite_of(fits, n, e.2, e.3, params, &taken_at) else {
+                continue;
+            };
+            if after > e.1 {
+                e.1 = after;
+                taken_at[e.2][e.3] = after;
+                taken_at[e.3][e.2] = after;
+                raised = true;
+            }
+        }
+        if !raised {
+            break;
+        }
+    }
+}
+
 /// When pair (b, c) looks like the composite of two joints through a third segment a,
-/// the cost it should be taken after: the cheapest such a's dearer edge. A pair across
+/// the cost it should be taken after: the cheapest such a's dearer edge, as `taken_at`
+/// (symmetric, per pair) has those edges taken. A pair across
 /// two joints composes both joints' motions, so it turns more than either; where the
 /// joints are close (two clavicles on the sternum, two legs on one tip) it can still fit
 /// a centre as well as they do. It is a composite when
@@ -316,7 +348,14 @@ fn break_near_ties(edges: &mut [(u8, f64, usize, usize, usize)], fits: &PairFits
 ///   `composite_hinge_cost_ratio` × its cost, and it turns at least as much as either:
 ///   two hinges compose to more than one axis, while in a chain through a hinge the
 ///   pair across it composes that hinge with the other joint and is no hinge itself.
-fn composite_of(fits: &PairFits, n: usize, b: usize, c: usize, params: &Params) -> Option<f64> {
+fn composite_of(
+    fits: &PairFits,
+    n: usize,
+    b: usize,
+    c: usize,
+    params: &Params,
+    taken_at: &[Vec<f64>],
+) -> Option<f64> {
     let pair = |x: usize, y: usize| {
         fits.pair(x, y)
             .filter(|p| p.cost.is_finite() && p.rotation_rms_deg.is_finite())
@@ -341,7 +380,7 @@ fn composite_of(fits: &PairFits, n: usize, b: usize, c: usize, params: &Params) 
                 && ac.tree_kind() == JointKind::Hinge
                 && dearer <= params.composite_hinge_cost_ratio * own.cost
                 && own.rotation_rms_deg >= turns;
-            (by_motion || by_kinds).then_some(dearer)
+            (by_motion || by_kinds).then_some(taken_at[a][b].max(taken_at[a][c]))
         })
         .min_by(f64::total_cmp)
 }
@@ -832,6 +871,45 @@ mod tests {
         fit_mut(&mut f, 0, 2).rotation_rms_deg = 10.0;
         let t = run(&seg, &f, &Params::default()).unwrap_or_else(|e| panic!("{e}"));
         assert_eq!(edge_set(&t), [(0, 2), (1, 2), (2, 3)]);
+    }
+
+    /// A hub 0 with three children 1, 2, 3 (random-hard-s20033's shape): every pair of
+    /// siblings is a composite through the hub. The pair (1, 3) also looks like the
+    /// composite of (1, 2) and (2, 3), which are cheaper than the joint (0, 3); but those
+    /// are composites too and are taken only after the hub's joints, so (1, 3) waits for
+    /// (0, 3) as well, and the tie goes to the joint, which turns less.
+    #[test]
+    fn a_composite_of_composites_waits_for_the_joints_they_wait_for() {
+        let seg = segmentation(&[3, 3, 3, 3]);
+        let mut f = fits(4, |a, b| {
+            let cost = match (a, b) {
+                (0, 1) => 6.4,
+                (0, 2) => 5.0,
+                (0, 3) => 9.7,
+                (1, 2) => 5.3,
+                (2, 3) => 8.3,
+                _ => 9.5,
+            };
+            (cost, JointKind::Ball)
+        });
+        turning(&mut f, |a, b| match (a, b) {
+            (0, 1) => 36.0,
+            (0, 2) => 30.0,
+            (0, 3) => 47.0,
+            (1, 2) => 60.0,
+            (2, 3) => 65.0,
+            _ => 75.0,
+        });
+        let t = run(&seg, &f, &Params::default()).unwrap_or_else(|e| panic!("{e}"));
+        assert_eq!(edge_set(&t), [(0, 1), (0, 2), (0, 3)]);
+        // Where (1, 2) and (2, 3) are joints (no hub turns less under them), (1, 3) is
+        // their composite and 3 hangs from 2.
+        fit_mut(&mut f, 0, 2).rotation_rms_deg = 70.0;
+        fit_mut(&mut f, 0, 3).rotation_rms_deg = 80.0;
+        fit_mut(&mut f, 0, 2).cost = 20.0;
+        fit_mut(&mut f, 0, 3).cost = 20.0;
+        let t = run(&seg, &f, &Params::default()).unwrap_or_else(|e| panic!("{e}"));
+        assert_eq!(edge_set(&t), [(0, 1), (1, 2), (2, 3)]);
     }
 
     /// Each joint's runner-up is the cheapest other pair joining the two sides of its cut:
