@@ -154,13 +154,15 @@ impl CentreFit {
 
 /// Anchors every segment it can; replaces the poses of segments without their own and
 /// fills 2-marker frames of the others. With `tree` (symmetric adjacency), a segment is
-/// anchored to a tree neighbour while any qualifies. Returns the anchor of every segment.
+/// anchored to a tree neighbour while any qualifies, a `loose` one also to a neighbour off
+/// the tree whose centre fits clearly better. Returns the anchor of every segment.
 pub(crate) fn anchor_segments(
     traj: &Trajectories,
     segments: &[Vec<usize>],
     poses: &mut [SegmentPoses],
     params: &Params,
     tree: Option<&[Vec<bool>]>,
+    loose: Option<&[bool]>,
 ) -> Vec<Option<Anchor>> {
     let n = segments.len();
     let mut anchors: Vec<Option<Anchor>> = vec![None; n];
@@ -187,7 +189,13 @@ pub(crate) fn anchor_segments(
     // Centre fits at the refit bar, for two-centre poses (`joint_centres`).
     let mut refit_memo: Vec<Vec<Option<Option<CentreFit>>>> = vec![vec![None; n]; n];
     loop {
-        let open = |s: usize, nb: usize| !failed[s][nb] && (!tree_only || on_tree(s, nb));
+        // A loose segment's tree edges came from poses whose spin its markers did not fix,
+        // so its neighbours off the tree are weighed too (`Params::loose_off_tree_ratio`).
+        let reopened = |s: usize| {
+            tree_only && params.loose_off_tree_ratio > 0.0 && loose.is_some_and(|l| l[s])
+        };
+        let open =
+            |s: usize, nb: usize| !failed[s][nb] && (!tree_only || on_tree(s, nb) || reopened(s));
         let wanted: Vec<(usize, usize)> = (0..n)
             .filter(|&s| !posed[s] && !segments[s].is_empty())
             .flat_map(|s| (0..n).map(move |nb| (s, nb)))
@@ -228,10 +236,21 @@ pub(crate) fn anchor_segments(
             } else {
                 next_identified
             };
+            let qualifies = |fit: &CentreFit| {
+                fit.identified
+                    || (identified.is_finite()
+                        && fit.rms_mm < params.anchor_steadier_ratio * identified)
+            };
+            // Off the tree only clearly better than every tree neighbour that qualifies.
+            let on_tree_best = fits()
+                .filter(|&(nb, f)| on_tree(s, nb) && qualifies(f))
+                .map(|(_, f)| f.rms_mm)
+                .fold(f64::INFINITY, f64::min);
             for (nb, fit) in fits() {
-                let steadier = identified.is_finite()
-                    && fit.rms_mm < params.anchor_steadier_ratio * identified;
-                if (fit.identified || steadier) && best.is_none_or(|(c, _, _)| fit.rms_mm < c) {
+                let allowed = !tree_only
+                    || on_tree(s, nb)
+                    || fit.rms_mm < params.loose_off_tree_ratio * on_tree_best;
+                if qualifies(fit) && allowed && best.is_none_or(|(c, _, _)| fit.rms_mm < c) {
                     best = Some((fit.rms_mm, s, nb));
                 }
             }

@@ -46,9 +46,11 @@
 //! Greedy anchoring does not know the tree, and a segment whose own markers nearly line
 //! up even when all are seen is posed with a spin error that throws its joints' images
 //! far. So a second pass (`Params::tree_poses`) runs along the minimum spanning tree of the
-//! first pass's costs: such segments are posed through a tree neighbour's joint, anchors
-//! are sought among tree neighbours first, and a two-marker segment is posed from both its
-//! joints' centres (`Params::anchor_two_centres`). Topo reads its pairs' costs, relative
+//! first pass's costs: such segments are posed through a tree neighbour's joint (or one off
+//! the tree whose centre fits clearly better, since their own tree edges came from
+//! spin-blind poses; `Params::loose_off_tree_ratio`), anchors are sought among tree
+//! neighbours first, and a two-marker segment is posed from both its joints' centres
+//! (`Params::anchor_two_centres`). Topo reads its pairs' costs, relative
 //! rotations and kinds (`Params::tree_from_second_pass`; off, the pairs keep the first
 //! pass's for it, `PairFit::first_pass_kind`, and the tree is the one the segments' own
 //! poses support). Where it would leave a pair the first pass fitted without a centre,
@@ -309,7 +311,7 @@ fn fit_all(
                 .flatten()
         })
         .collect();
-    let anchors = anchor::anchor_segments(traj, segments, &mut poses, params, tree);
+    let anchors = anchor::anchor_segments(traj, segments, &mut poses, params, tree, loose);
     for (s, own) in set_aside.into_iter().enumerate() {
         if let Some(own) = own
             && anchors[s].as_ref().is_none_or(|a| !a.posed_by_anchor)

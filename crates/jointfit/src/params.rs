@@ -104,6 +104,11 @@ pub struct Params {
     /// fraction of the best identified neighbour's (with none yet, of the anchor taken next
     /// anywhere) is a candidate however little S turns about it (default 0.7; 0 = off).
     pub anchor_steadier_ratio: f64,
+    /// Along the tree (second pass), a segment whose own markers fix its spin too loosely
+    /// is anchored to a neighbour off the first pass's tree too, where that neighbour's
+    /// centre fits its markers with a residual below this fraction of the best tree
+    /// neighbour's (default 0.85; 0 = tree neighbours only).
+    pub loose_off_tree_ratio: f64,
     /// Anchoring: largest RMS radial residual (mm) of an acceptable common centre.
     pub anchor_max_rms_mm: f64,
     /// Anchoring: a common centre turned about less than the excursion bounds above still
@@ -167,6 +172,7 @@ impl Default for Params {
             anchor: true,
             anchor_min_excursion_deg: 10.0,
             anchor_steadier_ratio: 0.7,
+            loose_off_tree_ratio: 0.85,
             anchor_max_rms_mm: 25.0,
             anchor_exact_centre_mm: 10.0,
             anchor_line_prior: true,
@@ -490,6 +496,22 @@ pub const PARAM_DOCS: &[(&str, &str)] = &[
         ),
     ),
     (
+        "loose_off_tree_ratio",
+        "along the tree (second pass), a segment whose own markers fix its spin too loosely \
+         (max_spin_deg) is posed through a neighbour's joint; its edges in the first pass's \
+         tree came from its own poses, whose spin was unknown, so a neighbour off that tree \
+         is taken instead where its common centre fits the segment's markers with a radial \
+         residual below this fraction of the best tree neighbour's. random-hard-s20022's \
+         seg08 (markers nearly in line) hung from a sibling (3.68 mm) while its parent's \
+         centre fitted at 2.18 mm. cargo xtask eval --presets hard --compare \
+         jointfit.loose_off_tree_ratio=0,0.85: seeds 20001..20050,30001..30050 550 -> 550 \
+         exact trees, 1.4002 -> 1.3935 % of height (hexapod-hard-s20023 8.30 -> 3.86 %: its \
+         three unmatched hips found); 40001..40100 535 -> 535, 1.4022 -> 1.3994 %; at 0.7 / \
+         0.8 / 0.9 / 1 (any better fit): 550 / 550 / 551 / 551 and 535 / 535 / 535 / 532 \
+         trees (at 1, three human clavicles hang from the other clavicle, 5.22 against the \
+         thorax's 5.69 mm); 0 = tree neighbours only; default 0.85",
+    ),
+    (
         "anchor_max_rms_mm",
         concat!(
             "anchoring: a neighbour qualifies only if the markers' distances to the common \
@@ -647,6 +669,7 @@ impl Params {
             ),
             ("anchor_exact_centre_mm", self.anchor_exact_centre_mm),
             ("anchor_steadier_ratio", self.anchor_steadier_ratio),
+            ("loose_off_tree_ratio", self.loose_off_tree_ratio),
             ("hinge_slide_max_rise", self.hinge_slide_max_rise),
             ("centre_prior", self.centre_prior),
         ] {
