@@ -303,7 +303,7 @@ fn break_near_ties(edges: &mut [(u8, f64, usize, usize, usize)], fits: &PairFits
 /// Raises each composite pair's cost (see [`composite_of`]) to when its two joints are
 /// taken. A joint of a composite may itself be raised as another pair's composite (two
 /// siblings' pairs across a hub and a third sibling), so the raise is repeated on the
-/// raised costs until none moves; costs only rise, so it ends.
+/// raised costs until none moves.
 fn take_composites_after_their_joints(
     edges: &mut [(u8, f64, usize, usize, usize)],
     fits: &PairFits,
@@ -315,8 +315,9 @@ fn take_composites_after_their_joints(
         taken_at[e.2][e.3] = e.1;
         taken_at[e.3][e.2] = e.1;
     }
-    // Each round raises at least one cost to another pair's: at most one round per edge.
-    for _ in 0..=edges.len() {
+    // Every raise lifts a cost to a higher one of the pairs' own costs (raised costs are
+    // such costs too), a finite set, so the rounds end.
+    loop {
         let mut raised = false;
         for e in edges.iter_mut().filter(|e| e.0 == 1) {
             let Some(after) = composite_of(fits, n, e.2, e.3, params, &taken_at) else {
