@@ -149,14 +149,23 @@ fn skeleton(s: &Scene) -> bonefit::Skeleton {
 
 /// The files of the scene with `skeleton` in place of its own.
 fn files_of(s: &Scene, skeleton: &bonefit::Skeleton, params: &Params) -> crate::Outputs {
-    let input = Inputs {
+    let input = inputs(s, &s.segmentation, skeleton);
+    run(&input, params).unwrap_or_else(|e| panic!("{e}"))
+}
+
+/// The scene's inputs with `segmentation` and `skeleton` in place of its own.
+fn inputs<'a>(
+    s: &'a Scene,
+    segmentation: &'a segment::Segmentation,
+    skeleton: &'a bonefit::Skeleton,
+) -> Inputs<'a> {
+    Inputs {
         trajectories: &s.trajectories,
-        segmentation: &s.segmentation,
+        segmentation,
         fits: &s.fits,
         topology: &s.topology,
         skeleton,
-    };
-    run(&input, params).unwrap_or_else(|e| panic!("{e}"))
+    }
 }
 
 fn text(out: &crate::Outputs, name: &str) -> String {
@@ -732,13 +741,7 @@ fn a_near_joint_names_its_parts_by_label() {
         rotation_z: 3.456,
         travel_z: 2.0,
     }];
-    let input = Inputs {
-        trajectories: &s.trajectories,
-        segmentation: &seg,
-        fits: &s.fits,
-        topology: &s.topology,
-        skeleton: &skeleton,
-    };
+    let input = inputs(&s, &seg, &skeleton);
     let out = run(&input, &Params::default()).unwrap_or_else(|e| panic!("{e}"));
     let doc = json(&out);
     let near = &doc["segments"][1]["near_joint"];
@@ -771,13 +774,7 @@ fn mismatched_inputs_are_errors() {
     let skeleton = skeleton(&s);
     let mut seg = s.segmentation.clone();
     seg.segments[0].markers.push(99);
-    let input = Inputs {
-        trajectories: &s.trajectories,
-        segmentation: &seg,
-        fits: &s.fits,
-        topology: &s.topology,
-        skeleton: &skeleton,
-    };
+    let input = inputs(&s, &seg, &skeleton);
     assert!(matches!(
         run(&input, &Params::default()),
         Err(crate::Error::Mismatch(_))

@@ -502,8 +502,8 @@ pub const PARAM_DOCS: &[(&str, &str)] = &[
          tree came from its own poses, whose spin was unknown, so a neighbour off that tree \
          is taken instead where its common centre fits the segment's markers with a radial \
          residual below this fraction of the best tree neighbour's. random-hard-s20022's \
-         seg08 (markers nearly in line) hung from a sibling (3.68 mm) while its parent's \
-         centre fitted at 2.18 mm. cargo xtask eval --presets hard --compare \
+         seg08 (markers nearly in line) hung from seg05, no neighbour of it (3.68 mm), while \
+         its parent's centre fitted at 2.18 mm. cargo xtask eval --presets hard --compare \
          jointfit.loose_off_tree_ratio=0,0.85: seeds 20001..20050,30001..30050 550 -> 550 \
          exact trees, 1.4002 -> 1.3935 % of height (hexapod-hard-s20023 8.30 -> 3.86 %: its \
          three unmatched hips found); 40001..40100 535 -> 535, 1.4022 -> 1.3994 %; at 0.7 / \

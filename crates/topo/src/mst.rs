@@ -882,25 +882,17 @@ mod tests {
     #[test]
     fn a_composite_of_composites_waits_for_the_joints_they_wait_for() {
         let seg = segmentation(&[3, 3, 3, 3]);
-        let mut f = fits(4, |a, b| {
-            let cost = match (a, b) {
-                (0, 1) => 6.4,
-                (0, 2) => 5.0,
-                (0, 3) => 9.7,
-                (1, 2) => 5.3,
-                (2, 3) => 8.3,
-                _ => 9.5,
-            };
-            (cost, JointKind::Ball)
-        });
-        turning(&mut f, |a, b| match (a, b) {
-            (0, 1) => 36.0,
-            (0, 2) => 30.0,
-            (0, 3) => 47.0,
-            (1, 2) => 60.0,
-            (2, 3) => 65.0,
-            _ => 75.0,
-        });
+        // (cost, RMS relative rotation in degrees) per pair; (1, 3) is the last.
+        let pair = |a, b| match (a, b) {
+            (0, 1) => (6.4, 36.0),
+            (0, 2) => (5.0, 30.0),
+            (0, 3) => (9.7, 47.0),
+            (1, 2) => (5.3, 60.0),
+            (2, 3) => (8.3, 65.0),
+            _ => (9.5, 75.0),
+        };
+        let mut f = fits(4, |a, b| (pair(a, b).0, JointKind::Ball));
+        turning(&mut f, |a, b| pair(a, b).1);
         let t = run(&seg, &f, &Params::default()).unwrap_or_else(|e| panic!("{e}"));
         assert_eq!(edge_set(&t), [(0, 1), (0, 2), (0, 3)]);
         // Where (1, 2) and (2, 3) are joints (no hub turns less under them), (1, 3) is
