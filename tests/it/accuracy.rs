@@ -464,3 +464,23 @@ fn a_segments_own_hinge_and_the_hinge_it_carries_do_not_meet() {
     let error = mean_error_mm(&score, "joint07");
     assert!(error < 40.0, "joint07: {error:.1} mm\n{score}");
 }
+
+/// human-hard-s20022's right clavicle fits a centre with the left one (6.25) a little
+/// better than with the thorax (6.58), and the spanning tree hung it on the left clavicle;
+/// but what hangs below it (upper arm, forearm, hand) is built like what else hangs below
+/// the left one, so it is the left one's twin and goes to the thorax: the tree is exact
+/// (with `topo.twin_cost_ratio=0` it is not).
+#[test]
+fn a_clavicle_hung_on_its_twin_goes_to_the_thorax() {
+    let tmp = Scratch::new("accuracy-human-hard-twins");
+    let dir = synthesize(&tmp, "human", "hard", 20022);
+    let score = run_and_score(&tmp, &dir, "human-hard-s20022", &[]);
+    assert!(score.topology_exact, "{score}");
+    let off = run_and_score(
+        &tmp,
+        &dir,
+        "human-hard-s20022",
+        &["topo.twin_cost_ratio=0".into()],
+    );
+    assert!(!off.topology_exact, "the rule off: {off}");
+}

@@ -31,6 +31,11 @@
 //!   `PairFit::tree_kind`): two hinges on one hub compose to two
 //!   degrees of freedom, and were it a joint, one of those two pairs would compose its
 //!   motion with another joint's and read as no hinge.
+//! - Twins hang on one parent: a segment the tree hung on a segment built like it (what
+//!   hangs below each is the same chain of at least two bones, bone lengths alike) moves
+//!   to that segment's parent where their pair is a fair joint too (`twin_cost_ratio`,
+//!   `twin_length_tolerance`): like limbs meet their body close together, so one clavicle
+//!   or coxa can fit a centre with the other as well as with the body.
 //! - Root: the tree's centre (minimum eccentricity in hops), ties by the smaller sum of
 //!   hops to every segment, then most markers, then the smaller mean distance to the
 //!   other segments over the capture, then lowest id; it lands on the pelvis or torso of
@@ -47,6 +52,7 @@
 mod error;
 mod mst;
 mod topology;
+mod twins;
 
 pub use error::Error;
 pub use mst::run;
@@ -83,6 +89,12 @@ pub struct Params {
     /// segment, costing at most this many times as much as it, is their composite
     /// (default 3; 0 = off).
     pub composite_hinge_cost_ratio: f64,
+    /// A segment hung on a twin (what hangs below it is built like what else hangs below
+    /// the twin) moves to the twin's parent when that pair costs at most this many times
+    /// the edge it replaces (default 2; 0 = off).
+    pub twin_cost_ratio: f64,
+    /// Twins' bones agree within this share of the longer (default 0.4).
+    pub twin_length_tolerance: f64,
 }
 
 impl Default for Params {
@@ -96,6 +108,8 @@ impl Default for Params {
             composite_cost_ratio: 1.5,
             composite_turn_share: 0.4,
             composite_hinge_cost_ratio: 3.0,
+            twin_cost_ratio: 2.0,
+            twin_length_tolerance: 0.4,
         }
     }
 }
@@ -180,5 +194,32 @@ pub const PARAM_DOCS: &[(&str, &str)] = &[
          clean unchanged; seeds 10001-10032 hard 146 -> 147, noise 188 -> 189, skin 133 -> \
          135/192; an offline copy of this stage over the same pair fits gains the same trees \
          at 2 to 5 and loses two human trees at 100; 0 = off; default 3",
+    ),
+    (
+        "twin_cost_ratio",
+        "after the spanning tree, a segment Y hung on a segment X is moved to X's parent P \
+         when what hangs below Y is built like what else hangs below X (the same branching, \
+         not a leaf, bones alike within twin_length_tolerance) and the pair P-Y costs at \
+         most this many times X-Y: like limbs meet their body close together and fit a \
+         centre with each other about as well as with it. cargo xtask eval --presets hard \
+         --compare topo.twin_cost_ratio=0,1.5,2,3: seeds 20001..20050,30001..30050 550 -> \
+         551 / 552 / 552 exact trees of 700 (human s20022, s20037: a clavicle on the \
+         other), 1.3935 -> 1.3937 % of height at 2; --true-segments 668 -> 671 (hexapod \
+         coxae on each other); seeds 40001..40100 535 -> 537 at 2 (human s40027, s40042); \
+         no tree lost; 20001..20020 --marker-arc 120 102 -> 103, --markers 2:3 \
+         --true-segments 87 -> 88, and clean (both seed sets above), noise, skin, messy, \
+         gaps, --markers 2:3 and --sweep 0.2:0.4 the same trees; every real capture's \
+         skeleton.json unchanged; 0 = off; default 2",
+    ),
+    (
+        "twin_length_tolerance",
+        "see twin_cost_ratio: two twins' corresponding bones (joint to joint, in the \
+         segment's frame) differ by at most this share of the longer. A hinge's centre \
+         sits anywhere along its axis before bonefit places it, so bones read here are \
+         loose. cargo xtask eval --presets hard, seeds 20001..20050,30001..30050: \
+         --true-segments 0.25 / 0.4 / 0.6 give 670 / 671 / 671 exact trees \
+         (hexapod-hard-s30046's twins differ by 0.27); the pipeline's segments 0.4 / 0.6 / \
+         1 (bones unchecked) 552 / 552 / 551 (random-hard-s30046 lost); dimensionless; \
+         default 0.4",
     ),
 ];

@@ -78,6 +78,12 @@ pub fn run(seg: &Segmentation, fits: &PairFits, params: &Params) -> Result<Topol
             accepted.push((a, b, pair, cost));
         }
     }
+    notes.extend(crate::twins::hang_twins_on_one_parent(
+        &mut accepted,
+        fits,
+        n,
+        params,
+    ));
 
     // Components; the tree is the forced root's, else the biggest (segments, markers, id).
     let mut members: Vec<Vec<usize>> = vec![Vec::new(); n];
@@ -903,6 +909,71 @@ mod tests {
         fit_mut(&mut f, 0, 3).cost = 20.0;
         let t = run(&seg, &f, &Params::default()).unwrap_or_else(|e| panic!("{e}"));
         assert_eq!(edge_set(&t), [(0, 1), (1, 2), (2, 3)]);
+    }
+
+    /// Thorax 0, clavicles 1 and 2 on it, and below each an upper arm (3, 4) and, with
+    /// `forearms`, a forearm (5, 6); the clavicles' pair costs least, so the spanning tree
+    /// hangs clavicle 2 on clavicle 1. Bones (joint to joint): clavicles 150 and 140 mm,
+    /// upper arms 280 and `upper_arm_2` mm.
+    fn twin_arms(forearms: bool, upper_arm_2: f64) -> (Segmentation, PairFits) {
+        let n = if forearms { 7 } else { 5 };
+        let seg = segmentation(&[6, 3, 3, 3, 3, 3, 3][..n]);
+        let mut f = fits(n, |a, b| match (a, b) {
+            (1, 2) => (3.0, JointKind::Ball),
+            (0, 1) | (1, 3) | (2, 4) | (3, 5) | (4, 6) => (4.0, JointKind::Ball),
+            (0, 2) => (5.0, JointKind::Ball),
+            _ => (40.0, JointKind::Ball),
+        });
+        // (pair, its centre in a's frame, in b's): each bone runs from its segment's origin,
+        // where its parent joint is, along x.
+        let x = |mm: f64| [mm, 0.0, 0.0];
+        for ((a, b), in_a, in_b) in [
+            ((1, 3), x(150.0), x(0.0)),
+            ((2, 4), x(140.0), x(0.0)),
+            ((3, 5), x(280.0), x(0.0)),
+            ((4, 6), x(upper_arm_2), x(0.0)),
+        ] {
+            if b < n {
+                fit_mut(&mut f, a, b).centre_in_a = in_a;
+                fit_mut(&mut f, a, b).centre_in_b = in_b;
+            }
+        }
+        (seg, f)
+    }
+
+    #[test]
+    fn a_limb_hung_on_its_twin_moves_to_the_twins_parent() {
+        let (seg, f) = twin_arms(true, 300.0);
+        let t = run(&seg, &f, &Params::default()).unwrap_or_else(|e| panic!("{e}"));
+        assert_eq!(
+            edge_set(&t),
+            [(0, 1), (0, 2), (1, 3), (2, 4), (3, 5), (4, 6)]
+        );
+        assert!(
+            t.notes
+                .iter()
+                .any(|n| n.contains("segment 2 hung on segment 0, not on 1")),
+            "{:?}",
+            t.notes
+        );
+        // Not where the rule is off, the bones differ, the pair with the parent costs too
+        // much more, or the twins are one bone deep (a like length is a coin toss there).
+        let stays = |seg: &Segmentation, f: &PairFits, params: &Params| {
+            let t = run(seg, f, params).unwrap_or_else(|e| panic!("{e}"));
+            edge_set(&t).contains(&(1, 2))
+        };
+        let off = Params {
+            twin_cost_ratio: 0.0,
+            ..Params::default()
+        };
+        assert!(stays(&seg, &f, &off));
+        let (seg, f) = twin_arms(true, 520.0);
+        assert!(stays(&seg, &f, &Params::default()));
+        let (seg, mut f) = twin_arms(true, 300.0);
+        fit_mut(&mut f, 0, 2).cost = 6.5;
+        assert!(stays(&seg, &f, &Params::default()));
+        let (seg, f) = twin_arms(false, 300.0);
+        assert!(stays(&seg, &f, &Params::default()));
     }
 
     /// Each joint's runner-up is the cheapest other pair joining the two sides of its cut:

@@ -1,0 +1,171 @@
+//! Twins hang on one parent: a segment the spanning tree hung on a segment built like
+//! itself is moved to that segment's parent.
+//!
+//! Two like limbs on one body meet it close together (two clavicles on the sternum, two
+//! coxae on a hexapod's body), so each fits a centre with the other about as well as with
+//! the body, and the costs alone can hang one on the other. The tree then shows it: Y hangs
+//! on X, and what hangs below Y is what hangs below X besides Y, bone for bone (the same
+//! branching, bone lengths alike). A body part is built like its mirror image, not like the
+//! segment it hangs from, so where the pair of Y with X's parent P is also a fair joint
+//! (`twin_cost_ratio`), Y is moved to P. Leaves are never twins (nothing below them to
+//! compare), so the rule reads nothing into two lone segments.
+
+use jointfit::{PairFit, PairFits};
+
+use crate::Params;
+
+/// A tree edge as the spanning tree accepts it: (segment a, segment b, pair index, cost).
+pub(crate) type Edge = (usize, usize, usize, f64);
+
+/// What hangs below a segment, as its tree shows it: the branching (a canonical nested
+/// string, children in a fixed order) and every bone's length in that order (mm: from the
+/// joint the segment is entered by to each child's joint, in the segment's frame).
+#[derive(Debug, PartialEq)]
+struct Branch {
+    shape: String,
+    lengths: Vec<f64>,
+}
+
+/// A joint centre in segment `s`'s local frame (`s` is one of the pair's two segments).
+fn centre_in(pair: &PairFit, s: usize) -> [f64; 3] {
+    if pair.a == s {
+        pair.centre_in_a
+    } else {
+        pair.centre_in_b
+    }
+}
+
+fn distance(p: [f64; 3], q: [f64; 3]) -> f64 {
+    ((p[0] - q[0]).powi(2) + (p[1] - q[1]).powi(2) + (p[2] - q[2]).powi(2)).sqrt()
+}
+
+/// The branch below `node`, entered at `entry` (its parent joint's centre, in `node`'s
+/// frame), not descending into `blocked` neighbours.
+fn branch(
+    node: usize,
+    entry: [f64; 3],
+    blocked: &[usize],
+    neighbours: &[Vec<(usize, usize)>],
+    edges: &[Edge],
+    fits: &PairFits,
+) -> Branch {
+    let mut children: Vec<(String, f64, Vec<f64>)> = neighbours[node]
+        .iter()
+        .filter(|(c, _)| !blocked.contains(c))
+        .map(|&(c, e)| {
+            let pair = &fits.pairs[edges[e].2];
+            let below = branch(c, centre_in(pair, c), &[node], neighbours, edges, fits);
+            (
+                below.shape,
+                distance(centre_in(pair, node), entry),
+                below.lengths,
+            )
+        })
+        .collect();
+    children.sort_by(|x, y| x.0.cmp(&y.0).then(x.1.total_cmp(&y.1)));
+    let mut shape = String::from("(");
+    let mut lengths = Vec::new();
+    for (child_shape, length, below) in children {
+        shape.push_str(&child_shape);
+        lengths.push(length);
+        lengths.extend(below);
+    }
+    shape.push(')');
+    Branch { shape, lengths }
+}
+
+/// Fewest bones below a twin: one bone of a like length is a coin toss in a random tree
+/// (random-hard-s40070: two segments with one child each, bones of 501 and 592 mm).
+const MIN_BONES: usize = 2;
+
+/// Whether two branches are built alike: the same chain (one child per segment: a limb; a
+/// segment carrying several branches like another is rather a body cut in pieces, as a
+/// hexapod's body split with its coxae), at least [`MIN_BONES`] bones, and every bone
+/// within `tolerance` × the longer of the two.
+fn alike(x: &Branch, y: &Branch, tolerance: f64) -> bool {
+    x.shape == y.shape
+        && !x.shape.contains(")(")
+        && x.lengths.len() >= MIN_BONES
+        && x.lengths
+            .iter()
+            .zip(&y.lengths)
+            .all(|(&a, &b)| a.is_finite() && b.is_finite() && (a - b).abs() <= tolerance * a.max(b))
+}
+
+/// Moves each segment Y that the tree hangs on a twin X to X's parent P (see the module
+/// docs), best first (the move whose new pair costs least against the edge it replaces),
+/// each segment at most once. Gives a note per move.
+pub(crate) fn hang_twins_on_one_parent(
+    edges: &mut [Edge],
+    fits: &PairFits,
+    n: usize,
+    params: &Params,
+) -> Vec<String> {
+    let mut notes = Vec::new();
+    if params.twin_cost_ratio <= 0.0 {
+        return notes;
+    }
+    let mut moved = vec![false; n];
+    loop {
+        let mut neighbours: Vec<Vec<(usize, usize)>> = vec![Vec::new(); n];
+        for (e, &(a, b, _, _)) in edges.iter().enumerate() {
+            neighbours[a].push((b, e));
+            neighbours[b].push((a, e));
+        }
+        for list in &mut neighbours {
+            list.sort_unstable();
+        }
+        // (new cost over the replaced edge's, edge, Y, P, the new pair's index)
+        let mut best: Option<(f64, usize, usize, usize, usize)> = None;
+        for (e, &(a, b, _, cost)) in edges.iter().enumerate() {
+            for (x, y) in [(a, b), (b, a)] {
+                if moved[y] {
+                    continue;
+                }
+                for &(p, pe) in &neighbours[x] {
+                    if p == y {
+                        continue;
+                    }
+                    let Some(pi) = fits
+                        .pairs
+                        .iter()
+                        .position(|q| (q.a, q.b) == (p.min(y), p.max(y)))
+                    else {
+                        continue;
+                    };
+                    let py = &fits.pairs[pi];
+                    let ratio = py.cost / cost;
+                    let below_y = branch(y, centre_in(py, y), &[x], &neighbours, edges, fits);
+                    let px = &fits.pairs[edges[pe].2];
+                    let below_x = branch(x, centre_in(px, x), &[p, y], &neighbours, edges, fits);
+                    if !ratio.is_finite() || ratio > params.twin_cost_ratio {
+                        continue;
+                    }
+                    if !alike(&below_x, &below_y, params.twin_length_tolerance) {
+                        continue;
+                    }
+                    let key = (ratio, e, y, p, pi);
+                    if best.is_none_or(|b| (key.0, key.1, key.2, key.3) < (b.0, b.1, b.2, b.3)) {
+                        best = Some(key);
+                    }
+                }
+            }
+        }
+        let Some((ratio, e, y, p, pi)) = best else {
+            break;
+        };
+        let x = if edges[e].0 == y {
+            edges[e].1
+        } else {
+            edges[e].0
+        };
+        notes.push(format!(
+            "segment {y} hung on segment {p}, not on {x}: what hangs below {y} is built like \
+             what else hangs below {x} (twins on one parent), and its pair with {p} costs \
+             {ratio:.2} × its pair with {x} (topo.twin_cost_ratio)"
+        ));
+        edges[e] = (p.min(y), p.max(y), pi, fits.pairs[pi].cost);
+        moved[y] = true;
+    }
+    notes
+}
