@@ -911,16 +911,17 @@ mod tests {
         assert_eq!(edge_set(&t), [(0, 1), (1, 2), (2, 3)]);
     }
 
-    /// Thorax 0, clavicles 1 and 2 on it, and below each an upper arm (3, 4) and, with
-    /// `forearms`, a forearm (5, 6); the clavicles' pair costs least, so the spanning tree
+    /// Thorax 0, clavicles 1 and 2 on it, and below each an upper arm (3, 4) carrying
+    /// `below` segments each: none, a forearm (5, 6), or a forearm and a second segment (7,
+    /// 8: a branching, not a limb); the clavicles' pair costs least, so the spanning tree
     /// hangs clavicle 2 on clavicle 1. Bones (joint to joint): clavicles 150 and 140 mm,
-    /// upper arms 280 and `upper_arm_2` mm.
-    fn twin_arms(forearms: bool, upper_arm_2: f64) -> (Segmentation, PairFits) {
-        let n = if forearms { 7 } else { 5 };
-        let seg = segmentation(&[6, 3, 3, 3, 3, 3, 3][..n]);
+    /// upper arms 280 and `upper_arm_2` mm (to every child).
+    fn twin_arms(below: usize, upper_arm_2: f64) -> (Segmentation, PairFits) {
+        let n = 5 + 2 * below;
+        let seg = segmentation(&[6, 3, 3, 3, 3, 3, 3, 3, 3][..n]);
         let mut f = fits(n, |a, b| match (a, b) {
             (1, 2) => (3.0, JointKind::Ball),
-            (0, 1) | (1, 3) | (2, 4) | (3, 5) | (4, 6) => (4.0, JointKind::Ball),
+            (0, 1) | (1, 3) | (2, 4) | (3, 5) | (4, 6) | (3, 7) | (4, 8) => (4.0, JointKind::Ball),
             (0, 2) => (5.0, JointKind::Ball),
             _ => (40.0, JointKind::Ball),
         });
@@ -932,6 +933,8 @@ mod tests {
             ((2, 4), x(140.0), x(0.0)),
             ((3, 5), x(280.0), x(0.0)),
             ((4, 6), x(upper_arm_2), x(0.0)),
+            ((3, 7), x(280.0), x(0.0)),
+            ((4, 8), x(upper_arm_2), x(0.0)),
         ] {
             if b < n {
                 fit_mut(&mut f, a, b).centre_in_a = in_a;
@@ -943,7 +946,7 @@ mod tests {
 
     #[test]
     fn a_limb_hung_on_its_twin_moves_to_the_twins_parent() {
-        let (seg, f) = twin_arms(true, 300.0);
+        let (seg, f) = twin_arms(1, 300.0);
         let t = run(&seg, &f, &Params::default()).unwrap_or_else(|e| panic!("{e}"));
         assert_eq!(
             edge_set(&t),
@@ -957,7 +960,8 @@ mod tests {
             t.notes
         );
         // Not where the rule is off, the bones differ, the pair with the parent costs too
-        // much more, or the twins are one bone deep (a like length is a coin toss there).
+        // much more, the twins are one bone deep (a like length is a coin toss there), or
+        // they branch (rather a body cut in pieces than two limbs).
         let stays = |seg: &Segmentation, f: &PairFits, params: &Params| {
             let t = run(seg, f, params).unwrap_or_else(|e| panic!("{e}"));
             edge_set(&t).contains(&(1, 2))
@@ -967,12 +971,14 @@ mod tests {
             ..Params::default()
         };
         assert!(stays(&seg, &f, &off));
-        let (seg, f) = twin_arms(true, 520.0);
+        let (seg, f) = twin_arms(1, 520.0);
         assert!(stays(&seg, &f, &Params::default()));
-        let (seg, mut f) = twin_arms(true, 300.0);
+        let (seg, mut f) = twin_arms(1, 300.0);
         fit_mut(&mut f, 0, 2).cost = 6.5;
         assert!(stays(&seg, &f, &Params::default()));
-        let (seg, f) = twin_arms(false, 300.0);
+        let (seg, f) = twin_arms(0, 300.0);
+        assert!(stays(&seg, &f, &Params::default()));
+        let (seg, f) = twin_arms(2, 300.0);
         assert!(stays(&seg, &f, &Params::default()));
     }
 
