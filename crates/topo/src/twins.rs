@@ -7,10 +7,11 @@
 //! on X, and what hangs below Y is what hangs below X besides Y, bone for bone (the same
 //! branching, bone lengths alike). A body part is built like its mirror image, not like the
 //! segment it hangs from, so where the pair of Y with X's parent P is also a fair joint
-//! (`twin_cost_ratio`), Y is moved to P. Leaves are never twins (nothing below them to
-//! compare), so the rule reads nothing into two lone segments.
+//! (`twin_cost_ratio`), Y is moved to P. Twins are limbs: chains of at least two bones
+//! below the two segments (one bone of a like length is a coin toss), and not a segment
+//! carrying several branches (rather a body cut in pieces).
 
-use jointfit::{PairFit, PairFits};
+use jointfit::{JointKind, PairFit, PairFits};
 
 use crate::Params;
 
@@ -117,7 +118,11 @@ pub(crate) fn hang_twins_on_one_parent(
         }
         // (new cost over the replaced edge's, edge, Y, P, the new pair's index)
         let mut best: Option<(f64, usize, usize, usize, usize)> = None;
-        for (e, &(a, b, _, cost)) in edges.iter().enumerate() {
+        for (e, &(a, b, pair, cost)) in edges.iter().enumerate() {
+            // A rigid pair is one body split in two, not a limb on its twin.
+            if fits.pairs[pair].tree_kind() == JointKind::Rigid {
+                continue;
+            }
             for (x, y) in [(a, b), (b, a)] {
                 if moved[y] {
                     continue;
@@ -135,12 +140,12 @@ pub(crate) fn hang_twins_on_one_parent(
                     };
                     let py = &fits.pairs[pi];
                     let ratio = py.cost / cost;
-                    let below_y = branch(y, centre_in(py, y), &[x], &neighbours, edges, fits);
-                    let px = &fits.pairs[edges[pe].2];
-                    let below_x = branch(x, centre_in(px, x), &[p, y], &neighbours, edges, fits);
                     if !ratio.is_finite() || ratio > params.twin_cost_ratio {
                         continue;
                     }
+                    let below_y = branch(y, centre_in(py, y), &[x], &neighbours, edges, fits);
+                    let px = &fits.pairs[edges[pe].2];
+                    let below_x = branch(x, centre_in(px, x), &[p, y], &neighbours, edges, fits);
                     if !alike(&below_x, &below_y, params.twin_length_tolerance) {
                         continue;
                     }
