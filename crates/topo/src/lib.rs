@@ -198,8 +198,9 @@ pub const PARAM_DOCS: &[(&str, &str)] = &[
     (
         "twin_cost_ratio",
         "after the spanning tree, a segment Y hung on a segment X is moved to X's parent P \
-         when what hangs below Y is built like what else hangs below X (the same branching, \
-         not a leaf, bones alike within twin_length_tolerance) and the pair P-Y costs at \
+         when what hangs below Y is built like what else hangs below X (the same chain of \
+         at least two bones, no branching, bones alike within twin_length_tolerance) and \
+         the pair P-Y costs at \
          most this many times X-Y: like limbs meet their body close together and fit a \
          centre with each other about as well as with it. cargo xtask eval --presets hard \
          --compare topo.twin_cost_ratio=0,1.5,2,3: seeds 20001..20050,30001..30050 550 -> \
@@ -207,8 +208,8 @@ pub const PARAM_DOCS: &[(&str, &str)] = &[
          other), 1.3935 -> 1.3937 % of height at 2; --true-segments 668 -> 671 (hexapod \
          coxae on each other); seeds 40001..40100 535 -> 537 at 2 (human s40027, s40042); \
          no tree lost; 20001..20020 --marker-arc 120 102 -> 103, --markers 2:3 \
-         --true-segments 87 -> 88, and clean (both seed sets above), noise, skin, messy, \
-         gaps, --markers 2:3 and --sweep 0.2:0.4 the same trees; every real capture's \
+         --true-segments 87 -> 88, and noise, skin, messy, gaps, --markers 2:3 and --sweep \
+         0.2:0.4 the same trees, clean on 20001..20050,30001..30050 too; every real capture's \
          skeleton.json unchanged; 0 = off; default 2",
     ),
     (

@@ -21,7 +21,7 @@ pub(crate) type Edge = (usize, usize, usize, f64);
 /// What hangs below a segment, as its tree shows it: the branching (a canonical nested
 /// string, children in a fixed order) and every bone's length in that order (mm: from the
 /// joint the segment is entered by to each child's joint, in the segment's frame).
-#[derive(Debug, PartialEq)]
+#[derive(Debug)]
 struct Branch {
     shape: String,
     lengths: Vec<f64>,
@@ -36,6 +36,7 @@ fn centre_in(pair: &PairFit, s: usize) -> [f64; 3] {
     }
 }
 
+/// Euclidean distance, mm.
 fn distance(p: [f64; 3], q: [f64; 3]) -> f64 {
     ((p[0] - q[0]).powi(2) + (p[1] - q[1]).powi(2) + (p[2] - q[2]).powi(2)).sqrt()
 }
