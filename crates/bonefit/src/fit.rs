@@ -895,11 +895,7 @@ fn pair_residual(fits: &PairFits, pair: &PairFit) -> f64 {
 
 /// The pair's joint centre in segment `s`'s local frame (mm).
 fn centre_in(pair: &PairFit, s: usize) -> DVec3 {
-    DVec3::from_array(if pair.a == s {
-        pair.centre_in_a
-    } else {
-        pair.centre_in_b
-    })
+    DVec3::from_array(pair.centre_in(s))
 }
 
 /// Checks every topology joint against the pair fits and resolves its parent joint.

@@ -175,13 +175,11 @@ pub(crate) fn euler_degrees(q: DQuat) -> String {
 /// quarter of the bone, continuing its direction.
 pub(crate) fn end_site(input: &Inputs<'_>, j: usize) -> DVec3 {
     let joint = &input.skeleton.joints[j];
-    let centre_in_child = input.fits.pairs.get(joint.pair).map(|p| {
-        DVec3::from_array(if p.a == joint.child_segment {
-            p.centre_in_a
-        } else {
-            p.centre_in_b
-        })
-    });
+    let centre_in_child = input
+        .fits
+        .pairs
+        .get(joint.pair)
+        .map(|p| DVec3::from_array(p.centre_in(joint.child_segment)));
     match centre_in_child
         .map(|c| -c)
         .filter(|e| e.is_finite() && e.length() >= 1.0)

@@ -19,14 +19,19 @@ pub struct PairFits {
 impl PairFits {
     /// The fit between segments x and y (either order); `None` when there is none.
     pub fn pair(&self, x: usize, y: usize) -> Option<&PairFit> {
+        self.pair_index(x, y).map(|i| &self.pairs[i])
+    }
+
+    /// Where the fit between segments x and y (either order) sits in `pairs`.
+    pub fn pair_index(&self, x: usize, y: usize) -> Option<usize> {
         let (a, b) = (x.min(y), x.max(y));
         let n = self.poses.len();
+        let is_it = |i: &usize| self.pairs.get(*i).is_some_and(|p| (p.a, p.b) == (a, b));
         // Lexicographic order of (a, b), a < b: the pairs before row a, then b's place in
         // it; a search where the fits are not laid out so.
         let at = (a < b && b < n).then(|| a * n - a * (a + 1) / 2 + (b - a - 1));
-        at.and_then(|i| self.pairs.get(i))
-            .filter(|p| (p.a, p.b) == (a, b))
-            .or_else(|| self.pairs.iter().find(|p| (p.a, p.b) == (a, b)))
+        at.filter(is_it)
+            .or_else(|| self.pairs.iter().position(|p| (p.a, p.b) == (a, b)))
     }
 }
 
@@ -143,6 +148,15 @@ fn not_measured() -> f64 {
 }
 
 impl PairFit {
+    /// The joint centre in segment `s`'s local frame (mm); `s` is `a` or `b`.
+    pub fn centre_in(&self, s: usize) -> [f64; 3] {
+        if self.a == s {
+            self.centre_in_a
+        } else {
+            self.centre_in_b
+        }
+    }
+
     /// The kind topo's rules read: the first pass's where it is kept (see `first_pass_kind`).
     pub fn tree_kind(&self) -> JointKind {
         self.first_pass_kind.unwrap_or(self.kind)

@@ -11,7 +11,7 @@
 //! below the two segments (one bone of a like length is a coin toss), and not a segment
 //! carrying several branches (rather a body cut in pieces).
 
-use jointfit::{JointKind, PairFit, PairFits};
+use jointfit::{JointKind, PairFits};
 
 use crate::Params;
 
@@ -25,15 +25,6 @@ pub(crate) type Edge = (usize, usize, usize, f64);
 struct Branch {
     shape: String,
     lengths: Vec<f64>,
-}
-
-/// A joint centre in segment `s`'s local frame (`s` is one of the pair's two segments).
-fn centre_in(pair: &PairFit, s: usize) -> [f64; 3] {
-    if pair.a == s {
-        pair.centre_in_a
-    } else {
-        pair.centre_in_b
-    }
 }
 
 /// Euclidean distance, mm.
@@ -56,10 +47,10 @@ fn branch(
         .filter(|(c, _)| !blocked.contains(c))
         .map(|&(c, e)| {
             let pair = &fits.pairs[edges[e].2];
-            let below = branch(c, centre_in(pair, c), &[node], neighbours, edges, fits);
+            let below = branch(c, pair.centre_in(c), &[node], neighbours, edges, fits);
             (
                 below.shape,
-                distance(centre_in(pair, node), entry),
+                distance(pair.centre_in(node), entry),
                 below.lengths,
             )
         })
@@ -132,11 +123,7 @@ pub(crate) fn hang_twins_on_one_parent(
                     if p == y {
                         continue;
                     }
-                    let Some(pi) = fits
-                        .pairs
-                        .iter()
-                        .position(|q| (q.a, q.b) == (p.min(y), p.max(y)))
-                    else {
+                    let Some(pi) = fits.pair_index(p, y) else {
                         continue;
                     };
                     let py = &fits.pairs[pi];
@@ -144,9 +131,9 @@ pub(crate) fn hang_twins_on_one_parent(
                     if !ratio.is_finite() || ratio > params.twin_cost_ratio {
                         continue;
                     }
-                    let below_y = branch(y, centre_in(py, y), &[x], &neighbours, edges, fits);
+                    let below_y = branch(y, py.centre_in(y), &[x], &neighbours, edges, fits);
                     let px = &fits.pairs[edges[pe].2];
-                    let below_x = branch(x, centre_in(px, x), &[p, y], &neighbours, edges, fits);
+                    let below_x = branch(x, px.centre_in(x), &[p, y], &neighbours, edges, fits);
                     if !alike(&below_x, &below_y, params.twin_length_tolerance) {
                         continue;
                     }
