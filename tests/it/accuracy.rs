@@ -484,3 +484,24 @@ fn a_clavicle_hung_on_its_twin_goes_to_the_thorax() {
     );
     assert!(!off.topology_exact, "the rule off: {off}");
 }
+
+/// human-hard-s20046's tree hung the left clavicle (11.30 against the thorax's 15.45) and
+/// the head (18.29) on the right clavicle. The head blinds the twins rule (the right
+/// clavicle carries one branch more than the left), but it fits a centre with the left
+/// clavicle (20.41) and the thorax (16.03) about as well: it sits where the twins meet the
+/// thorax, not on one clavicle's far side. Both go to the thorax and the tree is exact
+/// (with `topo.twin_leaf_cost_ratio=0` it is not).
+#[test]
+fn a_head_between_the_clavicles_goes_to_the_thorax() {
+    let tmp = Scratch::new("accuracy-human-hard-twin-leaf");
+    let dir = synthesize(&tmp, "human", "hard", 20046);
+    let score = run_and_score(&tmp, &dir, "human-hard-s20046", &[]);
+    assert!(score.topology_exact, "{score}");
+    let off = run_and_score(
+        &tmp,
+        &dir,
+        "human-hard-s20046",
+        &["topo.twin_leaf_cost_ratio=0".into()],
+    );
+    assert!(!off.topology_exact, "the rule off: {off}");
+}

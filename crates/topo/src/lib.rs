@@ -35,7 +35,10 @@
 //!   hangs below each is the same chain of at least two bones, bone lengths alike) moves
 //!   to that segment's parent where their pair is a fair joint too (`twin_cost_ratio`,
 //!   `twin_length_tolerance`): like limbs meet their body close together, so one clavicle
-//!   or coxa can fit a centre with the other as well as with the body.
+//!   or coxa can fit a centre with the other as well as with the body. A leaf hung on one
+//!   of two twins that fits the other twin and their parent about as well
+//!   (`twin_leaf_cost_ratio`) moves to the parent: it sits where the twins meet it, as a
+//!   head between the clavicles, not on one twin's far side.
 //! - Root: the tree's centre (minimum eccentricity in hops), ties by the smaller sum of
 //!   hops to every segment, then most markers, then the smaller mean distance to the
 //!   other segments over the capture, then lowest id; it lands on the pelvis or torso of
@@ -95,6 +98,10 @@ pub struct Params {
     pub twin_cost_ratio: f64,
     /// Twins' bones agree within this share of the longer (default 0.4).
     pub twin_length_tolerance: f64,
+    /// A leaf hung on one of two twins moves to their parent when its pairs with the
+    /// parent and with the other twin each cost at most this many times its edge
+    /// (default 3; 0 = off).
+    pub twin_leaf_cost_ratio: f64,
 }
 
 impl Default for Params {
@@ -110,6 +117,7 @@ impl Default for Params {
             composite_hinge_cost_ratio: 3.0,
             twin_cost_ratio: 2.0,
             twin_length_tolerance: 0.4,
+            twin_leaf_cost_ratio: 3.0,
         }
     }
 }
@@ -211,6 +219,25 @@ pub const PARAM_DOCS: &[(&str, &str)] = &[
          --true-segments 87 -> 88, and noise, skin, messy, gaps, --markers 2:3 and --sweep \
          0.2:0.4 the same trees, clean on 20001..20050,30001..30050 too; every real capture's \
          skeleton.json unchanged; 0 = off; default 2",
+    ),
+    (
+        "twin_leaf_cost_ratio",
+        "after the twins move, a leaf L hung on one of two twins X, Y (siblings on P, built \
+         alike as twin_cost_ratio reads them, leaves like L aside) moves to P when its pairs \
+         with P and with Y each cost at most this many times its pair with X: a segment \
+         hung on a limb sits at its far side, away from the mirror twin; one that fits both \
+         twins and P alike sits where the twins meet P (a head between the clavicles, which \
+         also hid the clavicles' twinship). cargo xtask eval --presets hard --compare \
+         topo.twin_leaf_cost_ratio=0,1.5,2,3,5,10, seeds 20001..20050,30001..30050: 552 / \
+         554 / 555 / 555 / 555 / 554 exact trees of 700 (human s20019, s20046, s20049; 10 \
+         loses random-hard-s20002), 1.3937 -> 1.3935 % of height at 3; 3 is the middle of \
+         that flat run; --true-segments 671 -> 674 at 2 and 3; seeds 40001..40100 537 -> 538 at 2, \
+         539 at 3 (human s40017, s40070), --true-segments 663 -> 666 at 2, 667 at 3; no tree \
+         lost; on 20001..20020 skin 101 -> 102 and messy 112 -> 113 (human s20019), noise, \
+         gaps, --markers 2:3 (also with --true-segments), --marker-arc 120 and --sweep \
+         0.2:0.4 the same trees (the sweep's mean 3.6793 -> 3.6808 %), clean on \
+         20001..20050,30001..30050 700/700 and 0.0581 % as before; every real capture's \
+         skeleton.json unchanged; 0 = off; default 3",
     ),
     (
         "twin_length_tolerance",

@@ -84,6 +84,12 @@ pub fn run(seg: &Segmentation, fits: &PairFits, params: &Params) -> Result<Topol
         n,
         params,
     ));
+    notes.extend(crate::twins::hang_shared_leaves_on_the_twins_parent(
+        &mut accepted,
+        fits,
+        n,
+        params,
+    ));
 
     // Components; the tree is the forced root's, else the biggest (segments, markers, id).
     let mut members: Vec<Vec<usize>> = vec![Vec::new(); n];
@@ -979,6 +985,57 @@ mod tests {
         let (seg, f) = twin_arms(0, 300.0);
         assert!(stays(&seg, &f, &Params::default()));
         let (seg, f) = twin_arms(2, 300.0);
+        assert!(stays(&seg, &f, &Params::default()));
+    }
+
+    /// Twin arms (see `twin_arms`) with a head 7 that fits a centre with clavicle 1 best
+    /// (4 mm), with the thorax (5) and the other clavicle (`head_on_2` mm) a little worse:
+    /// the spanning tree hangs clavicle 2 and the head on clavicle 1.
+    fn twin_arms_and_head(head_on_2: f64) -> (Segmentation, PairFits) {
+        let (_, arms) = twin_arms(1, 300.0);
+        let seg = segmentation(&[6, 3, 3, 3, 3, 3, 3, 4]);
+        let mut f = fits(8, |a, b| match (a, b) {
+            (1, 7) => (4.0, JointKind::Ball),
+            (0, 7) => (5.0, JointKind::Ball),
+            (2, 7) => (head_on_2, JointKind::Ball),
+            (_, 7) => (40.0, JointKind::Ball),
+            _ => (0.0, JointKind::Ball),
+        });
+        for p in &arms.pairs {
+            *fit_mut(&mut f, p.a, p.b) = p.clone();
+        }
+        (seg, f)
+    }
+
+    #[test]
+    fn a_leaf_that_fits_both_twins_moves_to_their_parent() {
+        let (seg, f) = twin_arms_and_head(5.5);
+        let t = run(&seg, &f, &Params::default()).unwrap_or_else(|e| panic!("{e}"));
+        assert_eq!(
+            edge_set(&t),
+            [(0, 1), (0, 2), (0, 7), (1, 3), (2, 4), (3, 5), (4, 6)]
+        );
+        assert!(
+            t.notes
+                .iter()
+                .any(|n| n.contains("segment 7 hung on segment 0, not on 1")),
+            "{:?}",
+            t.notes
+        );
+        // Without the leaf rule the head blinds the twins rule too (clavicle 1 carries more
+        // than clavicle 2); and a head that fits the other clavicle much worse (13 mm, 3.25
+        // × its 4) sits on clavicle 1's far side, not between the twins: it stays, and so
+        // do the clavicles.
+        let off = Params {
+            twin_leaf_cost_ratio: 0.0,
+            ..Params::default()
+        };
+        let stays = |seg: &Segmentation, f: &PairFits, params: &Params| {
+            let e = edge_set(&run(seg, f, params).unwrap_or_else(|e| panic!("{e}")));
+            e.contains(&(1, 2)) && e.contains(&(1, 7))
+        };
+        assert!(stays(&seg, &f, &off));
+        let (seg, f) = twin_arms_and_head(13.0);
         assert!(stays(&seg, &f, &Params::default()));
     }
 

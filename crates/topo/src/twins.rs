@@ -10,6 +10,12 @@
 //! (`twin_cost_ratio`), Y is moved to P. Twins are limbs: chains of at least two bones
 //! below the two segments (one bone of a like length is a coin toss), and not a segment
 //! carrying several branches (rather a body cut in pieces).
+//!
+//! A leaf hung on one twin that fits a centre with the other twin and with their parent
+//! about as well (`twin_leaf_cost_ratio`) sits where the twins meet the parent, not on
+//! one twin's far side (where a hand or a paw hangs, away from the mirror limb): it moves
+//! to the parent (a head the tree hung on a clavicle). Such leaves are set aside when
+//! twins are compared, since one twin carries them and the other does not.
 
 use jointfit::{JointKind, PairFits};
 
@@ -100,14 +106,7 @@ pub(crate) fn hang_twins_on_one_parent(
     }
     let mut moved = vec![false; n];
     loop {
-        let mut neighbours: Vec<Vec<(usize, usize)>> = vec![Vec::new(); n];
-        for (e, &(a, b, _, _)) in edges.iter().enumerate() {
-            neighbours[a].push((b, e));
-            neighbours[b].push((a, e));
-        }
-        for list in &mut neighbours {
-            list.sort_unstable();
-        }
+        let neighbours = tree_neighbours(edges, n);
         // (new cost over the replaced edge's, edge, Y, P, the new pair's index)
         let mut best: Option<(f64, usize, usize, usize, usize)> = None;
         for (e, &(a, b, pair, cost)) in edges.iter().enumerate() {
@@ -133,7 +132,9 @@ pub(crate) fn hang_twins_on_one_parent(
                     }
                     let below_y = branch(y, py.centre_in(y), &[x], &neighbours, edges, fits);
                     let px = &fits.pairs[edges[pe].2];
-                    let below_x = branch(x, px.centre_in(x), &[p, y], &neighbours, edges, fits);
+                    let mut blocked = vec![p, y];
+                    blocked.extend(shared_leaves(x, p, y, &neighbours, edges, fits, params));
+                    let below_x = branch(x, px.centre_in(x), &blocked, &neighbours, edges, fits);
                     if !alike(&below_x, &below_y, params.twin_length_tolerance) {
                         continue;
                     }
@@ -161,4 +162,150 @@ pub(crate) fn hang_twins_on_one_parent(
         moved[y] = true;
     }
     notes
+}
+
+/// The leaves hung on `x` (nothing below them) that fit a centre with `p` and with `y`
+/// too, each pair within `twin_leaf_cost_ratio` × the leaf's edge to `x`.
+fn shared_leaves(
+    x: usize,
+    p: usize,
+    y: usize,
+    neighbours: &[Vec<(usize, usize)>],
+    edges: &[Edge],
+    fits: &PairFits,
+    params: &Params,
+) -> Vec<usize> {
+    if params.twin_leaf_cost_ratio <= 0.0 {
+        return Vec::new();
+    }
+    let fair = |leaf: usize, other: usize, cost: f64| {
+        fits.pair_index(leaf, other)
+            .map(|i| fits.pairs[i].cost / cost)
+            .is_some_and(|r| r.is_finite() && r <= params.twin_leaf_cost_ratio)
+    };
+    neighbours[x]
+        .iter()
+        .filter(|&&(l, e)| {
+            l != p
+                && l != y
+                && neighbours[l].len() == 1
+                && fair(l, p, edges[e].3)
+                && fair(l, y, edges[e].3)
+        })
+        .map(|&(l, _)| l)
+        .collect()
+}
+
+/// Moves each leaf L hung on one of two twins X, Y (siblings on P, built alike: see the
+/// module docs) to P when L fits a centre with P and with Y about as well as with X
+/// (`twin_leaf_cost_ratio`): a segment hung on a limb sits at the limb's far side, away
+/// from its mirror twin; one that fits both twins alike sits where they meet their
+/// parent (a head between the clavicles). Best first, each leaf at most once. Gives a
+/// note per move.
+pub(crate) fn hang_shared_leaves_on_the_twins_parent(
+    edges: &mut [Edge],
+    fits: &PairFits,
+    n: usize,
+    params: &Params,
+) -> Vec<String> {
+    let mut notes = Vec::new();
+    if params.twin_leaf_cost_ratio <= 0.0 || params.twin_cost_ratio <= 0.0 {
+        return notes;
+    }
+    let rigid = |edges: &[Edge], e: usize| fits.pairs[edges[e].2].tree_kind() == JointKind::Rigid;
+    let mut moved = vec![false; n];
+    loop {
+        let neighbours = tree_neighbours(edges, n);
+        // (new cost over the replaced edge's, edge, leaf, P, the new pair's index, Y)
+        let mut best: Option<(f64, usize, usize, usize, usize, usize)> = None;
+        for (e, &(a, b, _, cost)) in edges.iter().enumerate() {
+            if rigid(edges, e) {
+                continue;
+            }
+            for (x, l) in [(a, b), (b, a)] {
+                if moved[l] || neighbours[l].len() != 1 {
+                    continue;
+                }
+                for &(p, pe) in &neighbours[x] {
+                    if p == l || rigid(edges, pe) {
+                        continue;
+                    }
+                    let Some(pi) = fits.pair_index(p, l) else {
+                        continue;
+                    };
+                    let ratio = fits.pairs[pi].cost / cost;
+                    if !ratio.is_finite() || ratio > params.twin_leaf_cost_ratio {
+                        continue;
+                    }
+                    for &(y, ye) in &neighbours[p] {
+                        if y == x || rigid(edges, ye) {
+                            continue;
+                        }
+                        let Some(yi) = fits.pair_index(y, l) else {
+                            continue;
+                        };
+                        let twin_ratio = fits.pairs[yi].cost / cost;
+                        if !twin_ratio.is_finite() || twin_ratio > params.twin_leaf_cost_ratio {
+                            continue;
+                        }
+                        let below = |s: usize, t: usize, se: usize| {
+                            let mut blocked = vec![p];
+                            blocked.extend(shared_leaves(
+                                s,
+                                p,
+                                t,
+                                &neighbours,
+                                edges,
+                                fits,
+                                params,
+                            ));
+                            let entry = fits.pairs[edges[se].2].centre_in(s);
+                            branch(s, entry, &blocked, &neighbours, edges, fits)
+                        };
+                        if !alike(
+                            &below(x, y, pe),
+                            &below(y, x, ye),
+                            params.twin_length_tolerance,
+                        ) {
+                            continue;
+                        }
+                        let key = (ratio, e, l, p, pi, y);
+                        if best.is_none_or(|b| (key.0, key.1, key.2, key.3) < (b.0, b.1, b.2, b.3))
+                        {
+                            best = Some(key);
+                        }
+                    }
+                }
+            }
+        }
+        let Some((ratio, e, l, p, pi, y)) = best else {
+            break;
+        };
+        let x = if edges[e].0 == l {
+            edges[e].1
+        } else {
+            edges[e].0
+        };
+        notes.push(format!(
+            "segment {l} hung on segment {p}, not on {x}: it fits a centre with {x}'s twin {y} \
+             and with {p} about as well (its pair with {p} costs {ratio:.2} × its pair with \
+             {x}; topo.twin_leaf_cost_ratio), so it sits where the twins meet {p}"
+        ));
+        edges[e] = (p.min(l), p.max(l), pi, fits.pairs[pi].cost);
+        moved[l] = true;
+    }
+    notes
+}
+
+/// Each segment's tree neighbours, (neighbour, edge index), in a fixed order.
+fn tree_neighbours(edges: &[Edge], n: usize) -> Vec<Vec<(usize, usize)>> {
+    let mut neighbours: Vec<Vec<(usize, usize)>> = vec![Vec::new(); n];
+    for (e, &(a, b, _, _)) in edges.iter().enumerate() {
+        neighbours[a].push((b, e));
+        neighbours[b].push((a, e));
+    }
+    for list in &mut neighbours {
+        list.sort_unstable();
+    }
+    neighbours
 }
