@@ -200,8 +200,9 @@ fn shared_leaves(
 /// module docs) to P when L fits a centre with P and with Y about as well as with X
 /// (`twin_leaf_cost_ratio`): a segment hung on a limb sits at the limb's far side, away
 /// from its mirror twin; one that fits both twins alike sits where they meet their
-/// parent (a head between the clavicles). Best first, each leaf at most once. Gives a
-/// note per move.
+/// parent (a head between the clavicles). No edge among X, Y, P and L may be rigid (a
+/// rigid pair is one body split in two, not a limb). Best first, each leaf at most once.
+/// Gives a note per move.
 pub(crate) fn hang_shared_leaves_on_the_twins_parent(
     edges: &mut [Edge],
     fits: &PairFits,
