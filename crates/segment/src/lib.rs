@@ -49,7 +49,9 @@
 //! segment when some distance of its stays within the tolerance or it swings about a point
 //! of a body of ≥ 3 (a sphere or, about a hinge, a circle in that body's frame;
 //! `singleton_swing_factor`, see `swing`) or its steadiest partner is in a group too small
-//! to pose (`singleton_next_to_small`), else unassigned. Unassigned means too little data,
+//! to pose (`singleton_next_to_small`), else unassigned. A cluster those last steps built,
+//! which neither the joint test nor the rigid merge has judged, is put to the joint test
+//! (`joint_retest`). Unassigned means too little data,
 //! or moving against every marker. A segment of ≥ 6 markers whose best cut came near the
 //! joint test's bounds is listed as maybe two (`near_joint_fraction`; nothing is cut).
 //! Or agglomeration alone (`method = "linkage"`) or rigid cliques (`method = "cliques"`).
@@ -368,6 +370,13 @@ fn segment_capture(
             rigidity::normalise(&mut clusters);
         }
     }
+    // What the joint test and the rigid merge have judged; the steps below can build
+    // clusters neither saw (`joint_retest`).
+    let judged: BTreeSet<Vec<usize>> = {
+        let mut c = clusters.clone();
+        rigidity::normalise(&mut c);
+        c.into_iter().collect()
+    };
     // Bodies are posed only when there is a lone marker or a pair to hold.
     if params.pair_hold > 0.0 && clusters.iter().any(|c| c.len() <= 2) {
         let typical = typical_sigma(traj, &clusters, &mut sigma_memo);
@@ -496,6 +505,15 @@ fn segment_capture(
     });
     unassigned.sort_by_key(|u| u.marker);
 
+    if params.joint_retest && params.joint_split_z > 0.0 {
+        // A cluster the holds, ejections and orphan pairings assembled has not been put to
+        // the joint test (human-hard-s20038's abdomen and thorax, z 5.05 on their true cut);
+        // one the rigid merge joined was judged one body and is not cut again.
+        let test = joint_test(params, typical_sigma(traj, &clusters, &mut sigma_memo));
+        rigidity::normalise(&mut clusters);
+        clusters = jointsplit::split_all(traj, &stats, min_overlap, clusters, test, &judged);
+        rigidity::normalise(&mut clusters);
+    }
     let near_joints = if params.near_joint_fraction > 0.0 && params.joint_split_z > 0.0 {
         let test = joint_test(params, typical_sigma(traj, &clusters, &mut sigma_memo));
         jointsplit::near_joints(
