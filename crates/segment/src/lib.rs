@@ -49,10 +49,10 @@
 //! segment when some distance of its stays within the tolerance or it swings about a point
 //! of a body of ≥ 3 (a sphere or, about a hinge, a circle in that body's frame;
 //! `singleton_swing_factor`, see `swing`) or its steadiest partner is in a group too small
-//! to pose (`singleton_next_to_small`), else unassigned. A cluster those last steps built,
-//! which neither the joint test nor the rigid merge has judged, is put to the joint test
-//! (`joint_retest`). Unassigned means too little data,
-//! or moving against every marker. A segment of ≥ 6 markers whose best cut came near the
+//! to pose (`singleton_next_to_small`), else unassigned. Unassigned means too little data,
+//! or moving against every marker. A cluster of ≥ 6 that the steps after the rigid merge
+//! built, which neither the joint test's rounds nor the merge has judged, is put to the
+//! joint test once (`joint_retest`). A segment of ≥ 6 markers whose best cut came near the
 //! joint test's bounds is listed as maybe two (`near_joint_fraction`; nothing is cut).
 //! Or agglomeration alone (`method = "linkage"`) or rigid cliques (`method = "cliques"`).
 //!
