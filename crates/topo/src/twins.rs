@@ -73,6 +73,13 @@ fn branch(
     Branch { shape, lengths }
 }
 
+/// The pair (a, b)'s index and its cost over `cost` when that is finite and at most `bound`.
+fn fair_pair(fits: &PairFits, a: usize, b: usize, cost: f64, bound: f64) -> Option<(usize, f64)> {
+    let i = fits.pair_index(a, b)?;
+    let ratio = fits.pairs[i].cost / cost;
+    (ratio.is_finite() && ratio <= bound).then_some((i, ratio))
+}
+
 /// Fewest bones below a twin: one bone of a like length is a coin toss in a random tree
 /// (random-hard-s40070: two segments with one child each, bones of 501 and 592 mm).
 const MIN_BONES: usize = 2;
@@ -122,14 +129,11 @@ pub(crate) fn hang_twins_on_one_parent(
                     if p == y {
                         continue;
                     }
-                    let Some(pi) = fits.pair_index(p, y) else {
+                    let Some((pi, ratio)) = fair_pair(fits, p, y, cost, params.twin_cost_ratio)
+                    else {
                         continue;
                     };
                     let py = &fits.pairs[pi];
-                    let ratio = py.cost / cost;
-                    if !ratio.is_finite() || ratio > params.twin_cost_ratio {
-                        continue;
-                    }
                     let below_y = branch(y, py.centre_in(y), &[x], &neighbours, edges, fits);
                     let px = &fits.pairs[edges[pe].2];
                     let mut blocked = vec![p, y];
@@ -179,9 +183,7 @@ fn shared_leaves(
         return Vec::new();
     }
     let fair = |leaf: usize, other: usize, cost: f64| {
-        fits.pair_index(leaf, other)
-            .map(|i| fits.pairs[i].cost / cost)
-            .is_some_and(|r| r.is_finite() && r <= params.twin_leaf_cost_ratio)
+        fair_pair(fits, leaf, other, cost, params.twin_leaf_cost_ratio).is_some()
     };
     neighbours[x]
         .iter()
@@ -231,22 +233,15 @@ pub(crate) fn hang_shared_leaves_on_the_twins_parent(
                     if p == l || rigid(edges, pe) {
                         continue;
                     }
-                    let Some(pi) = fits.pair_index(p, l) else {
+                    let bound = params.twin_leaf_cost_ratio;
+                    let Some((pi, ratio)) = fair_pair(fits, p, l, cost, bound) else {
                         continue;
                     };
-                    let ratio = fits.pairs[pi].cost / cost;
-                    if !ratio.is_finite() || ratio > params.twin_leaf_cost_ratio {
-                        continue;
-                    }
                     for &(y, ye) in &neighbours[p] {
                         if y == x || rigid(edges, ye) {
                             continue;
                         }
-                        let Some(yi) = fits.pair_index(y, l) else {
-                            continue;
-                        };
-                        let twin_ratio = fits.pairs[yi].cost / cost;
-                        if !twin_ratio.is_finite() || twin_ratio > params.twin_leaf_cost_ratio {
+                        if fair_pair(fits, y, l, cost, bound).is_none() {
                             continue;
                         }
                         let below = |s: usize, t: usize, se: usize| {
