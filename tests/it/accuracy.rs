@@ -524,3 +524,24 @@ fn a_cluster_the_last_steps_assemble_is_put_to_the_joint_test() {
     );
     assert!(!off.topology_exact, "without the last test: {off}");
 }
+
+/// snake-hard-s20030's second link (six markers) was cut 3 + 3: the halves turned 100°
+/// RMS relative to each other (rotation z 5.05 against the test's 4), but the turn was the
+/// worse posed half spinning about its own centroid, which travelled 8.7 mm in the other
+/// half's frame (travel z 2.04, about what one body gives). A rotation counts only with a
+/// travel (`segment.joint_rotation_travel_z`), so the link stays whole and the tree is exact
+/// (with the rule off it is not).
+#[test]
+fn a_turn_that_carries_no_centroid_does_not_cut_a_segment() {
+    let tmp = Scratch::new("accuracy-snake-hard-spin");
+    let dir = synthesize(&tmp, "snake", "hard", 20030);
+    let score = run_and_score(&tmp, &dir, "snake-hard-s20030", &[]);
+    assert!(score.topology_exact, "{score}");
+    let off = run_and_score(
+        &tmp,
+        &dir,
+        "snake-hard-s20030",
+        &["segment.joint_rotation_travel_z=0".into()],
+    );
+    assert!(!off.topology_exact, "the rule off: {off}");
+}

@@ -16,7 +16,9 @@
 //! covariance the parts' rotation errors would have on one body (σ² J⁻¹ per part, σ the
 //! capture's typical segment fit σ, J the part's inertia tensor: a near-collinear part's
 //! spin about its own line counts for little), has a robust Mahalanobis length above
-//! `joint_split_z`, and a centre of rotation fixed in both parts explains the parts'
+//! `joint_split_z` while the worse posed part's centroid travels in the other's frame
+//! beyond one body's (`joint_rotation_travel_z`: a part's pose error turns it about its own
+//! centroid, which then stays put, where a joint swings the centroid about the joint), and a centre of rotation fixed in both parts explains the parts'
 //! relative translation (its residual is at most `joint_centre_fraction` of it). A part of
 //! three markers nearly in line with a hinge's axis poses the hinge's rotation badly (its
 //! J⁻¹ is large about that line), so the test also weighs where a part goes: the worse
@@ -88,15 +90,18 @@ impl JointEvidence {
     /// or one's centroid travels in the other's frame by one above `min_travel_z`,
     /// about a point fixed in both (residual within `centre_fraction` of the relative
     /// translation).
-    /// A `min_travel_z` of 0 leaves the centroid's travel out.
+    /// A `min_travel_z` of 0 leaves the centroid's travel out; a rotation counts only with a
+    /// travel above `rotation_travel_z` (0: any).
     pub fn is_joint(
         &self,
         min_z: f64,
         min_travel_z: f64,
+        rotation_travel_z: f64,
         centre_fraction: f64,
         max_part_sigma_mm: f64,
     ) -> bool {
-        (self.rotation_z > min_z || (min_travel_z > 0.0 && self.translation_z > min_travel_z))
+        ((self.rotation_z > min_z && self.translation_z > rotation_travel_z)
+            || (min_travel_z > 0.0 && self.translation_z > min_travel_z))
             && self.centre_mm <= centre_fraction * self.translation_mm
             && self.part_sigma_mm <= max_part_sigma_mm
     }
@@ -693,6 +698,8 @@ pub(crate) struct JointTest {
     pub min_z: f64,
     /// Mahalanobis length of a part's centroid travel that means articulation (0: unused).
     pub min_travel_z: f64,
+    /// Least travel a rotation above `min_z` must come with to mean articulation (0: any).
+    pub rotation_travel_z: f64,
     /// Largest SCoRE residual as a fraction of the parts' relative translation.
     pub centre_fraction: f64,
     /// The capture's typical segment fit σ, mm per coordinate (skin and noise).
@@ -720,6 +727,7 @@ pub(crate) fn split_by_joint(
             if e.is_joint(
                 test.min_z,
                 test.min_travel_z,
+                test.rotation_travel_z,
                 test.centre_fraction,
                 test.max_part_sigma_mm,
             ) =>
@@ -893,7 +901,7 @@ mod tests {
     use rand::{Rng, SeedableRng};
     use rand_chacha::ChaCha8Rng;
 
-    use super::{JointTest, RigidMerge, merge_rigid, near_joints, split_by_joint};
+    use super::{JointEvidence, JointTest, RigidMerge, merge_rigid, near_joints, split_by_joint};
     use crate::fitsplit::typical_sigma;
     use crate::pairstats::pair_stats;
 
@@ -962,12 +970,44 @@ mod tests {
         Trajectories::new(labels, 100.0, 1, frames, positions).expect("capture")
     }
 
+    /// A relative rotation well above the parts' pose noise that leaves the worse posed
+    /// part's centroid where one body would keep it is that part spinning about its own
+    /// centroid, not a joint; the same rotation with the centroid swinging is one.
+    #[test]
+    fn a_turn_that_carries_no_centroid_is_no_joint() {
+        let spin = JointEvidence {
+            rotation_z: 5.0,
+            translation_z: 2.0,
+            centre_mm: 2.5,
+            translation_mm: 8.0,
+            part_sigma_mm: 3.0,
+            ..JointEvidence::default()
+        };
+        assert!(spin.is_joint(4.0, 5.0, 0.0, 1.0, 6.0), "any travel");
+        assert!(!spin.is_joint(4.0, 5.0, 2.5, 1.0, 6.0), "travel z 2 < 2.5");
+        let swing = JointEvidence {
+            translation_z: 3.0,
+            ..spin
+        };
+        assert!(swing.is_joint(4.0, 5.0, 2.5, 1.0, 6.0), "travel z 3 > 2.5");
+        let travel_alone = JointEvidence {
+            rotation_z: 1.0,
+            translation_z: 5.5,
+            ..spin
+        };
+        assert!(
+            travel_alone.is_joint(4.0, 5.0, 2.5, 1.0, 6.0),
+            "joint_travel_z's own route"
+        );
+    }
+
     fn split(traj: &Trajectories) -> Vec<Vec<usize>> {
         let stats = pair_stats(traj);
         let truth = vec![vec![0, 1, 2, 3], vec![4, 5, 6, 7]];
         let test = JointTest {
             min_z: 4.5,
             min_travel_z: 0.0,
+            rotation_travel_z: 2.5,
             centre_fraction: 1.0,
             typical_sigma_mm: typical_sigma(traj, &truth),
             max_part_sigma_mm: 2.0 * typical_sigma(traj, &truth),
@@ -1038,6 +1078,7 @@ mod tests {
                 let test = JointTest {
                     min_z: 4.0,
                     min_travel_z,
+                    rotation_travel_z: 0.0,
                     centre_fraction: 1.0,
                     typical_sigma_mm: typical,
                     max_part_sigma_mm: 2.0 * typical.max(0.5),
@@ -1074,6 +1115,7 @@ mod tests {
             let test = JointTest {
                 min_z: 4.0,
                 min_travel_z: 0.0,
+                rotation_travel_z: 0.0,
                 centre_fraction: 1.0,
                 typical_sigma_mm: typical_sigma(&traj, &truth),
                 max_part_sigma_mm: 2.0 * typical_sigma(&traj, &truth),

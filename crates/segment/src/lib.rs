@@ -28,10 +28,11 @@
 //! the other bodies of ≥ 3 (its trajectory's scatter in each body's frame, less the pose's
 //! own error) and moves where it is held clearly stiller (`reassign_ratio`). Then the joint
 //! test splits a cluster of ≥ 6 whose two best-fitting parts turn relative to each other
-//! beyond their own fits' rotation noise, or where one part's centroid swings in the
-//! other's frame beyond what their fits allow (`joint_travel_z`: a part of three markers in
-//! line with the axis poses its rotation badly), about a common point (`joint_split_z`, see
-//! `jointsplit`), again on the clusters the settling after a cut changed; neighbours that
+//! beyond their own fits' rotation noise while one part's centroid moves in the other's
+//! frame (`joint_rotation_travel_z`: a turn that carries no centroid is the parts' own
+//! spin), or where that centroid swings beyond what their fits allow (`joint_travel_z`: a
+//! part of three markers in line with the axis poses its rotation badly), about a common
+//! point (`joint_split_z`, see `jointsplit`), again on the clusters the settling after a cut changed; neighbours that
 //! move as one rigid body merge (`joint_merge_z`); a marker no body holds leaves its
 //! cluster (`eject_ratio`); a two-marker cluster whose markers two different bodies hold
 //! dissolves into them, a lone marker a body holds joins it (`pair_hold`), a pair one
@@ -563,6 +564,7 @@ fn joint_test(params: &Params, typical_mm: f64) -> jointsplit::JointTest {
     jointsplit::JointTest {
         min_z: params.joint_split_z,
         min_travel_z: params.joint_travel_z,
+        rotation_travel_z: params.joint_rotation_travel_z,
         centre_fraction: params.joint_centre_fraction,
         typical_sigma_mm: typical_mm,
         // Each part must fit like the ordinary segment the fit split accepts.
