@@ -17,9 +17,10 @@
 //! capture's typical segment fit σ, J the part's inertia tensor: a near-collinear part's
 //! spin about its own line counts for little), has a robust Mahalanobis length above
 //! `joint_split_z` while the worse posed part's centroid travels in the other's frame
-//! beyond one body's (`joint_rotation_travel_z`: a part's pose error turns it about its own
-//! centroid, which then stays put, where a joint swings the centroid about the joint), and a centre of rotation fixed in both parts explains the parts'
-//! relative translation (its residual is at most `joint_centre_fraction` of it). A part of
+//! beyond one body's (`joint_rotation_travel_z`: a part's pose error turns it about its
+//! own centroid, which then stays put, where a joint swings the centroid about the joint),
+//! and a centre of rotation fixed in both parts explains the parts' relative translation
+//! (its residual is at most `joint_centre_fraction` of it). A part of
 //! three markers nearly in line with a hinge's axis poses the hinge's rotation badly (its
 //! J⁻¹ is large about that line), so the test also weighs where a part goes: the worse
 //! posed part's centroid in the better posed part's frame, against the covariance both
@@ -87,11 +88,12 @@ pub struct JointEvidence {
 impl JointEvidence {
     /// Whether the evidence says articulation: two rigid parts (each fit σ within
     /// `max_part_sigma_mm`) whose relative rotation has a Mahalanobis length above `min_z`
+    /// (with a centroid travel above `rotation_travel_z`)
     /// or one's centroid travels in the other's frame by one above `min_travel_z`,
     /// about a point fixed in both (residual within `centre_fraction` of the relative
     /// translation).
-    /// A `min_travel_z` of 0 leaves the centroid's travel out; a rotation counts only with a
-    /// travel above `rotation_travel_z` (0: any).
+    /// A `min_travel_z` of 0 leaves the centroid's travel out, a `rotation_travel_z` of 0
+    /// lets a rotation count with any travel.
     pub fn is_joint(
         &self,
         min_z: f64,
