@@ -59,7 +59,10 @@ fn main() {
                 e.is_joint(
                     params.joint_split_z,
                     params.joint_travel_z,
-                    params.joint_rotation_travel_z,
+                    (
+                        params.joint_rotation_travel_z,
+                        params.joint_rotation_alone_z,
+                    ),
                     params.joint_centre_fraction,
                     part_sigma,
                 )

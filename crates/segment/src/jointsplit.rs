@@ -88,21 +88,24 @@ pub struct JointEvidence {
 impl JointEvidence {
     /// Whether the evidence says articulation: two rigid parts (each fit σ within
     /// `max_part_sigma_mm`) whose relative rotation has a Mahalanobis length above `min_z`
-    /// (with a centroid travel above `rotation_travel_z`)
+    /// (with a centroid travel above `rotation.0` unless the length is above `rotation.1`)
     /// or one's centroid travels in the other's frame by one above `min_travel_z`,
     /// about a point fixed in both (residual within `centre_fraction` of the relative
     /// translation).
-    /// A `min_travel_z` of 0 leaves the centroid's travel out, a `rotation_travel_z` of 0
-    /// lets a rotation count with any travel.
+    /// A `min_travel_z` of 0 leaves the centroid's travel out, a `rotation.0` of 0 lets a
+    /// rotation count with any travel, a `rotation.1` of 0 never without one.
     pub fn is_joint(
         &self,
         min_z: f64,
         min_travel_z: f64,
-        rotation_travel_z: f64,
+        rotation: (f64, f64),
         centre_fraction: f64,
         max_part_sigma_mm: f64,
     ) -> bool {
-        ((self.rotation_z > min_z && self.translation_z > rotation_travel_z)
+        let (rotation_travel_z, rotation_alone_z) = rotation;
+        let carried = self.translation_z > rotation_travel_z
+            || (rotation_alone_z > 0.0 && self.rotation_z > rotation_alone_z);
+        ((self.rotation_z > min_z && carried)
             || (min_travel_z > 0.0 && self.translation_z > min_travel_z))
             && self.centre_mm <= centre_fraction * self.translation_mm
             && self.part_sigma_mm <= max_part_sigma_mm
@@ -702,6 +705,8 @@ pub(crate) struct JointTest {
     pub min_travel_z: f64,
     /// Least travel a rotation above `min_z` must come with to mean articulation (0: any).
     pub rotation_travel_z: f64,
+    /// Rotation length above which no travel is needed (0: never).
+    pub rotation_alone_z: f64,
     /// Largest SCoRE residual as a fraction of the parts' relative translation.
     pub centre_fraction: f64,
     /// The capture's typical segment fit σ, mm per coordinate (skin and noise).
@@ -729,7 +734,7 @@ pub(crate) fn split_by_joint(
             if e.is_joint(
                 test.min_z,
                 test.min_travel_z,
-                test.rotation_travel_z,
+                (test.rotation_travel_z, test.rotation_alone_z),
                 test.centre_fraction,
                 test.max_part_sigma_mm,
             ) =>
@@ -985,21 +990,41 @@ mod tests {
             part_sigma_mm: 3.0,
             ..JointEvidence::default()
         };
-        assert!(spin.is_joint(4.0, 5.0, 0.0, 1.0, 6.0), "any travel");
-        assert!(!spin.is_joint(4.0, 5.0, 2.5, 1.0, 6.0), "travel z 2 < 2.5");
+        assert!(spin.is_joint(4.0, 5.0, (0.0, 0.0), 1.0, 6.0), "any travel");
+        assert!(
+            !spin.is_joint(4.0, 5.0, (2.5, 8.0), 1.0, 6.0),
+            "travel z 2 < 2.5"
+        );
         let swing = JointEvidence {
             translation_z: 3.0,
             ..spin
         };
-        assert!(swing.is_joint(4.0, 5.0, 2.5, 1.0, 6.0), "travel z 3 > 2.5");
+        assert!(
+            swing.is_joint(4.0, 5.0, (2.5, 8.0), 1.0, 6.0),
+            "travel z 3 > 2.5"
+        );
         let travel_alone = JointEvidence {
             rotation_z: 1.0,
             translation_z: 5.5,
             ..spin
         };
         assert!(
-            travel_alone.is_joint(4.0, 5.0, 2.5, 1.0, 6.0),
+            travel_alone.is_joint(4.0, 5.0, (2.5, 8.0), 1.0, 6.0),
             "joint_travel_z's own route"
+        );
+        // Far beyond what pose error turns a part (a long bone posed from markers near its
+        // line swings the other's centroid through a wide covariance).
+        let strong = JointEvidence {
+            rotation_z: 9.0,
+            ..spin
+        };
+        assert!(
+            strong.is_joint(4.0, 5.0, (2.5, 8.0), 1.0, 6.0),
+            "z 9 > 8 needs no travel"
+        );
+        assert!(
+            !strong.is_joint(4.0, 5.0, (2.5, 0.0), 1.0, 6.0),
+            "0: always needs one"
         );
     }
 
@@ -1010,6 +1035,7 @@ mod tests {
             min_z: 4.5,
             min_travel_z: 0.0,
             rotation_travel_z: 2.5,
+            rotation_alone_z: 8.0,
             centre_fraction: 1.0,
             typical_sigma_mm: typical_sigma(traj, &truth),
             max_part_sigma_mm: 2.0 * typical_sigma(traj, &truth),
@@ -1081,6 +1107,7 @@ mod tests {
                     min_z: 4.0,
                     min_travel_z,
                     rotation_travel_z: 0.0,
+                    rotation_alone_z: 0.0,
                     centre_fraction: 1.0,
                     typical_sigma_mm: typical,
                     max_part_sigma_mm: 2.0 * typical.max(0.5),
@@ -1118,6 +1145,7 @@ mod tests {
                 min_z: 4.0,
                 min_travel_z: 0.0,
                 rotation_travel_z: 0.0,
+                rotation_alone_z: 0.0,
                 centre_fraction: 1.0,
                 typical_sigma_mm: typical_sigma(&traj, &truth),
                 max_part_sigma_mm: 2.0 * typical_sigma(&traj, &truth),

@@ -565,6 +565,7 @@ fn joint_test(params: &Params, typical_mm: f64) -> jointsplit::JointTest {
         min_z: params.joint_split_z,
         min_travel_z: params.joint_travel_z,
         rotation_travel_z: params.joint_rotation_travel_z,
+        rotation_alone_z: params.joint_rotation_alone_z,
         centre_fraction: params.joint_centre_fraction,
         typical_sigma_mm: typical_mm,
         // Each part must fit like the ordinary segment the fit split accepts.

@@ -133,6 +133,9 @@ pub struct Params {
     /// A rotation above joint_split_z counts only when the worse posed part's centroid travels in the other's frame with a Mahalanobis length above this; 0 = any.
     #[serde(default = "default_joint_rotation_travel_z")]
     pub joint_rotation_travel_z: f64,
+    /// ... unless the rotation's Mahalanobis length is above this; 0 = never.
+    #[serde(default = "default_joint_rotation_alone_z")]
+    pub joint_rotation_alone_z: f64,
     /// After every other step, a cluster that neither the joint test nor the rigid merge has judged is put to the joint test.
     pub joint_retest: bool,
     /// A marker its own cluster (≥ 5) holds this many times worse than the median of its cluster-mates becomes a group of its own; 0 = off.
@@ -159,6 +162,11 @@ pub struct Params {
 /// `Params::joint_rotation_travel_z`'s default, for artifacts written before it existed.
 fn default_joint_rotation_travel_z() -> f64 {
     2.5
+}
+
+/// `Params::joint_rotation_alone_z`'s default, for artifacts written before it existed.
+fn default_joint_rotation_alone_z() -> f64 {
+    8.0
 }
 
 /// `Params::near_joint_fraction`'s default, for artifacts written before it existed.
@@ -211,6 +219,7 @@ impl Default for Params {
             joint_travel_z: 5.0,
             joint_centre_fraction: 1.0,
             joint_rotation_travel_z: default_joint_rotation_travel_z(),
+            joint_rotation_alone_z: default_joint_rotation_alone_z(),
             joint_retest: true,
             eject_ratio: 8.0,
             joint_merge_z: 4.0,
@@ -438,6 +447,10 @@ pub const PARAM_DOCS: &[(&str, &str)] = &[
         "joint test: a relative rotation above joint_split_z means articulation only when the worse posed part's centroid also travels in the other's frame with a robust Mahalanobis length above this (joint_travel_z's measure, about 2 on one rigid body). A part's pose error turns it about its own centroid, which stays put in the other part's frame, where a joint swings the centroid about the joint: snake-hard-s20030's link2 cut 3 + 3 turned 100° RMS (z 5.05) while the spinning part's centroid travelled 8.7 mm (travel z 2.04). merge_table example over every subject, seeds 20001..20050 (with MARKERS=4:8 all but the hexapod): of the pairs of final segments cut from one true segment that pass joint_split_z, 3 of 10 travel below 2.5 (4:8: 10 of 18); of the pairs a true joint joins, 9 of 3535 (4:8: 4 of 3076). cargo xtask eval --presets hard --compare segment.joint_rotation_travel_z=0,2,2.5,3: seeds 20001..20050,30001..30050 556 / 558 / 558 / 557 exact trees (1.3920 / 1.3918 / 1.3882 / 1.3939 %), 40001..40100 540 / 543 / 543 (1.4040 / 1.4008 / 1.4005 %), 50001..50100 544 / 544 / 546 (1.4058 / 1.4068 / 1.4068 %); with --markers 4:8 (the first seeds) 552 / 558 / 564 (with more markers a segment has more ways to be cut in halves that pass the rotation score); clean unchanged (700/700, 0.0581 %), every real capture's skeleton.json byte-identical. The rigid merge was left alone: merging pairs the rule would not cut lost 5 trees at 2.5. 0 = any; default 2.5",
     ),
     (
+        "joint_rotation_alone_z",
+        "joint test: a relative rotation whose robust Mahalanobis length is above this means articulation without joint_rotation_travel_z's travel: no pose error turns a part that far, while a part seen from a long frame posed from markers near its line travels through a wide covariance (random-hard trees: true joints at rotation z 6-16 with 46-263 mm of travel score travel z 1.4-2.5 with their true parts, truth_evidence example). The trials in which every true joint passes with its true parts (truth_evidence, seeds 20001..20050 and 30001..30050), without the travel rule / with it / with it and this bound: random trees 92 / 84 / 90, humans 89 / 85 / 86, quadrupeds 65 / 61 / 61, hexapods 36 / 35 / 35. cargo xtask eval --presets hard: seeds 20001..20050,30001..30050 and 40001..40100 the same trees and means with and without it (558, 1.3882 %; 543, 1.4005 %), 50001..50100 546 -> 547 (snake s50052; 1.4068 -> 1.4065 %), --markers 4:8 the same 564; at 6.5 the first seeds lose human s20007 (a mixed cluster whose parts turn at z 6.87 with travel z 1.23). 0 = never; default 8.0 (twice joint_split_z's)",
+    ),
+    (
         "near_joint_fraction",
         "a diagnostic, nothing is cut: a final segment of ≥ 6 markers whose best cut (the one the joint test weighs, smallest pooled σ) scores at least this fraction of joint_split_z on its rotation or of joint_travel_z on its centroid's travel is listed in Segmentation::near_joints, in skeleton.json (the segment's near_joint, with both parts) and among the run's findings, as possibly two segments that turn little about a joint: skin leaves such joints under the test (a hexapod's coxae merged into its body, a quadruped's carpus into its forearm). The parts are the test's best cut, which skin can put elsewhere than the joint. cargo xtask eval --presets hard (its 'listed as maybe two' figures: segments of ≥ 6 markers holding ≥ 3 markers of each of two true segments, and the rest): seeds 20001-20050,30001-30050 98 of 138 and 126 of 2002 (hexapod 81 of 112 and 31 of 351, quadruped 13 of 18 and 34 of 443); at 0.7 108 and 217, at 0.8 78 and 78; seeds 40001-40100 114 of 172 and 140 of 2030. Of the real captures' 16 segments of ≥ 6 markers, 3 are listed: btk Res16bits' head, shoulder and arm with the hand as the other part (rotation z 4.67, failing the test's centre condition) in its C3D and its TRC, and OpenSim subject01_walk1's right foot (z 3.10). Costs the segment stage about 0.01 s of 0.27 on cargo xtask bench's capture; 0 = off; default 0.75",
     ),
@@ -542,6 +555,7 @@ impl Params {
         non_negative("joint_travel_z", self.joint_travel_z)?;
         positive("joint_centre_fraction", self.joint_centre_fraction)?;
         non_negative("joint_rotation_travel_z", self.joint_rotation_travel_z)?;
+        non_negative("joint_rotation_alone_z", self.joint_rotation_alone_z)?;
         non_negative("eject_ratio", self.eject_ratio)?;
         non_negative("joint_merge_z", self.joint_merge_z)?;
         non_negative("pair_hold", self.pair_hold)?;
