@@ -18,11 +18,12 @@
 //! spin about its own line counts for little), has a robust Mahalanobis length above
 //! `joint_split_z` while the worse posed part's centroid travels in the other's frame
 //! beyond one body's (`joint_rotation_travel_z`: a part's pose error turns it about its
-//! own centroid, which then stays put, where a joint swings the centroid about the joint),
-//! and a centre of rotation fixed in both parts explains the parts' relative translation
-//! (its residual is at most `joint_centre_fraction` of it). A part of
-//! three markers nearly in line with a hinge's axis poses the hinge's rotation badly (its
-//! J⁻¹ is large about that line), so the test also weighs where a part goes: the worse
+//! own centroid, which then stays put, where a joint swings the centroid about the joint;
+//! a rotation above `joint_rotation_alone_z` needs no travel, as no pose error turns a part
+//! that far), and a centre of rotation fixed in both parts explains the parts' relative
+//! translation (its residual is at most `joint_centre_fraction` of it). A part of three
+//! markers nearly in line with a hinge's axis poses the hinge's rotation badly (its J⁻¹ is
+//! large about that line), so the test also weighs where a part goes: the worse
 //! posed part's centroid in the better posed part's frame, against the covariance both
 //! centroids' errors and the frame's rotation error give it on one body (`joint_travel_z`).
 //! The bipartition tried is the one two free rigid bodies fit best

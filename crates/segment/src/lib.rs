@@ -30,7 +30,7 @@
 //! test splits a cluster of ≥ 6 whose two best-fitting parts turn relative to each other
 //! beyond their own fits' rotation noise while one part's centroid moves in the other's
 //! frame (`joint_rotation_travel_z`: a turn that carries no centroid is the parts' own
-//! spin), or where that centroid swings beyond what their fits allow (`joint_travel_z`: a
+//! spin, unless it is far beyond it, `joint_rotation_alone_z`), or where that centroid swings beyond what their fits allow (`joint_travel_z`: a
 //! part of three markers in line with the axis poses its rotation badly), about a common
 //! point (`joint_split_z`, see `jointsplit`), again on the clusters the settling after a
 //! cut changed; neighbours that move as one rigid body merge (`joint_merge_z`); a marker
