@@ -465,6 +465,18 @@ fn a_segments_own_hinge_and_the_hinge_it_carries_do_not_meet() {
     assert!(error < 40.0, "joint07: {error:.1} mm\n{score}");
 }
 
+/// Asserts that the `hard` trial of `subject` and `seed` gets the exact tree with the
+/// defaults and not with `off` (`STAGE.PARAM=V`, the rule under test switched off).
+fn exact_only_with_the_rule(scratch: &str, subject: &str, seed: u64, off: &str) {
+    let tmp = Scratch::new(scratch);
+    let dir = synthesize(&tmp, subject, "hard", seed);
+    let stem = format!("{subject}-hard-s{seed}");
+    let score = run_and_score(&tmp, &dir, &stem, &[]);
+    assert!(score.topology_exact, "{score}");
+    let without = run_and_score(&tmp, &dir, &stem, &[off.into()]);
+    assert!(!without.topology_exact, "with {off}: {without}");
+}
+
 /// human-hard-s20022's right clavicle fits a centre with the left one (6.25) a little
 /// better than with the thorax (6.58), and the spanning tree hung it on the left clavicle;
 /// but what hangs below it (upper arm, forearm, hand) is built like what else hangs below
@@ -472,17 +484,12 @@ fn a_segments_own_hinge_and_the_hinge_it_carries_do_not_meet() {
 /// (with `topo.twin_cost_ratio=0` it is not).
 #[test]
 fn a_clavicle_hung_on_its_twin_goes_to_the_thorax() {
-    let tmp = Scratch::new("accuracy-human-hard-twins");
-    let dir = synthesize(&tmp, "human", "hard", 20022);
-    let score = run_and_score(&tmp, &dir, "human-hard-s20022", &[]);
-    assert!(score.topology_exact, "{score}");
-    let off = run_and_score(
-        &tmp,
-        &dir,
-        "human-hard-s20022",
-        &["topo.twin_cost_ratio=0".into()],
+    exact_only_with_the_rule(
+        "accuracy-human-hard-twins",
+        "human",
+        20022,
+        "topo.twin_cost_ratio=0",
     );
-    assert!(!off.topology_exact, "the rule off: {off}");
 }
 
 /// human-hard-s20046's tree hung the left clavicle (11.30 against the thorax's 15.45) and
@@ -493,17 +500,12 @@ fn a_clavicle_hung_on_its_twin_goes_to_the_thorax() {
 /// (with `topo.twin_leaf_cost_ratio=0` it is not).
 #[test]
 fn a_head_between_the_clavicles_goes_to_the_thorax() {
-    let tmp = Scratch::new("accuracy-human-hard-twin-leaf");
-    let dir = synthesize(&tmp, "human", "hard", 20046);
-    let score = run_and_score(&tmp, &dir, "human-hard-s20046", &[]);
-    assert!(score.topology_exact, "{score}");
-    let off = run_and_score(
-        &tmp,
-        &dir,
-        "human-hard-s20046",
-        &["topo.twin_leaf_cost_ratio=0".into()],
+    exact_only_with_the_rule(
+        "accuracy-human-hard-twin-leaf",
+        "human",
+        20046,
+        "topo.twin_leaf_cost_ratio=0",
     );
-    assert!(!off.topology_exact, "the rule off: {off}");
 }
 
 /// human-hard-s20038's abdomen and thorax (three markers each) ended as one segment: a
@@ -512,17 +514,12 @@ fn a_head_between_the_clavicles_goes_to_the_thorax() {
 /// test (`segment.joint_retest`) cuts it and the tree is exact (without it, it is not).
 #[test]
 fn a_cluster_the_last_steps_assemble_is_put_to_the_joint_test() {
-    let tmp = Scratch::new("accuracy-human-hard-retest");
-    let dir = synthesize(&tmp, "human", "hard", 20038);
-    let score = run_and_score(&tmp, &dir, "human-hard-s20038", &[]);
-    assert!(score.topology_exact, "{score}");
-    let off = run_and_score(
-        &tmp,
-        &dir,
-        "human-hard-s20038",
-        &["segment.joint_retest=false".into()],
+    exact_only_with_the_rule(
+        "accuracy-human-hard-retest",
+        "human",
+        20038,
+        "segment.joint_retest=false",
     );
-    assert!(!off.topology_exact, "without the last test: {off}");
 }
 
 /// snake-hard-s20030's second link (six markers) was cut 3 + 3: the halves turned 100°
@@ -533,15 +530,10 @@ fn a_cluster_the_last_steps_assemble_is_put_to_the_joint_test() {
 /// (with the rule off it is not).
 #[test]
 fn a_turn_that_carries_no_centroid_does_not_cut_a_segment() {
-    let tmp = Scratch::new("accuracy-snake-hard-spin");
-    let dir = synthesize(&tmp, "snake", "hard", 20030);
-    let score = run_and_score(&tmp, &dir, "snake-hard-s20030", &[]);
-    assert!(score.topology_exact, "{score}");
-    let off = run_and_score(
-        &tmp,
-        &dir,
-        "snake-hard-s20030",
-        &["segment.joint_rotation_travel_z=0".into()],
+    exact_only_with_the_rule(
+        "accuracy-snake-hard-spin",
+        "snake",
+        20030,
+        "segment.joint_rotation_travel_z=0",
     );
-    assert!(!off.topology_exact, "the rule off: {off}");
 }

@@ -991,26 +991,23 @@ mod tests {
             part_sigma_mm: 3.0,
             ..JointEvidence::default()
         };
-        assert!(spin.is_joint(4.0, 5.0, (0.0, 0.0), 1.0, 6.0), "any travel");
-        assert!(
-            !spin.is_joint(4.0, 5.0, (2.5, 8.0), 1.0, 6.0),
-            "travel z 2 < 2.5"
-        );
+        // The test's defaults but for the two rotation bounds.
+        let joint =
+            |e: &JointEvidence, rotation: (f64, f64)| e.is_joint(4.0, 5.0, rotation, 1.0, 6.0);
+        assert!(joint(&spin, (0.0, 0.0)), "any travel");
+        assert!(!joint(&spin, (2.5, 8.0)), "travel z 2 < 2.5");
         let swing = JointEvidence {
             translation_z: 3.0,
             ..spin
         };
-        assert!(
-            swing.is_joint(4.0, 5.0, (2.5, 8.0), 1.0, 6.0),
-            "travel z 3 > 2.5"
-        );
+        assert!(joint(&swing, (2.5, 8.0)), "travel z 3 > 2.5");
         let travel_alone = JointEvidence {
             rotation_z: 1.0,
             translation_z: 5.5,
             ..spin
         };
         assert!(
-            travel_alone.is_joint(4.0, 5.0, (2.5, 8.0), 1.0, 6.0),
+            joint(&travel_alone, (2.5, 8.0)),
             "joint_travel_z's own route"
         );
         // Far beyond what pose error turns a part (a long bone posed from markers near its
@@ -1019,14 +1016,8 @@ mod tests {
             rotation_z: 9.0,
             ..spin
         };
-        assert!(
-            strong.is_joint(4.0, 5.0, (2.5, 8.0), 1.0, 6.0),
-            "z 9 > 8 needs no travel"
-        );
-        assert!(
-            !strong.is_joint(4.0, 5.0, (2.5, 0.0), 1.0, 6.0),
-            "0: always needs one"
-        );
+        assert!(joint(&strong, (2.5, 8.0)), "z 9 > 8 needs no travel");
+        assert!(!joint(&strong, (2.5, 0.0)), "0: always needs one");
     }
 
     fn split(traj: &Trajectories) -> Vec<Vec<usize>> {

@@ -30,12 +30,13 @@
 //! test splits a cluster of ≥ 6 whose two best-fitting parts turn relative to each other
 //! beyond their own fits' rotation noise while one part's centroid moves in the other's
 //! frame (`joint_rotation_travel_z`: a turn that carries no centroid is the parts' own
-//! spin, unless it is far beyond it, `joint_rotation_alone_z`), or where that centroid swings beyond what their fits allow (`joint_travel_z`: a
-//! part of three markers in line with the axis poses its rotation badly), about a common
-//! point (`joint_split_z`, see `jointsplit`), again on the clusters the settling after a
-//! cut changed; neighbours that move as one rigid body merge (`joint_merge_z`); a marker
-//! no body holds leaves its cluster (`eject_ratio`); a two-marker cluster whose markers
-//! two different bodies hold dissolves into them, a lone marker a body holds joins it (`pair_hold`), a pair one
+//! spin, unless it is far beyond it, `joint_rotation_alone_z`), or where that centroid
+//! swings beyond what their fits allow (`joint_travel_z`: a part of three markers in line
+//! with the axis poses its rotation badly), about a common point (`joint_split_z`, see
+//! `jointsplit`), again on the clusters the settling after a cut changed; neighbours that
+//! move as one rigid body merge (`joint_merge_z`); a marker no body holds leaves its
+//! cluster (`eject_ratio`); a two-marker cluster whose markers two different bodies hold
+//! dissolves into them, a lone marker a body holds joins it (`pair_hold`), a pair one
 //! body holds rejoins it when the rigidity check had cut it from that body's spectral
 //! cluster and it sits there as still as the body's own markers (`pair_rejoin_ratio`: skin
 //! alike on two markers), and a pair only one of whose markers a body holds re-pairs when

@@ -234,8 +234,8 @@ pub const PARAM_DOCS: &[(&str, &str)] = &[
          that flat run; --true-segments 671 -> 674 at 2 and 3; seeds 40001..40100 537 -> \
          538 at 2, 539 at 3 (human s40017, s40070), --true-segments 663 -> 666 at 2, 667 at \
          3; seeds 50001..50100, on which nothing was chosen, 539 -> 544 at 3 (five \
-         humans); no tree lost; on 20001..20020 skin 101 -> 102 and messy 112 -> 113 (human s20019), noise, \
-         gaps, --markers 2:3 (also with --true-segments), --marker-arc 120 and --sweep \
+         humans); no tree lost; on 20001..20020 skin 101 -> 102 and messy 112 -> 113 \
+         (human s20019), noise, gaps, --markers 2:3 (also with --true-segments), --marker-arc 120 and --sweep \
          0.2:0.4 the same trees (the sweep's mean 3.6793 -> 3.6808 %), clean on \
          20001..20050,30001..30050 700/700 and 0.0581 % as before; every real capture's \
          skeleton.json unchanged; 0 = off; default 3",
