@@ -28,9 +28,14 @@
 //!   Kinds are stronger evidence than costs: a pair that is not a hinge, turning at least
 //!   as much as two hinges through a third segment, is their composite even when they
 //!   cost more (`composite_hinge_cost_ratio`; the kinds read with the costs, see
-//!   `PairFit::tree_kind`): two hinges on one hub compose to two
-//!   degrees of freedom, and were it a joint, one of those two pairs would compose its
-//!   motion with another joint's and read as no hinge.
+//!   `PairFit::tree_kind`): two hinges on one hub compose to two degrees of freedom, and
+//!   were it a joint, one of those two pairs would compose its motion with another
+//!   joint's and read as no hinge. Independence is evidence too
+//!   (`composite_independence_margin`): two joints on one hub turn independently, so
+//!   seen from the hub its two pairs' rotations do not correlate, while seen from either
+//!   other segment of the three its two pairs share that segment's joint and do; a pair
+//!   whose third segment sees them correlate clearly less than either of them does is
+//!   taken after them, at costs alike (`composite_independence_cost_ratio`).
 //! - Twins hang on one parent: a segment the tree hung on a segment built like it (what
 //!   hangs below each is the same chain of at least two bones, bone lengths alike) moves
 //!   to that segment's parent where their pair is a fair joint too (`twin_cost_ratio`,
@@ -53,6 +58,7 @@
 //! It does not fit joints, bone lengths or rotations (jointfit and bonefit do), and does
 //! no I/O.
 mod error;
+mod independence;
 mod mst;
 mod topology;
 mod twins;
@@ -92,6 +98,12 @@ pub struct Params {
     /// segment, costing at most this many times as much as it, is their composite
     /// (default 3; 0 = off).
     pub composite_hinge_cost_ratio: f64,
+    /// A pair (b, c) is the composite of a–b and a–c when a's two pairs' rotations
+    /// correlate (in units of chance correlation) at least this much less than b's two
+    /// pairs' and c's (default 2; 0 = off).
+    pub composite_independence_margin: f64,
+    /// ... and a–b and a–c cost at most this many times as much as it (default 1.5).
+    pub composite_independence_cost_ratio: f64,
     /// A segment hung on a twin (what hangs below it is built like what else hangs below
     /// the twin) moves to the twin's parent when that pair costs at most this many times
     /// the edge it replaces (default 2; 0 = off).
@@ -115,6 +127,8 @@ impl Default for Params {
             composite_cost_ratio: 1.5,
             composite_turn_share: 0.4,
             composite_hinge_cost_ratio: 3.0,
+            composite_independence_margin: 2.0,
+            composite_independence_cost_ratio: 1.5,
             twin_cost_ratio: 2.0,
             twin_length_tolerance: 0.4,
             twin_leaf_cost_ratio: 3.0,
@@ -202,6 +216,40 @@ pub const PARAM_DOCS: &[(&str, &str)] = &[
          clean unchanged; seeds 10001-10032 hard 146 -> 147, noise 188 -> 189, skin 133 -> \
          135/192; an offline copy of this stage over the same pair fits gains the same trees \
          at 2 to 5 and loses two human trees at 100; 0 = off; default 3",
+    ),
+    (
+        "composite_independence_margin",
+        "a pair (b, c) is the composite of a-b and a-c, and is taken after them, when those \
+         two cost at most composite_independence_cost_ratio x its cost, the quieter of them \
+         turns at least composite_turn_share of the other, and a's two pairs' rotations \
+         correlate at least this much less than b's two pairs' and c's: two joints on one \
+         hub turn independently, while seen from either other segment its two pairs share \
+         that segment's joint (the pair to the hub is that joint's motion, the pair to the \
+         other segment composes it with the other joint). Correlation: each pair's rotation \
+         relative to the hub (rotation vector about its mean, in the hub's frame), trace \
+         form, over the RMS of the same correlation with one series shifted by 10-40 % of \
+         the frames, since smooth motions of a few cycles correlate by chance that much. \
+         It decides where the costs favour the sibling pair and the rotations' sizes \
+         cannot tell: in random-hard-s30029 (true segments) seg00 and seg02 both hang on \
+         seg01 (pairs cost 17.05 and 7.67, turning 27.9 and 37.7 deg RMS), yet the sibling \
+         pair costs 15.50 and turns only 29.4 deg, so the tree hung seg00 on seg02. cargo xtask \
+         eval --presets hard, cost ratio 1.5: seeds 20001..20050,30001..30050 \
+         --true-segments margins 1.5 / 2 / 3 give 676 / 676 / 674 exact trees of 700 (674 \
+         off: hexapod s20048, random s30029 gained, none lost); at margin 2 the pipeline's \
+         segments 558 -> 559, 40001..40100 543 -> 543, 50001..50100 547 -> 548, none lost; \
+         the plain correlation (no chance units) at margin 0.3 gained as many but lost \
+         random-hard-s40097 (its true hub's two pairs correlating 0.49) and \
+         snake-hard-s50042. Skin that moves a small segment's markers with its \
+         neighbour's joint angle correlates its pose error with that joint, the limit of \
+         this evidence: a hexapod's coxa turning 9.2 deg on the body reads as independent \
+         of its femur seen from the body (hexapod-hard-s20005), and at cost ratio 2 / 3 \
+         two / four hexapod trees are lost (--true-segments, margin 2). Dimensionless (chance \
+         correlations); 0 = off; default 2",
+    ),
+    (
+        "composite_independence_cost_ratio",
+        "see composite_independence_margin: how much dearer (times) the two pairs through \
+         the third segment may be; default 1.5",
     ),
     (
         "twin_cost_ratio",

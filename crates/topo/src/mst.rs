@@ -6,6 +6,7 @@ use std::collections::VecDeque;
 use jointfit::{JointKind, PairFits};
 use segment::Segmentation;
 
+use crate::independence::HubCorrelations;
 use crate::{Error, Params, RunnerUp, Topology, TreeJoint};
 
 /// Builds the segment tree: Kruskal on the pair costs, a root, joints in BFS order.
@@ -53,7 +54,10 @@ pub fn run(seg: &Segmentation, fits: &PairFits, params: &Params) -> Result<Topol
         let rank = u8::from(!(params.rigid_first && p.tree_kind() == JointKind::Rigid));
         edges.push((rank, p.cost, p.a, p.b, i));
     }
-    if params.composite_rotation_ratio > 0.0 || params.composite_hinge_cost_ratio > 0.0 {
+    if params.composite_rotation_ratio > 0.0
+        || params.composite_hinge_cost_ratio > 0.0
+        || params.composite_independence_margin > 0.0
+    {
         take_composites_after_their_joints(&mut edges, fits, n, params);
     }
     edges.sort_by(|x, y| {
@@ -323,6 +327,7 @@ fn take_composites_after_their_joints(
     params: &Params,
 ) {
     let mut taken_at = vec![vec![f64::NAN; n]; n];
+    let mut hub_correlations = HubCorrelations::new(fits);
     for e in edges.iter() {
         taken_at[e.2][e.3] = e.1;
         taken_at[e.3][e.2] = e.1;
@@ -332,7 +337,9 @@ fn take_composites_after_their_joints(
     loop {
         let mut raised = false;
         for e in edges.iter_mut().filter(|e| e.0 == 1) {
-            let Some(after) = composite_of(fits, n, e.2, e.3, params, &taken_at) else {
+            let Some(after) =
+                composite_of(fits, n, e.2, e.3, params, &taken_at, &mut hub_correlations)
+            else {
                 continue;
             };
             if after > e.1 {
@@ -360,7 +367,11 @@ fn take_composites_after_their_joints(
 /// - it is not a hinge, a–b and a–c are both hinges costing at most
 ///   `composite_hinge_cost_ratio` × its cost, and it turns at least as much as either:
 ///   two hinges compose to more than one axis, while in a chain through a hinge the
-///   pair across it composes that hinge with the other joint and is no hinge itself.
+///   pair across it composes that hinge with the other joint and is no hinge itself, or
+/// - a–b and a–c both cost at most `composite_independence_cost_ratio` × its cost, the
+///   quieter turns at least `composite_turn_share` of the other, and a's two pairs'
+///   rotations correlate at least `composite_independence_margin` (in units of chance
+///   correlation, [`HubCorrelations`]) less than b's two pairs' and c's.
 fn composite_of(
     fits: &PairFits,
     n: usize,
@@ -368,6 +379,7 @@ fn composite_of(
     c: usize,
     params: &Params,
     taken_at: &[Vec<f64>],
+    hub_correlations: &mut HubCorrelations,
 ) -> Option<f64> {
     let pair = |x: usize, y: usize| {
         fits.pair(x, y)
@@ -393,7 +405,21 @@ fn composite_of(
                 && ac.tree_kind() == JointKind::Hinge
                 && dearer <= params.composite_hinge_cost_ratio * own.cost
                 && own.rotation_rms_deg >= turns;
-            (by_motion || by_kinds).then_some(taken_at[a][b].max(taken_at[a][c]))
+            // Seen from the hub, its two joints turn independently; seen from either
+            // other segment, its two pairs share that segment's joint.
+            let by_independence = !by_motion
+                && !by_kinds
+                && params.composite_independence_margin > 0.0
+                && dearer <= params.composite_independence_cost_ratio * own.cost
+                && quieter >= params.composite_turn_share * turns
+                && {
+                    let at_a = hub_correlations.get(a, b, c);
+                    let elsewhere = hub_correlations
+                        .get(b, a, c)
+                        .min(hub_correlations.get(c, a, b));
+                    at_a + params.composite_independence_margin <= elsewhere
+                };
+            (by_motion || by_kinds || by_independence).then_some(taken_at[a][b].max(taken_at[a][c]))
         })
         .min_by(f64::total_cmp)
 }
@@ -1209,5 +1235,41 @@ mod tests {
                 "{f} undocumented"
             );
         }
+    }
+
+    /// Siblings 1 and 2 on hub 0 (each turning on it with three independent angles): the
+    /// sibling pair is the cheapest and turns hardly more than either joint, so neither
+    /// the costs nor the rotations' sizes say it is their composite; seen from the hub the
+    /// two joints turn independently, seen from either sibling they do not.
+    #[test]
+    fn siblings_that_turn_independently_of_each_other_hang_on_their_hub() {
+        let seg = segmentation(&[4, 4, 4]);
+        let mut f = fits(3, |a, b| match (a, b) {
+            (1, 2) => (1.0, JointKind::Ball),
+            (0, 1) => (1.3, JointKind::Ball),
+            _ => (1.4, JointKind::Ball),
+        });
+        turning(&mut f, |a, _| if a == 0 { 30.0 } else { 32.0 });
+        f.frames = 480;
+        f.poses = crate::independence::hub_and_two_children(480);
+        let on = Params {
+            composite_independence_margin: 2.0,
+            ..Params::default()
+        };
+        let t = run(&seg, &f, &on).unwrap_or_else(|e| panic!("{e}"));
+        assert_eq!(edge_set(&t), [(0, 1), (0, 2)]);
+        let off = Params {
+            composite_independence_margin: 0.0,
+            ..on.clone()
+        };
+        let t = run(&seg, &f, &off).unwrap_or_else(|e| panic!("{e}"));
+        assert!(edge_set(&t).contains(&(1, 2)));
+        // Beyond the cost ratio (1.4 > 1.2 x 1.0) the sibling pair stands.
+        let tight = Params {
+            composite_independence_cost_ratio: 1.2,
+            ..on
+        };
+        let t = run(&seg, &f, &tight).unwrap_or_else(|e| panic!("{e}"));
+        assert!(edge_set(&t).contains(&(1, 2)));
     }
 }
