@@ -237,6 +237,10 @@ pub const PARAM_DOCS: &[(&str, &str)] = &[
          --true-segments margins 1.5 / 2 / 3 give 676 / 676 / 674 exact trees of 700 (674 \
          off: hexapod s20048, random s30029 gained, none lost); at margin 2 the pipeline's \
          segments 558 -> 559, 40001..40100 543 -> 543, 50001..50100 547 -> 548, none lost; \
+         on the first seeds --frames 2400 578 -> 577 (random-hard-s30018: a sibling pair \
+         the score accepts as coincident joints, seg01-seg12, given up for seg03-seg01, \
+         which it does not), and clean, --markers 4:8 and, on 20001..20050, skin, messy, noise and \
+         --markers 2:3 the same trees; \
          the plain correlation (no chance units) at margin 0.3 gained as many but lost \
          random-hard-s40097 (its true hub's two pairs correlating 0.49) and \
          snake-hard-s50042. Skin that moves a small segment's markers with its \
