@@ -104,6 +104,8 @@ fn correlation_beyond_chance(fits: &PairFits, hub: usize, x: usize, y: usize) ->
     };
     let tx: Vec<DVec3> = relative_x.iter().map(|&q| turn(mean_x, q)).collect();
     let ty: Vec<DVec3> = relative_y.iter().map(|&q| turn(mean_y, q)).collect();
+    // Shifts count the frames kept (all three poses known): a gap only blurs the
+    // chance estimate, while the zero-shift correlation pairs the same instants.
     let at_lag = |lag: isize| {
         let skip_x = lag.max(0).unsigned_abs();
         let skip_y = (-lag).max(0).unsigned_abs();
