@@ -21,6 +21,9 @@ const MIN_FRAMES: usize = 20;
 /// chance gives signals this slow.
 const LAG_FRACTIONS: [f64; 4] = [0.1, 0.2, 0.3, 0.4];
 
+/// Most frames a correlation reads (at a stride beyond).
+const MAX_SAMPLES: usize = 600;
+
 /// Floor of the chance correlation (a few cycles never correlate less).
 const MIN_CHANCE: f64 = 0.05;
 
@@ -42,7 +45,8 @@ impl<'a> HubCorrelations<'a> {
     /// means) correlate beyond chance: their correlation (trace form) over the RMS of
     /// their correlations with one shifted against the other by 10–40 % of the frames
     /// (signals with a few slow cycles correlate by chance that much). Frames where all
-    /// three poses are known; NaN with fewer than [`MIN_FRAMES`].
+    /// three poses are known, at most about [`MAX_SAMPLES`] of them evenly spread; NaN
+    /// with fewer than [`MIN_FRAMES`].
     pub(crate) fn get(&mut self, hub: usize, x: usize, y: usize) -> f64 {
         let key = (hub, x.min(y), x.max(y));
         if let Some(&r) = self.known.get(&key) {
@@ -51,6 +55,13 @@ impl<'a> HubCorrelations<'a> {
         let r = correlation_beyond_chance(self.fits, hub, key.1, key.2);
         self.known.insert(key, r);
         r
+    }
+
+    /// Whether a's two pairs (with b and with c) correlate at least `margin` less than
+    /// b's two pairs and c's; the readings stop at the first that misses.
+    pub(crate) fn clearly_the_hub(&mut self, a: usize, b: usize, c: usize, margin: f64) -> bool {
+        let bound = self.get(a, b, c) + margin;
+        bound <= self.get(b, a, c) && bound <= self.get(c, a, b)
     }
 }
 
@@ -82,9 +93,12 @@ fn correlation_beyond_chance(fits: &PairFits, hub: usize, x: usize, y: usize) ->
         .len()
         .min(px.rotations.len())
         .min(py.rotations.len());
-    let mut relative_x = Vec::with_capacity(frames);
-    let mut relative_y = Vec::with_capacity(frames);
-    for f in 0..frames {
+    // Slow motions need no more samples than this; long captures are read at a stride,
+    // which keeps the stage's time flat in the capture's length.
+    let stride = frames.div_ceil(MAX_SAMPLES).max(1);
+    let mut relative_x = Vec::with_capacity(frames / stride + 1);
+    let mut relative_y = Vec::with_capacity(frames / stride + 1);
+    for f in (0..frames).step_by(stride) {
         let (Some(qh), Some(qx), Some(qy)) = (
             quat(h.rotations[f]),
             quat(px.rotations[f]),

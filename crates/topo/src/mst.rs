@@ -387,41 +387,44 @@ fn composite_of(
     };
     let own = pair(b, c)?;
     let own_not_hinge = matches!(own.tree_kind(), JointKind::Ball | JointKind::Universal);
-    (0..n)
-        .filter(|&a| a != b && a != c)
-        .filter_map(|a| {
-            let (ab, ac) = (pair(a, b)?, pair(a, c)?);
-            let dearer = ab.cost.max(ac.cost);
-            let turns = ab.rotation_rms_deg.max(ac.rotation_rms_deg);
-            // Where one of the two barely turns, the pair across it turns about as much as
-            // the other joint whichever is the composite: the rotations cannot tell.
-            let quieter = ab.rotation_rms_deg.min(ac.rotation_rms_deg);
-            let by_motion = params.composite_rotation_ratio > 0.0
-                && dearer <= params.composite_cost_ratio * own.cost
-                && own.rotation_rms_deg >= params.composite_rotation_ratio * turns
-                && quieter >= params.composite_turn_share * turns;
-            let by_kinds = own_not_hinge
-                && ab.tree_kind() == JointKind::Hinge
-                && ac.tree_kind() == JointKind::Hinge
-                && dearer <= params.composite_hinge_cost_ratio * own.cost
-                && own.rotation_rms_deg >= turns;
-            // Seen from the hub, its two joints turn independently; seen from either
-            // other segment, its two pairs share that segment's joint.
-            let by_independence = !by_motion
-                && !by_kinds
-                && params.composite_independence_margin > 0.0
+    let is_hub = |a: usize, hub_correlations: &mut HubCorrelations| {
+        let (Some(ab), Some(ac)) = (pair(a, b), pair(a, c)) else {
+            return false;
+        };
+        let dearer = ab.cost.max(ac.cost);
+        let turns = ab.rotation_rms_deg.max(ac.rotation_rms_deg);
+        // Where one of the two barely turns, the pair across it turns about as much as
+        // the other joint whichever is the composite: the rotations cannot tell.
+        let quieter = ab.rotation_rms_deg.min(ac.rotation_rms_deg);
+        let by_motion = params.composite_rotation_ratio > 0.0
+            && dearer <= params.composite_cost_ratio * own.cost
+            && own.rotation_rms_deg >= params.composite_rotation_ratio * turns
+            && quieter >= params.composite_turn_share * turns;
+        let by_kinds = own_not_hinge
+            && ab.tree_kind() == JointKind::Hinge
+            && ac.tree_kind() == JointKind::Hinge
+            && dearer <= params.composite_hinge_cost_ratio * own.cost
+            && own.rotation_rms_deg >= turns;
+        // Seen from the hub, its two joints turn independently; seen from either other
+        // segment, its two pairs share that segment's joint. Each reading is a pass over
+        // the capture, so it comes last and stops at the first miss.
+        by_motion
+            || by_kinds
+            || (params.composite_independence_margin > 0.0
                 && dearer <= params.composite_independence_cost_ratio * own.cost
                 && quieter >= params.composite_turn_share * turns
-                && {
-                    let at_a = hub_correlations.get(a, b, c);
-                    let elsewhere = hub_correlations
-                        .get(b, a, c)
-                        .min(hub_correlations.get(c, a, b));
-                    at_a + params.composite_independence_margin <= elsewhere
-                };
-            (by_motion || by_kinds || by_independence).then_some(taken_at[a][b].max(taken_at[a][c]))
-        })
-        .min_by(f64::total_cmp)
+                && hub_correlations.clearly_the_hub(a, b, c, params.composite_independence_margin))
+    };
+    // The cheapest hub decides, so hubs are tried cheapest first and the first one found
+    // ends the search (the costly readings are left for where they can matter).
+    let mut hubs: Vec<(f64, usize)> = (0..n)
+        .filter(|&a| a != b && a != c)
+        .map(|a| (taken_at[a][b].max(taken_at[a][c]), a))
+        .collect();
+    hubs.sort_by(|x, y| x.0.total_cmp(&y.0).then(x.1.cmp(&y.1)));
+    hubs.into_iter()
+        .find(|&(_, a)| is_hub(a, hub_correlations))
+        .map(|(after, _)| after)
 }
 
 /// The tree's centre: minimum eccentricity in hops, ties by the smaller sum of hops to
