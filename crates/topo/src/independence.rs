@@ -210,21 +210,26 @@ mod tests {
 
     #[test]
     fn only_the_hub_sees_its_two_joints_turn_independently() {
-        let fits = PairFits {
-            frames: 480,
-            poses: hub_and_two_children(480),
-            pairs: Vec::new(),
-        };
-        let mut seen = HubCorrelations::new(&fits);
-        let at_hub = seen.get(0, 1, 2);
-        let (at_first, at_second) = (seen.get(1, 0, 2), seen.get(2, 0, 1));
-        // Measured: hub -0.34, children 2.59 and 2.44 (chance correlations about 0.3).
-        assert!(at_hub.abs() < 1.0, "hub {at_hub}");
-        assert!(
-            at_first.min(at_second) > at_hub + 2.0,
-            "hub {at_hub}, children {at_first} {at_second}"
-        );
-        // Cached per (hub, pair), either order.
-        assert_eq!(seen.get(0, 2, 1), at_hub);
+        // The same motion sampled 480 times, and 4800 times (read at a stride of 8).
+        for frames in [480, 4800] {
+            let fits = PairFits {
+                frames,
+                poses: hub_and_two_children(frames),
+                pairs: Vec::new(),
+            };
+            let mut seen = HubCorrelations::new(&fits);
+            let at_hub = seen.get(0, 1, 2);
+            let (at_first, at_second) = (seen.get(1, 0, 2), seen.get(2, 0, 1));
+            // Measured at 480: hub -0.34, children 2.59 and 2.44 (chance about 0.3).
+            assert!(at_hub.abs() < 1.0, "{frames} frames: hub {at_hub}");
+            assert!(
+                at_first.min(at_second) > at_hub + 2.0,
+                "{frames} frames: hub {at_hub}, children {at_first} {at_second}"
+            );
+            assert!(seen.clearly_the_hub(0, 1, 2, 2.0));
+            assert!(!seen.clearly_the_hub(1, 0, 2, 0.0));
+            // Cached per (hub, pair), either order.
+            assert_eq!(seen.get(0, 2, 1), at_hub);
+        }
     }
 }
