@@ -34,8 +34,8 @@
 //!   (`composite_independence_margin`): two joints on one hub turn independently, so
 //!   seen from the hub its two pairs' rotations do not correlate, while seen from either
 //!   other segment of the three its two pairs share that segment's joint and do; a pair
-//!   whose third segment sees them correlate clearly less than either of them does is
-//!   taken after them, at costs alike (`composite_independence_cost_ratio`).
+//!   (b, c) whose third segment a sees its two pairs correlate clearly less than b and c
+//!   see theirs is taken after a's, at costs alike (`composite_independence_cost_ratio`).
 //! - Twins hang on one parent: a segment the tree hung on a segment built like it (what
 //!   hangs below each is the same chain of at least two bones, bone lengths alike) moves
 //!   to that segment's parent where their pair is a fair joint too (`twin_cost_ratio`,
@@ -228,19 +228,20 @@ pub const PARAM_DOCS: &[(&str, &str)] = &[
          other segment composes it with the other joint). Correlation: each pair's rotation \
          relative to the hub (rotation vector about its mean, in the hub's frame), trace \
          form, over the RMS of the same correlation with one series shifted by 10-40 % of \
-         the frames, since smooth motions of a few cycles correlate by chance that much. \
-         It decides where the costs favour the sibling pair and the rotations' sizes \
-         cannot tell: in random-hard-s30029 (true segments) seg00 and seg02 both hang on \
-         seg01 (pairs cost 17.05 and 7.67, turning 27.9 and 37.7 deg RMS), yet the sibling \
-         pair costs 15.50 and turns only 29.4 deg, so the tree hung seg00 on seg02. cargo xtask \
-         eval --presets hard, cost ratio 1.5: seeds 20001..20050,30001..30050 \
+         the frames, since smooth motions of a few cycles correlate by chance that much \
+         (at most 600 frames read, at a stride beyond). It decides where the costs favour \
+         the sibling pair and the rotations' sizes cannot tell: in random-hard-s30029 \
+         (true segments) seg00 and seg02 both hang on seg01 (pairs cost 17.05 and 7.67, \
+         turning 27.9 and 37.7 deg RMS), yet the sibling pair costs 15.50 and turns only \
+         29.4 deg, so the tree hung seg00 on seg02. cargo xtask eval --presets hard, cost \
+         ratio 1.5: seeds 20001..20050,30001..30050 \
          --true-segments margins 1.5 / 2 / 3 give 676 / 676 / 674 exact trees of 700 (674 \
          off: hexapod s20048, random s30029 gained, none lost); at margin 2 the pipeline's \
          segments 558 -> 559, 40001..40100 543 -> 543, 50001..50100 547 -> 548, none lost; \
          on the first seeds --frames 2400 578 -> 577 (random-hard-s30018: a sibling pair \
          the score accepts as coincident joints, seg01-seg12, given up for seg03-seg01, \
-         which it does not), and clean, --markers 4:8 and, on 20001..20050, skin, messy, noise and \
-         --markers 2:3 the same trees; \
+         which it does not), and clean, --markers 4:8 and, on 20001..20050, skin, messy, \
+         noise and --markers 2:3 the same trees; \
          the plain correlation (no chance units) at margin 0.3 gained as many but lost \
          random-hard-s40097 (its true hub's two pairs correlating 0.49) and \
          snake-hard-s50042. Skin that moves a small segment's markers with its \
