@@ -24,7 +24,8 @@ const LAG_FRACTIONS: [f64; 4] = [0.1, 0.2, 0.3, 0.4];
 /// Most frames a correlation reads (at a stride beyond).
 const MAX_SAMPLES: usize = 600;
 
-/// Floor of the chance correlation (a few cycles never correlate less).
+/// Floor of the chance correlation, so that series which hardly correlate at any shift
+/// do not make a small correlation read as a large one.
 const MIN_CHANCE: f64 = 0.05;
 
 /// Correlations of pairs' rotations seen from a hub, computed once per (hub, x, y).
@@ -34,6 +35,7 @@ pub(crate) struct HubCorrelations<'a> {
 }
 
 impl<'a> HubCorrelations<'a> {
+    /// Nothing read yet.
     pub(crate) fn new(fits: &'a PairFits) -> Self {
         Self {
             fits,
