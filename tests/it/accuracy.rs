@@ -537,3 +537,19 @@ fn a_turn_that_carries_no_centroid_does_not_cut_a_segment() {
         "segment.joint_rotation_travel_z=0",
     );
 }
+
+/// random-hard-s30029 hangs seg00 and seg02 on seg01 (their joints cost 17.05 and 7.67,
+/// turning 27.9° and 37.7° RMS with the true segments); the sibling pair seg00-seg02 costs
+/// 15.50 and turns only 29.4°, so neither costs nor rotations' sizes call it a composite.
+/// Seen from seg01 the two joints turn independently, seen from either child they do not
+/// (`topo.composite_independence_margin`): the tree is exact, and with the rule off it is
+/// not.
+#[test]
+fn siblings_that_turn_independently_hang_on_their_hub() {
+    exact_only_with_the_rule(
+        "accuracy-random-hard-independence",
+        "random",
+        30029,
+        "topo.composite_independence_margin=0",
+    );
+}

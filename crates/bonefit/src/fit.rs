@@ -1,6 +1,6 @@
 //! The bonefit stage: constant offsets, then forward kinematics over every frame.
 
-use glam::{DQuat, DVec3, DVec4};
+use glam::{DQuat, DVec3};
 use jointfit::{PairFit, PairFits};
 use mocap_io::Trajectories;
 use segment::Segmentation;
@@ -1032,16 +1032,9 @@ fn paper_offsets(
 /// Largest angle between two of the relative orientations (degrees), by two sweeps: the
 /// orientation farthest from the mean, then the one farthest from that. NaN when empty.
 fn range_of_motion_deg(relative: &[DQuat]) -> f64 {
-    let Some(&first) = relative.first() else {
+    let Some(mean) = jointfit::chordal_mean(relative) else {
         return f64::NAN;
     };
-    let first = DVec4::from(first);
-    let mut sum = DVec4::ZERO;
-    for &q in relative {
-        let v = DVec4::from(q);
-        sum += if v.dot(first) < 0.0 { -v } else { v };
-    }
-    let mean = DQuat::from_vec4(sum).normalize();
     let angle = |a: DQuat, b: DQuat| 2.0 * a.dot(b).abs().min(1.0).acos();
     let farthest = |from: DQuat| {
         relative

@@ -7,7 +7,7 @@
 // Index loops read like the matrix formulas they implement.
 #![allow(clippy::needless_range_loop)]
 
-use glam::{DQuat, DVec3};
+use glam::{DQuat, DVec3, DVec4};
 
 /// A rigid motion `observed ≈ rotation * reference + translation`, with its fit quality.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -18,6 +18,20 @@ pub struct RigidFit {
     pub translation: DVec3,
     /// RMS distance between observed points and the moved reference points (mm).
     pub rms_mm: f64,
+}
+
+/// Chordal mean of unit quaternions (each sign aligned with the first's, summed,
+/// normalized): the mean rotation of rotations within a half turn of each other. `None`
+/// when empty.
+pub fn chordal_mean(rotations: &[DQuat]) -> Option<DQuat> {
+    let first = DVec4::from(*rotations.first()?);
+    let mut sum = DVec4::ZERO;
+    for &q in rotations {
+        let v = DVec4::from(q);
+        sum += if v.dot(first) < 0.0 { -v } else { v };
+    }
+    // Every term is within a right angle of the first, so the sum is never zero.
+    Some(DQuat::from_vec4(sum).normalize())
 }
 
 /// Least-squares rigid motion mapping `pairs[i].0` (reference) onto `pairs[i].1` (observed).
@@ -173,5 +187,28 @@ pub(crate) mod tests {
         let fit = absolute_orientation(&pairs).unwrap();
         assert!(fit.rms_mm > 0.1 && fit.rms_mm < 1.0, "{}", fit.rms_mm);
         assert!(absolute_orientation(&pairs[..2]).is_none());
+    }
+
+    /// Rotations spread symmetrically about one, some written with the opposite sign
+    /// (the same rotation), average to it; an empty list has no mean.
+    #[test]
+    fn chordal_mean_ignores_quaternion_signs() {
+        let centre = DQuat::from_scaled_axis(DVec3::new(0.3, -0.2, 0.5));
+        let spread =
+            [0.2, -0.2, 0.1, -0.1].map(|t| DQuat::from_scaled_axis(DVec3::new(t, 0.0, 0.0)));
+        let rotations: Vec<DQuat> = spread
+            .iter()
+            .enumerate()
+            .map(|(i, &d)| {
+                if i % 2 == 0 {
+                    centre * d
+                } else {
+                    -(centre * d)
+                }
+            })
+            .collect();
+        let mean = chordal_mean(&rotations).expect("non-empty");
+        assert!(mean.dot(centre).abs() > 1.0 - 1e-12, "{mean:?}");
+        assert!(chordal_mean(&[]).is_none());
     }
 }

@@ -87,7 +87,7 @@ pub use hinge::{
     EdgeDirection, HingePlacements, axis_tilt_bound, centre_gain, place_hinge_centres,
     place_hinges_across_bones, placement_direction, slide_hinge_centre, steadiest_orientation,
 };
-pub use horn::{RigidFit, absolute_orientation, rotation_from_cross_covariance};
+pub use horn::{RigidFit, absolute_orientation, chordal_mean, rotation_from_cross_covariance};
 pub use pairfits::*;
 pub use params::{Method, PARAM_DOCS, Params};
 pub use treefit::{TreePoses, tree_centres, tree_positions};

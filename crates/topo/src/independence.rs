@@ -12,7 +12,7 @@
 use std::collections::HashMap;
 
 use glam::{DQuat, DVec3};
-use jointfit::PairFits;
+use jointfit::{PairFits, chordal_mean};
 
 /// Fewest frames with all three poses known for a correlation to be read.
 const MIN_FRAMES: usize = 20;
@@ -78,16 +78,6 @@ fn turn(q: DQuat, r: DQuat) -> DVec3 {
     if d.w < 0.0 { -d } else { d }.to_scaled_axis()
 }
 
-/// Chordal mean of rotations (signs aligned with the first).
-fn mean(rotations: &[DQuat]) -> Option<DQuat> {
-    let first = *rotations.first()?;
-    let sum = rotations.iter().fold(glam::DVec4::ZERO, |acc, q| {
-        let v = glam::DVec4::from_array(q.to_array());
-        if q.dot(first) < 0.0 { acc - v } else { acc + v }
-    });
-    (sum.length() > 0.0).then(|| DQuat::from_vec4(sum).normalize())
-}
-
 fn correlation_beyond_chance(fits: &PairFits, hub: usize, x: usize, y: usize) -> f64 {
     let (h, px, py) = (&fits.poses[hub], &fits.poses[x], &fits.poses[y]);
     let frames = h
@@ -115,7 +105,8 @@ fn correlation_beyond_chance(fits: &PairFits, hub: usize, x: usize, y: usize) ->
     if relative_x.len() < MIN_FRAMES {
         return f64::NAN;
     }
-    let (Some(mean_x), Some(mean_y)) = (mean(&relative_x), mean(&relative_y)) else {
+    let (Some(mean_x), Some(mean_y)) = (chordal_mean(&relative_x), chordal_mean(&relative_y))
+    else {
         return f64::NAN;
     };
     let tx: Vec<DVec3> = relative_x.iter().map(|&q| turn(mean_x, q)).collect();
