@@ -254,7 +254,16 @@ pub const PARAM_DOCS: &[(&str, &str)] = &[
     (
         "composite_independence_cost_ratio",
         "see composite_independence_margin: how much dearer (times) the two pairs through \
-         the third segment may be; default 1.5",
+         the third segment may be. Wider, the rule reaches real motion, whose joints do not \
+         turn independently (a walk, a jump or a dance moves hip, knee and ankle with one \
+         rhythm): at 3 the synthetic suites gain and lose nothing (cargo xtask eval \
+         --presets hard --set topo.composite_independence_cost_ratio=3: seeds \
+         20001..20050,30001..30050 559 -> 561, 40001..40100 543 -> 544, 50001..50100 548 -> \
+         550, the first seeds at --frames 240 500 -> 506), but 11 real captures' trees \
+         change (five trials): c3d.org's Dance hangs a foot plate (Channel129) on the pelvis \
+         plate (Channel113) instead of the thigh (Channel121), and Sample_Jump2 gives up its \
+         pelvis-right thigh joint for pelvis-left foot (Eb015's and AlbertoINT's trees change \
+         for the better); default 1.5",
     ),
     (
         "twin_cost_ratio",
