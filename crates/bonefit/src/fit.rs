@@ -269,6 +269,11 @@ pub fn run(
     let mut positions = vec![vec![[f64::NAN; 3]; frames]; n];
     let mut root_positions = vec![[f64::NAN; 3]; frames];
     let mut root_rotations = vec![[0.0, 0.0, 0.0, 1.0]; frames];
+    let mut root_translations = vec![[f64::NAN; 3]; frames];
+    let mut local_now = vec![DQuat::IDENTITY; n];
+    let mut on_way = vec![false; n];
+    let mut fitted_centre: Vec<Option<DVec3>> = vec![None; n];
+    let subtree_joints = subtree_sizes(&specs);
     let mut frames_known = vec![0usize; n];
     let mut frames_interpolated = vec![0usize; n];
     let mut fit_sq = vec![0.0f64; n];
@@ -374,63 +379,110 @@ pub fn run(
         seg_rotation[root] = root_rotation;
         seg_known[root] = root_known;
         seg_measured[root] = root_measured;
-        for (j, s) in specs.iter().enumerate() {
-            let (g_parent, p_parent, k_parent, m_parent) = match s.parent {
-                Some(k) => (global[k], point[k], known[k], measured[k]),
-                None => (root_rotation, root_position, root_known, root_measured),
-            };
-            let offset = DVec3::from_array(offset_arrays[j]);
-            point[j] = p_parent + g_parent * offset;
-            let fitted_centre = s
-                .pair
-                .positions
-                .get(f)
-                .map(|&p| DVec3::from_array(p))
-                .filter(|c| c.is_finite());
-            // With fitted rotations the bone towards an observed centre is aimed at it,
-            // whatever the parent segment's spin.
-            let aimed = fitted && fitted_centre.is_some();
-            let p = s.parent_segment;
-            known[j] = k_parent && (seg_known[p] || aimed);
-            measured[j] = m_parent && (seg_measured[p] || aimed);
-
-            // The child segment's orientation, anchored at this joint.
-            let c = s.child_segment;
-            let mut child_prior = prior(c);
-            let mut turn_weight = 0.0;
-            if fitted && let Some(q) = last_local[j] {
-                if let Some(w) = turn_prior_weight[c] {
-                    child_prior.rotation = g_parent * q;
-                    turn_weight = w;
-                } else if !child_prior.measured {
-                    child_prior.rotation = g_parent * q;
-                }
+        // Where the root is not known, the chains start from the observed parent joint of
+        // a segment posed on its own (`anchor_joint`): the root point is put where the
+        // rotations along the way up reach that joint, so forward kinematics from it gives
+        // the joint and everything below it; only the way up and what hangs off it stay
+        // unknown.
+        let anchor = if fitted && !root_known {
+            anchor_joint(&specs, &subtree_joints, f, |s| {
+                track(s).is_some_and(|t| t.measured[f])
+            })
+        } else {
+            None
+        };
+        let mut base = if anchor.is_some() {
+            DVec3::ZERO
+        } else {
+            root_position
+        };
+        // The segments on the way up are not posed on their own (one would carry more
+        // joints and be the anchor), and a fit about their parent joint would hang on where
+        // the root point goes: they keep their prior orientations, so the way's reach does
+        // not move with the root point and a second pass lands on the anchor exactly.
+        on_way.fill(false);
+        if let Some((a, _)) = anchor {
+            let mut k = specs[a].parent;
+            while let Some(j) = k {
+                on_way[j] = true;
+                k = specs[j].parent;
             }
-            let estimate = if fitted && point[j].is_finite() {
-                frame_fit.about_joint(f, c, point[j], child_prior, turn_weight)
-            } else {
-                None
-            };
-            (seg_rotation[c], seg_known[c], seg_measured[c]) = match estimate {
-                Some(e) => (e.rotation, e.known, e.measured),
-                None => (
-                    child_prior.rotation,
-                    child_prior.known,
-                    child_prior.measured,
-                ),
-            };
-            local_rotations[j][f] = (g_parent.inverse() * seg_rotation[c])
-                .normalize()
-                .to_array();
-            global[j] = g_parent * DQuat::from_array(local_rotations[j][f]);
-            last_local[j] = Some(DQuat::from_array(local_rotations[j][f]));
+        }
+        let passes = if anchor.is_some() { 2 } else { 1 };
+        for pass in 0..passes {
+            for (j, s) in specs.iter().enumerate() {
+                let (g_parent, p_parent, k_parent, m_parent) = match s.parent {
+                    Some(k) => (global[k], point[k], known[k], measured[k]),
+                    None => (root_rotation, base, root_known, root_measured),
+                };
+                let offset = DVec3::from_array(offset_arrays[j]);
+                point[j] = p_parent + g_parent * offset;
+                fitted_centre[j] = s
+                    .pair
+                    .positions
+                    .get(f)
+                    .map(|&p| DVec3::from_array(p))
+                    .filter(|c| c.is_finite());
+                // With fitted rotations the bone towards an observed centre is aimed at it,
+                // whatever the parent segment's spin.
+                let aimed = fitted && fitted_centre[j].is_some();
+                let p = s.parent_segment;
+                known[j] = k_parent && (seg_known[p] || aimed);
+                measured[j] = m_parent && (seg_measured[p] || aimed);
+                if let Some((a, target)) = anchor
+                    && a == j
+                    && point[j].distance(target) <= ANCHOR_TOLERANCE_MM
+                {
+                    // The child's own pose fixes this joint, wherever the way up is unknown.
+                    known[j] = true;
+                    measured[j] = true;
+                }
+
+                // The child segment's orientation, anchored at this joint.
+                let c = s.child_segment;
+                let mut child_prior = prior(c);
+                let mut turn_weight = 0.0;
+                if fitted && let Some(q) = last_local[j] {
+                    if let Some(w) = turn_prior_weight[c] {
+                        child_prior.rotation = g_parent * q;
+                        turn_weight = w;
+                    } else if !child_prior.measured {
+                        child_prior.rotation = g_parent * q;
+                    }
+                }
+                let estimate = if fitted && point[j].is_finite() && !on_way[j] {
+                    frame_fit.about_joint(f, c, point[j], child_prior, turn_weight)
+                } else {
+                    None
+                };
+                (seg_rotation[c], seg_known[c], seg_measured[c]) = match estimate {
+                    Some(e) => (e.rotation, e.known, e.measured),
+                    None => (
+                        child_prior.rotation,
+                        child_prior.known,
+                        child_prior.measured,
+                    ),
+                };
+                local_now[j] = (g_parent.inverse() * seg_rotation[c]).normalize();
+                global[j] = g_parent * local_now[j];
+            }
+            if let Some((a, target)) = anchor
+                && pass + 1 < passes
+            {
+                base += target - point[a];
+            }
+        }
+        root_translations[f] = base.to_array();
+        for j in 0..n {
+            local_rotations[j][f] = local_now[j].to_array();
+            last_local[j] = Some(local_now[j]);
             if known[j] {
                 positions[j][f] = point[j].to_array();
                 frames_known[j] += 1;
                 if !measured[j] {
                     frames_interpolated[j] += 1;
                 }
-                if let Some(c) = fitted_centre {
+                if let Some(c) = fitted_centre[j] {
                     fit_sq[j] += (point[j] - c).length_squared();
                     fit_count[j] += 1;
                 }
@@ -481,6 +533,7 @@ pub fn run(
         rotation_method: params.rotations.name().to_owned(),
         root_point_in_segment: root_point.to_array(),
         root_positions,
+        root_translations,
         root_rotations,
         joints,
     })
@@ -490,6 +543,51 @@ pub fn run(
 const MIN_LEVER_MM: f64 = 10.0;
 /// Two observed vectors fix a rotation when at least this far apart (sine, ≈ 6°).
 const MIN_SPREAD_SIN: f64 = 0.1;
+
+/// How near forward kinematics must bring an anchor joint to its observed position for the
+/// joint to count as known there (mm).
+const ANCHOR_TOLERANCE_MM: f64 = 0.01;
+
+/// Per joint, how many joints its child segment carries below it, itself included.
+fn subtree_sizes(specs: &[JointSpec]) -> Vec<usize> {
+    let mut sizes = vec![1; specs.len()];
+    // Parents come before their children, so children are summed first from the end.
+    for j in (0..specs.len()).rev() {
+        if let Some(k) = specs[j].parent {
+            sizes[k] += sizes[j];
+        }
+    }
+    sizes
+}
+
+/// The joint the chains of frame `f` start from where the root is not known: of the joints
+/// whose child segment is posed on its own there (`posed`) and whose position the pair fit
+/// observed, the one carrying the most joints (the first in tree order on a tie), with that
+/// observed position; `None` when there is none.
+fn anchor_joint(
+    specs: &[JointSpec],
+    subtree_joints: &[usize],
+    f: usize,
+    posed: impl Fn(usize) -> bool,
+) -> Option<(usize, DVec3)> {
+    let mut best: Option<(usize, DVec3)> = None;
+    for (j, s) in specs.iter().enumerate() {
+        let Some(target) = s
+            .pair
+            .positions
+            .get(f)
+            .map(|&p| DVec3::from_array(p))
+            .filter(|p| p.is_finite())
+        else {
+            continue;
+        };
+        if posed(s.child_segment) && best.is_none_or(|(b, _)| subtree_joints[j] > subtree_joints[b])
+        {
+            best = Some((j, target));
+        }
+    }
+    best
+}
 
 /// What a segment's orientation is fitted to, in its local frame, relative to its anchor
 /// (the parent joint's centre; the root point for the root).
@@ -1080,7 +1178,7 @@ mod tests {
     /// Forward kinematics from the skeleton's own numbers, written independently of `run`.
     fn forward_kinematics(k: &Skeleton, f: usize) -> Vec<DVec3> {
         let root_q = DQuat::from_array(k.root_rotations[f]);
-        let root_p = DVec3::from_array(k.root_positions[f]);
+        let root_p = DVec3::from_array(k.root_translations[f]);
         let mut global: Vec<DQuat> = Vec::new();
         let mut position: Vec<DVec3> = Vec::new();
         for j in &k.joints {
@@ -1514,14 +1612,59 @@ mod tests {
         assert!(k.root_positions[30][0].is_nan());
         assert!(!k.root_positions[10][0].is_nan());
         assert!(k.joints.iter().all(|j| j.frames_known == 25));
-        // Fitted: the torso's markers gone too, its two child centres lie on one line
-        // through the root point, so its spin is unknown there.
+    }
+
+    /// Fitted rotations: the torso's markers gone too, its two child centres lie on one line
+    /// through the root point, so its spin is unknown there and the root point with it. The
+    /// thigh is posed on its own, so the hip it observes starts the chains there: the hip
+    /// and the knee below it stay known and exact, forward kinematics from the skeleton's
+    /// root translation reaches them, and the head (on the unknown torso) is unknown.
+    #[test]
+    fn an_unknown_root_leaves_the_chains_below_a_posed_segment_known() {
+        let mut s = scene(50, 100.0);
+        for f in 20..45 {
+            s.fits.poses[0].rotations[f] = [f64::NAN; 4];
+            s.fits.poses[0].translations[f] = [f64::NAN; 3];
+        }
         for m in 0..3 {
             hide_marker(&mut s, m, 20..45);
         }
         let k = fit(&s, &Params::default());
-        assert!(k.root_positions[30][0].is_nan());
-        assert!(k.joints.iter().all(|j| j.frames_known == 25));
+        let known: Vec<usize> = k.joints.iter().map(|j| j.frames_known).collect();
+        // j1 (hip), j3 (neck), j2 (knee).
+        assert_eq!(known, [50, 25, 50]);
+        for f in 0..50 {
+            let fk = forward_kinematics(&k, f);
+            assert!(
+                k.root_translations[f].iter().all(|c| c.is_finite()),
+                "frame {f}"
+            );
+            if (20..45).contains(&f) {
+                assert!(k.root_positions[f][0].is_nan(), "frame {f}");
+                assert!(k.joints[1].positions[f][0].is_nan(), "frame {f}");
+            }
+            for j in [0, 2] {
+                let at = k.joints[j].positions[f];
+                assert!(distance(at, s.truth[j][f]) < 1e-6, "joint {j} frame {f}");
+                assert!(distance(fk[j].to_array(), at) < 1e-9, "joint {j} frame {f}");
+            }
+        }
+        // Without the thigh's pose there, the head and the shank are the segments posed on
+        // their own, each carrying one joint: the first in tree order (the neck) starts
+        // the chains, and the knee, on another way up, stays unknown with the hip.
+        for f in 20..45 {
+            s.fits.poses[1].rotations[f] = [f64::NAN; 4];
+            s.fits.poses[1].translations[f] = [f64::NAN; 3];
+            s.fits.pairs[s.topology.joints[0].pair].positions[f] = [f64::NAN; 3];
+        }
+        let k = fit(&s, &Params::default());
+        let known: Vec<usize> = k.joints.iter().map(|j| j.frames_known).collect();
+        assert_eq!(known, [25, 50, 25]);
+        for f in 20..45 {
+            let at = k.joints[1].positions[f];
+            assert!(distance(at, s.truth[1][f]) < 1e-6, "frame {f}");
+            assert!(distance(forward_kinematics(&k, f)[1].to_array(), at) < 1e-9);
+        }
     }
 
     #[test]

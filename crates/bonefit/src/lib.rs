@@ -46,7 +46,14 @@
 //!   neither measured nor filled. With `fitted`, a joint is known where its parent joint
 //!   is known and its parent segment's rotation is fixed by observations (two
 //!   non-parallel observed vectors, or the joint's own fitted centre) or by a measured or
-//!   filled pose.
+//!   filled pose. Where the root is not known in a frame, the chains start from a joint
+//!   whose child segment is posed on its own there (the one carrying the most joints):
+//!   that joint sits at its observed position and counts as known, the segments on the
+//!   way up to the root keep their prior orientations, and the root point goes where
+//!   those reach it (`Skeleton::root_translations`, what animation files carry; the root
+//!   point itself stays unknown), so what hangs below the joint is known as usual and
+//!   forward kinematics still reproduces it. One root translation reaches one such
+//!   joint, so the joints on the way up and off it stay unknown in that frame.
 //!
 //! - Hinges: with `place_hinges`, every hinge centre of the tree first slides along its
 //!   axis (on a copy of the pair fits); the shift is `SkeletonJoint::hinge_shift_mm`.

@@ -3,7 +3,7 @@
 use serde::{Deserialize, Serialize};
 
 /// Schema version of [`Skeleton`]; bump when its fields or the algorithm's output change.
-pub const SCHEMA_VERSION: u32 = 15;
+pub const SCHEMA_VERSION: u32 = 16;
 
 /// A hierarchy with constant offsets and per-frame rotations, ready for animation files.
 ///
@@ -38,6 +38,12 @@ pub struct Skeleton {
     /// Root point per frame (mm, global); NaN where unknown.
     #[serde(with = "mocap_io::bulk::vec3s")]
     pub root_positions: Vec<[f64; 3]>,
+    /// The root point forward kinematics starts from per frame (mm, global): the root
+    /// point where it is known; where it is not but a segment posed on its own fixes the
+    /// joint the chains start from, the point the rotations on the way up reach from it
+    /// (not itself known); NaN where neither (animation files hold the last one).
+    #[serde(with = "mocap_io::bulk::vec3s")]
+    pub root_translations: Vec<[f64; 3]>,
     /// Root segment orientation per frame, unit quaternion `[x, y, z, w]`; never NaN
     /// (unknown frames carry an interpolated or held value; see `positions` for what is known).
     #[serde(with = "mocap_io::bulk::vec4s")]

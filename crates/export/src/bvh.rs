@@ -76,7 +76,7 @@ pub(crate) fn write(input: &Inputs<'_>, params: &Params) -> Result<Vec<u8>, Erro
     let _ = writeln!(out, "Frames: {frames}");
     let _ = writeln!(out, "Frame Time: {}", 1.0 / skel.frame_rate);
 
-    let root_positions = held_root_positions(&skel.root_positions);
+    let root_positions = held_root_positions(&skel.root_translations);
     for (f, &root_position) in root_positions.iter().enumerate() {
         let p = vector(root_position);
         let _ = write!(out, "{}", triple(p));
@@ -123,10 +123,14 @@ pub(crate) fn children(skel: &bonefit::Skeleton) -> Result<Vec<Vec<usize>>, Erro
             )));
         }
     }
-    if skel.root_positions.len() != frames || skel.root_rotations.len() != frames {
+    if skel.root_positions.len() != frames
+        || skel.root_translations.len() != frames
+        || skel.root_rotations.len() != frames
+    {
         return Err(Error::Mismatch(format!(
-            "the root has {} positions and {} rotations for {frames} frames",
+            "the root has {} positions, {} translations and {} rotations for {frames} frames",
             skel.root_positions.len(),
+            skel.root_translations.len(),
             skel.root_rotations.len()
         )));
     }
@@ -196,8 +200,8 @@ pub(crate) fn root_end_site(skel: &bonefit::Skeleton) -> DVec3 {
     if end.is_finite() { end } else { DVec3::ZERO }
 }
 
-/// Root positions with unknown frames holding the last known one (the first known one
-/// before it; the origin if never known).
+/// Root translations (`Skeleton::root_translations`) with NaN frames holding the last
+/// finite one (the first finite one before it; the origin if never finite).
 pub(crate) fn held_root_positions(positions: &[[f64; 3]]) -> Vec<DVec3> {
     let known = |p: &[f64; 3]| p.iter().all(|c| c.is_finite());
     let mut last = positions

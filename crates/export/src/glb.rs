@@ -138,7 +138,7 @@ pub(crate) fn write(input: &Inputs<'_>, params: &Params) -> Result<Vec<u8>, Erro
         doc["animations"] = json!([animation(
             input,
             axes,
-            &held_root_positions(&skel.root_positions),
+            &held_root_positions(&skel.root_translations),
             &mut bin
         )]);
     }

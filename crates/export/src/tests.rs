@@ -323,7 +323,27 @@ fn bvh_layout_nesting_end_sites_and_held_root() {
     assert!((bvh.nodes[3].offset - DVec3::new(0.0, 0.0, -120.0)).length() < 1e-6);
     // OFFSETs are the skeleton's bones: knee 300 mm below the hip.
     assert!((bvh.nodes[2].offset - DVec3::new(0.0, 0.0, -300.0)).length() < 1e-6);
-    // Root unknown at frames 30..50: the BVH holds frame 29's root position.
+    // Root unknown at frames 30..50, but the thigh posed on its own: the BVH's root moves
+    // to where its chain reaches the hip the thigh fixes (`check_round_trip`), though the
+    // JSON's root point stays unknown.
+    assert_ne!(bvh.motion[29][..3], bvh.motion[40][..3]);
+    let doc = json(&out);
+    assert!(doc["root"]["positions"][40].is_null());
+    assert!(!doc["joints"][0]["positions"][40].is_null());
+    assert!(doc["joints"][1]["positions"][40].is_null());
+    // With nothing posed there at all, the BVH holds frame 29's root position.
+    let mut s = gappy_scene();
+    for f in 30..50 {
+        for poses in &mut s.fits.poses {
+            poses.rotations[f] = [f64::NAN; 4];
+            poses.translations[f] = [f64::NAN; 3];
+        }
+        for pair in &mut s.fits.pairs {
+            pair.positions[f] = [f64::NAN; 3];
+        }
+    }
+    let out = files(&s, &Params::default());
+    let bvh = parse_bvh(&text(&out, "skeleton.bvh"));
     assert_eq!(bvh.motion[29][..3], bvh.motion[40][..3]);
     assert_ne!(bvh.motion[29][..3], bvh.motion[28][..3]);
     let doc = json(&out);
@@ -566,7 +586,10 @@ fn csv_rows_only_where_known() {
     assert_eq!(rows[0][1], "j1");
     let x: f64 = rows[0][2].parse().unwrap_or(f64::NAN);
     assert_eq!(Some(x), doc["joints"][0]["positions"][0][0].as_f64());
-    assert!(!rows.iter().any(|r| r[0] == "40"));
+    // Frame 40: the torso (root) unknown, the thigh posed on its own: its hip and the knee
+    // below it are known, the neck is not.
+    let at_40: Vec<&str> = rows.iter().filter(|r| r[0] == "40").map(|r| r[1]).collect();
+    assert_eq!(at_40, ["j1", "j2"]);
 }
 
 /// joints.trc read back by mocap-io's TRC reader, with the JSON's positions (root first,
