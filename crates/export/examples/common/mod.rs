@@ -33,7 +33,8 @@ pub fn up_to_tree(
 ) -> Result<(Segmentation, PairFits, Topology), Box<dyn std::error::Error>> {
     let traj = &trial.trajectories;
     let mut seg = segment::run(traj, &segment::Params::default())?;
-    if std::env::var_os("TRUE_SEGMENTS").is_some() {
+    // Set and not empty: `TRUE_SEGMENTS= cmd` (as a shell leaves a cleared variable) is off.
+    if std::env::var_os("TRUE_SEGMENTS").is_some_and(|v| !v.is_empty()) {
         seg.regroup(&trial.true_segment_markers(), "on no true segment");
     }
     // `JOINTFIT='{"tree_poses": false}'` sets jointfit parameters (JSON) for a diagnosis.
