@@ -553,3 +553,36 @@ fn siblings_that_turn_independently_hang_on_their_hub() {
         "topo.composite_independence_margin=0",
     );
 }
+
+/// robot-arm-hard-s50085's root (a 3-marker segment at the tree's centre) cannot be placed
+/// in 23 of its 480 frames, while three links below it (3 to 6 markers) are posed by their
+/// own markers in every frame: the chains start there from the joint the nearest posed link
+/// observes, so those joints stay known (95.2 % of joint-frames when one hidden root hid the
+/// whole skeleton). The BVH, animated from the root translation that reaches them, still
+/// gives the JSON's positions (the export tests check that); here the known share, the
+/// error, and the root point itself left unknown where it is hidden.
+#[test]
+fn a_hidden_root_leaves_the_posed_links_below_it_known() {
+    let tmp = Scratch::new("accuracy-robotarm-hard-50085");
+    let dir = synthesize(&tmp, "robotarm", "hard", 50085);
+    let score = run_and_score(&tmp, &dir, "robotarm-hard-s50085", &[]);
+    assert!(score.known_fraction >= 0.97, "{score}");
+    // Its mean was 1.57 % of height when measured, the newly known frames included.
+    assert!(
+        score.joint_error_mean_pct.is_some_and(|e| e <= 2.0),
+        "{score}"
+    );
+    let doc = crate::support::read_json(&tmp.path("out").join("skeleton.json"));
+    let joints = doc["joints"].as_array().cloned().unwrap_or_default();
+    let hidden: Vec<usize> = (0..480)
+        .filter(|&f| doc["root"]["positions"][f].is_null())
+        .collect();
+    assert!(hidden.len() >= 20, "root hidden in {} frames", hidden.len());
+    for f in hidden {
+        let known = joints
+            .iter()
+            .filter(|j| !j["positions"][f].is_null())
+            .count();
+        assert!(known >= 3, "frame {f}: {known} joints known");
+    }
+}
