@@ -7,8 +7,9 @@ pub const SCHEMA_VERSION: u32 = 16;
 
 /// A hierarchy with constant offsets and per-frame rotations, ready for animation files.
 ///
-/// Forward kinematics: the root point is `root_positions[f]`; the root segment's rotation
-/// is `root_rotations[f]`. A joint's global position is its parent's position (the root
+/// Forward kinematics: the root point is `root_translations[f]` (equal to
+/// `root_positions[f]` wherever that is known); the root segment's rotation is
+/// `root_rotations[f]`. A joint's global position is its parent's position (the root
 /// point for children of the root) plus the parent's global rotation applied to the
 /// joint's `offset`. A joint's global rotation is its parent's global rotation times its
 /// `local_rotations[f]`; it is the orientation of the joint's child segment. Positions

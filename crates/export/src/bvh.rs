@@ -76,9 +76,9 @@ pub(crate) fn write(input: &Inputs<'_>, params: &Params) -> Result<Vec<u8>, Erro
     let _ = writeln!(out, "Frames: {frames}");
     let _ = writeln!(out, "Frame Time: {}", 1.0 / skel.frame_rate);
 
-    let root_positions = held_root_positions(&skel.root_translations);
-    for (f, &root_position) in root_positions.iter().enumerate() {
-        let p = vector(root_position);
+    let root_translations = held_root_translations(&skel.root_translations);
+    for (f, &root_translation) in root_translations.iter().enumerate() {
+        let p = vector(root_translation);
         let _ = write!(out, "{}", triple(p));
         let q = rotation(DQuat::from_array(skel.root_rotations[f]));
         let _ = write!(out, " {}", euler_degrees(q));
@@ -202,16 +202,16 @@ pub(crate) fn root_end_site(skel: &bonefit::Skeleton) -> DVec3 {
 
 /// Root translations (`Skeleton::root_translations`) with NaN frames holding the last
 /// finite one (the first finite one before it; the origin if never finite).
-pub(crate) fn held_root_positions(positions: &[[f64; 3]]) -> Vec<DVec3> {
-    let known = |p: &[f64; 3]| p.iter().all(|c| c.is_finite());
-    let mut last = positions
+pub(crate) fn held_root_translations(translations: &[[f64; 3]]) -> Vec<DVec3> {
+    let finite = |p: &[f64; 3]| p.iter().all(|c| c.is_finite());
+    let mut last = translations
         .iter()
-        .find(|p| known(p))
+        .find(|p| finite(p))
         .map_or(DVec3::ZERO, |p| DVec3::from_array(*p));
-    positions
+    translations
         .iter()
         .map(|p| {
-            if known(p) {
+            if finite(p) {
                 last = DVec3::from_array(*p);
             }
             last

@@ -13,7 +13,7 @@
 use glam::{DQuat, DVec3};
 use serde_json::{Value, json};
 
-use crate::bvh::{Axes, children, end_site, held_root_positions, root_end_site};
+use crate::bvh::{Axes, children, end_site, held_root_translations, root_end_site};
 use crate::{Error, Inputs, Params};
 
 /// glTF lengths are metres; ours are millimetres.
@@ -138,7 +138,7 @@ pub(crate) fn write(input: &Inputs<'_>, params: &Params) -> Result<Vec<u8>, Erro
         doc["animations"] = json!([animation(
             input,
             axes,
-            &held_root_positions(&skel.root_translations),
+            &held_root_translations(&skel.root_translations),
             &mut bin
         )]);
     }
@@ -162,7 +162,12 @@ fn push_child(node: &mut Value, child: usize) {
 
 /// The animation: root translation and rotation, every joint's rotation, one key per
 /// frame at `frame / rate` seconds, linear.
-fn animation(input: &Inputs<'_>, axes: Axes, root_positions: &[DVec3], bin: &mut Binary) -> Value {
+fn animation(
+    input: &Inputs<'_>,
+    axes: Axes,
+    root_translations: &[DVec3],
+    bin: &mut Binary,
+) -> Value {
     let skel = input.skeleton;
     let times: Vec<f32> = (0..skel.frame_count)
         .map(|f| (f as f64 / skel.frame_rate) as f32)
@@ -174,7 +179,7 @@ fn animation(input: &Inputs<'_>, axes: Axes, root_positions: &[DVec3], bin: &mut
         channels.push(json!({"sampler": samplers.len(), "target": {"node": node, "path": path}}));
         samplers.push(json!({"input": time, "output": output, "interpolation": "LINEAR"}));
     };
-    let translations: Vec<DVec3> = root_positions
+    let translations: Vec<DVec3> = root_translations
         .iter()
         .map(|&p| axes.vector(p) * METRES_PER_MM)
         .collect();
