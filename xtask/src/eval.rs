@@ -974,8 +974,10 @@ fn aggregate<'a>(results: impl Iterator<Item = &'a TrialResult>) -> Aggregate {
                 a.universal_false += usize::from(called);
             }
         }
-        if r.mean_error_pct.is_finite() {
+        if r.joints.iter().any(|j| j.estimate.is_some()) {
             a.lowest_known_fraction = a.lowest_known_fraction.min(r.known_fraction);
+        }
+        if r.mean_error_pct.is_finite() {
             a.mean_error_pct += r.mean_error_pct;
             a.mean_error_mm += r.mean_error_mm;
             scored += 1;
