@@ -586,3 +586,23 @@ fn a_hidden_root_leaves_the_posed_links_below_it_known() {
         assert!(known >= 3, "frame {f}: {known} joints known");
     }
 }
+
+/// human-hard-s20020 ends with a cluster of three markers where the abdomen meets the
+/// thorax, holding markers of both (skin moves them with the joint): one segment too many,
+/// which no cut and no merge mends. It and its two nearest clusters regroup as
+/// the two true bodies (`segment.regroup_ratio`), and the tree is exact; without the
+/// regroup it is not.
+#[test]
+fn a_piece_of_two_segments_at_a_joint_regroups_into_them() {
+    let tmp = Scratch::new("accuracy-human-hard-20020");
+    let dir = synthesize(&tmp, "human", "hard", 20020);
+    let score = run_and_score(&tmp, &dir, "human-hard-s20020", &[]);
+    assert!(score.topology_exact, "{score}");
+    let off = run_and_score(
+        &tmp,
+        &dir,
+        "human-hard-s20020",
+        &["segment.regroup_ratio=0".into()],
+    );
+    assert!(!off.topology_exact, "{off}");
+}

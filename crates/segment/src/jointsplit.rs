@@ -717,6 +717,19 @@ pub(crate) struct JointTest {
     pub max_part_sigma_mm: f64,
 }
 
+impl JointTest {
+    /// Whether `e` says articulation under this test.
+    pub(crate) fn passes(&self, e: &JointEvidence) -> bool {
+        e.is_joint(
+            self.min_z,
+            self.min_travel_z,
+            (self.rotation_travel_z, self.rotation_alone_z),
+            self.centre_fraction,
+            self.max_part_sigma_mm,
+        )
+    }
+}
+
 /// Splits `cluster` (marker indices) while its best bipartition passes the joint test
 /// (see the module docs); recursively.
 pub(crate) fn split_by_joint(

@@ -54,8 +54,12 @@
 //! to pose (`singleton_next_to_small`), else unassigned. Unassigned means too little data,
 //! or moving against every marker. A cluster of ≥ 6 that the steps after the rigid merge
 //! built, which neither the joint test's rounds nor the merge has judged, is put to the
-//! joint test once (`joint_retest`). A segment of ≥ 6 markers whose best cut came near the
-//! joint test's bounds is listed as maybe two (`near_joint_fraction`; nothing is cut).
+//! joint test once (`joint_retest`). Then three clusters that are two segments regroup: a
+//! cluster of ≤ 4 markers (skin's piece at a joint, some markers from each side, or a piece
+//! of one segment) shared out between two of its nearest clusters, where the two bodies pass
+//! the joint test and fit almost as well as the three did (`regroup_ratio`; see `regroup`).
+//! A segment of ≥ 6 markers whose best cut came near the joint test's bounds is listed
+//! as maybe two (`near_joint_fraction`; nothing is cut).
 //! Or agglomeration alone (`method = "linkage"`) or rigid cliques (`method = "cliques"`).
 //!
 //! It does not estimate poses, joints or topology (jointfit, topo) and does no I/O.
@@ -73,6 +77,7 @@ mod linkage;
 mod pairstats;
 mod params;
 mod reassign;
+mod regroup;
 mod rigidity;
 mod segmentation;
 mod spectral;
@@ -515,6 +520,17 @@ fn segment_capture(
         rigidity::normalise(&mut clusters);
         clusters = jointsplit::split_all(traj, &stats, min_overlap, clusters, test, &judged);
         rigidity::normalise(&mut clusters);
+    }
+    if params.regroup_ratio > 0.0 {
+        let test = joint_test(params, typical_sigma(traj, &clusters, &mut sigma_memo));
+        regroup::regroup_over_splits(
+            traj,
+            &stats,
+            min_overlap,
+            &mut clusters,
+            test,
+            params.regroup_ratio,
+        );
     }
     let near_joints = if params.near_joint_fraction > 0.0 && params.joint_split_z > 0.0 {
         let test = joint_test(params, typical_sigma(traj, &clusters, &mut sigma_memo));

@@ -523,8 +523,10 @@ fn pieces_of(trial: &synth::Trial, seg: &Segmentation, segment: &str) -> usize {
 
 /// Skin without noise (eval's 480 frames): two of the right forearm's six markers, whose
 /// skin moves alike, are cut from it by the rigidity check (its ρ reach 9.87 mm, beyond
-/// even the merge's tolerance of 9.57), and only the pair rejoin puts them back (the
-/// forearm's own body holds them as well as it holds its markers).
+/// even the merge's tolerance of 9.57), and the pair rejoin puts them back (the forearm's
+/// own body holds them as well as it holds its markers). Without it the regroup does:
+/// the pair, the rest of the forearm and the hand are two bodies that fit almost as well
+/// as three. Without both the forearm stays in two.
 #[test]
 fn a_pair_skin_cut_from_its_segment_rejoins_it() {
     let trial = eval_trial(synth::Subject::Snowman, synth::Preset::Skin, 10019);
@@ -537,9 +539,20 @@ fn a_pair_skin_cut_from_its_segment_rejoins_it() {
         partition(&seg)
     );
     assert_eq!(seg.segments.len(), trial.truth.segments.len());
-    let off = Params {
+    let no_rejoin = Params {
         pair_rejoin_ratio: 0.0,
         ..Params::default()
+    };
+    let regrouped = run(traj, &no_rejoin).expect("segments");
+    assert_eq!(
+        pieces_of(&trial, &regrouped, "r_forearm"),
+        1,
+        "{:?}",
+        partition(&regrouped)
+    );
+    let off = Params {
+        regroup_ratio: 0.0,
+        ..no_rejoin
     };
     let cut = run(traj, &off).expect("segments");
     assert_eq!(
