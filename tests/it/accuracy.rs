@@ -594,15 +594,10 @@ fn a_hidden_root_leaves_the_posed_links_below_it_known() {
 /// regroup it is not.
 #[test]
 fn a_piece_of_two_segments_at_a_joint_regroups_into_them() {
-    let tmp = Scratch::new("accuracy-human-hard-20020");
-    let dir = synthesize(&tmp, "human", "hard", 20020);
-    let score = run_and_score(&tmp, &dir, "human-hard-s20020", &[]);
-    assert!(score.topology_exact, "{score}");
-    let off = run_and_score(
-        &tmp,
-        &dir,
-        "human-hard-s20020",
-        &["segment.regroup_ratio=0".into()],
+    exact_only_with_the_rule(
+        "accuracy-human-hard-regroup",
+        "human",
+        20020,
+        "segment.regroup_ratio=0",
     );
-    assert!(!off.topology_exact, "{off}");
 }

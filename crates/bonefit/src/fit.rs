@@ -1290,6 +1290,15 @@ mod tests {
     }
 
     /// Hides marker `m` of the trajectories at the frames `range`.
+    /// Segment `segment` without a pose (rotation and translation) at `range`.
+    fn unpose(s: &mut Scene, segment: usize, range: std::ops::Range<usize>) {
+        let poses = &mut s.fits.poses[segment];
+        for f in range {
+            poses.rotations[f] = [f64::NAN; 4];
+            poses.translations[f] = [f64::NAN; 3];
+        }
+    }
+
     fn hide_marker(s: &mut Scene, m: usize, range: std::ops::Range<usize>) {
         let markers = s.trajectories.markers();
         let mut positions = s.trajectories.positions().to_vec();
@@ -1347,18 +1356,12 @@ mod tests {
         let mut s = scene(100, 100.0);
         // The thigh (markers 3, 4, 5) loses its pose and every marker at 40..70; the knee's
         // fitted centre is still known there (carried by the shank).
-        for f in 40..70 {
-            s.fits.poses[1].rotations[f] = [f64::NAN; 4];
-            s.fits.poses[1].translations[f] = [f64::NAN; 3];
-        }
+        unpose(&mut s, 1, 40..70);
         for m in 3..6 {
             hide_marker(&mut s, m, 40..70);
         }
         // The torso (markers 0, 1, 2) keeps two markers at 20..30 and loses its pose.
-        for f in 20..30 {
-            s.fits.poses[0].rotations[f] = [f64::NAN; 4];
-            s.fits.poses[0].translations[f] = [f64::NAN; 3];
-        }
+        unpose(&mut s, 0, 20..30);
         hide_marker(&mut s, 2, 20..30);
         let k = fit(&s, &as_given());
         for (j, joint) in k.joints.iter().enumerate() {
@@ -1622,10 +1625,7 @@ mod tests {
     #[test]
     fn an_unknown_root_leaves_the_chains_below_a_posed_segment_known() {
         let mut s = scene(50, 100.0);
-        for f in 20..45 {
-            s.fits.poses[0].rotations[f] = [f64::NAN; 4];
-            s.fits.poses[0].translations[f] = [f64::NAN; 3];
-        }
+        unpose(&mut s, 0, 20..45);
         for m in 0..3 {
             hide_marker(&mut s, m, 20..45);
         }
@@ -1652,9 +1652,8 @@ mod tests {
         // Without the thigh's pose there, the head and the shank are the segments posed on
         // their own, each carrying one joint: the first in tree order (the neck) starts
         // the chains, and the knee, on another way up, stays unknown with the hip.
+        unpose(&mut s, 1, 20..45);
         for f in 20..45 {
-            s.fits.poses[1].rotations[f] = [f64::NAN; 4];
-            s.fits.poses[1].translations[f] = [f64::NAN; 3];
             s.fits.pairs[s.topology.joints[0].pair].positions[f] = [f64::NAN; 3];
         }
         let k = fit(&s, &Params::default());
@@ -1741,10 +1740,7 @@ mod tests {
             } else {
                 10
             };
-            for f in 0..unposed {
-                s.fits.poses[0].rotations[f] = [f64::NAN; 4];
-                s.fits.poses[0].translations[f] = [f64::NAN; 3];
-            }
+            unpose(&mut s, 0, 0..unposed);
             for f in 0..10 {
                 for e in &s.topology.joints {
                     if e.parent_segment == 0 {
@@ -1813,10 +1809,7 @@ mod tests {
         }
         // One head marker seen at frames 15..25, and no pose there.
         let gap = 15..25;
-        for f in gap.clone() {
-            s.fits.poses[head].rotations[f] = [f64::NAN; 4];
-            s.fits.poses[head].translations[f] = [f64::NAN; 3];
-        }
+        unpose(&mut s, head, gap.clone());
         for m in [3 * head + 1, 3 * head + 2] {
             hide_marker(&mut s, m, gap.clone());
         }

@@ -211,7 +211,8 @@ mod tests {
     }
 
     /// Three bodies in a chain, each hinged on the one before with its own phase: no two of
-    /// them are one body, so the three stay three.
+    /// them are one body, so the three stay three, by the joint test's part bound and by
+    /// the ratio each on its own.
     #[test]
     fn three_bodies_stay_three() {
         let grandchild: Vec<[f64; 3]> = CHILD.iter().map(|p| [p[0], p[1], p[2] - 350.0]).collect();
@@ -237,5 +238,22 @@ mod tests {
             0
         );
         assert_eq!(clusters, bodies);
+        // The joint test's part bound stops it first (a part spanning a joint fits like no
+        // segment); without that bound the ratio alone keeps the three, as only a ratio far
+        // beyond any two-body fit lets two true segments become one body.
+        let lax = JointTest {
+            max_part_sigma_mm: f64::INFINITY,
+            ..test
+        };
+        let mut clusters = bodies.clone();
+        assert_eq!(
+            regroup_over_splits(&traj, &stats, 10, &mut clusters, lax, 1.15),
+            0
+        );
+        assert_eq!(
+            regroup_over_splits(&traj, &stats, 10, &mut clusters, lax, 100.0),
+            1
+        );
+        assert_eq!(clusters, [vec![0, 1, 2, 3, 4, 5, 6, 7], vec![8, 9, 10, 11]]);
     }
 }
