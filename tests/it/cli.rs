@@ -133,6 +133,8 @@ fn recomputing_without_the_cache_gives_byte_identical_files() {
             "skeleton.glb",
             "joints.csv",
             "joints.trc",
+            "skeleton.osim",
+            "skeleton.mot",
             "report.html",
         ]
         .map(|f| std::fs::read(out.join(f)).unwrap())

@@ -22,6 +22,9 @@
 //!   from a skin over the root, joint and End Site nodes, a mesh of one octahedral bone
 //!   per offset, one animation keyed per frame) in metres; Blender, three.js, Unity and
 //!   Godot import it. glTF is Y-up: a Z-up capture wants `export.y_up`.
+//! - `skeleton.osim` and `skeleton.mot`: an OpenSim 4 model (a body per segment, a joint
+//!   of the fitted kind at every joint, the capture's markers and the joint centres as
+//!   markers) and its coordinates per frame; see `osim`.
 //! - `report.html`: the same document for a person, one self-contained page (no script):
 //!   a summary, the skeleton drawn at its best-known frame in three projections, tables
 //!   of joints (kind with its evidence, residuals, range of motion, warnings), segments
@@ -33,6 +36,9 @@ mod csv;
 mod error;
 mod glb;
 mod json;
+mod osim;
+#[cfg(test)]
+mod osim_tests;
 mod report;
 #[cfg(test)]
 mod tests;
@@ -52,7 +58,7 @@ use serde::{Deserialize, Serialize};
 pub const STAGE: &str = "export";
 
 /// Schema version of [`Outputs`] and of skeleton.json's layout; bump when either changes.
-pub const SCHEMA_VERSION: u32 = 15;
+pub const SCHEMA_VERSION: u32 = 16;
 
 /// Everything the files are made from.
 #[derive(Clone, Copy, Debug)]
@@ -73,7 +79,7 @@ pub struct Inputs<'a> {
 #[derive(Clone, Debug, Default, PartialEq, Eq, Serialize, Deserialize)]
 pub struct Outputs {
     /// File name → file bytes (skeleton.json, skeleton.bvh, skeleton.glb, joints.csv,
-    /// joints.trc, report.html).
+    /// joints.trc, skeleton.osim, skeleton.mot, report.html).
     #[serde(with = "byte_files")]
     pub files: BTreeMap<String, Vec<u8>>,
 }
@@ -83,20 +89,37 @@ pub struct Outputs {
 #[serde(default, deny_unknown_fields)]
 pub struct Params {
     /// Rotate the BVH, the glTF and joints.trc from Z-up to Y-up (x, y, z) → (x, z, −y)
-    /// for Y-up consumers (Blender's BVH import, glTF viewers, OpenSim); the JSON and CSV
-    /// stay in the capture's frame. Default false.
+    /// for Y-up consumers (Blender's BVH import, glTF viewers, OpenSim), and hang
+    /// skeleton.osim's root on a ground frame turned the same way; the JSON and CSV stay
+    /// in the capture's frame. Default false.
     pub y_up: bool,
+    /// Make every joint of skeleton.osim a ball joint, so skeleton.mot reproduces the
+    /// skeleton's motion exactly, instead of each joint's fitted kind (a hinge a pin, a
+    /// universal joint a universal joint), which follows only the turns that kind makes.
+    /// Default false.
+    pub osim_ball_joints: bool,
 }
 
 /// Every parameter: (field name, "meaning, units, default").
-pub const PARAM_DOCS: &[(&str, &str)] = &[(
-    "y_up",
-    "rotate the BVH, skeleton.glb and joints.trc from the capture's Z-up to Y-up \
-     ((x, y, z) -> (x, z, -y)) for Y-up consumers (glTF and OpenSim's ground are Y-up); \
-     skeleton.json and joints.csv stay in the capture's frame; default false",
-)];
+pub const PARAM_DOCS: &[(&str, &str)] = &[
+    (
+        "y_up",
+        "rotate the BVH, skeleton.glb and joints.trc from the capture's Z-up to Y-up \
+         ((x, y, z) -> (x, z, -y)) for Y-up consumers (glTF and OpenSim's ground are Y-up), \
+         and hang skeleton.osim's root on a ground frame turned the same way; skeleton.json \
+         and joints.csv stay in the capture's frame; default false",
+    ),
+    (
+        "osim_ball_joints",
+        "make every joint of skeleton.osim a ball joint, so skeleton.mot reproduces the \
+         skeleton's motion exactly, instead of each joint's fitted kind (hinge -> PinJoint, \
+         universal -> UniversalJoint, rigid -> WeldJoint), which follows only the turns that \
+         kind makes; default false",
+    ),
+];
 
-/// Makes skeleton.json, skeleton.bvh, skeleton.glb, joints.csv, joints.trc and report.html.
+/// Makes skeleton.json, skeleton.bvh, skeleton.glb, joints.csv, joints.trc, skeleton.osim,
+/// skeleton.mot and report.html.
 pub fn run(input: &Inputs<'_>, params: &Params) -> Result<Outputs, Error> {
     let document = json::document(input)?;
     let mut files = BTreeMap::new();
@@ -105,6 +128,9 @@ pub fn run(input: &Inputs<'_>, params: &Params) -> Result<Outputs, Error> {
     files.insert("skeleton.glb".to_owned(), glb::write(input, params)?);
     files.insert("joints.csv".to_owned(), csv::write(input.skeleton));
     files.insert("joints.trc".to_owned(), trc::write(input, params)?);
+    let (model, motion) = osim::write(input, params)?;
+    files.insert("skeleton.osim".to_owned(), model);
+    files.insert("skeleton.mot".to_owned(), motion);
     files.insert("report.html".to_owned(), report::write(&document));
     Ok(Outputs { files })
 }

@@ -131,12 +131,12 @@ fn bvh_fk(bvh: &Bvh, frame: usize) -> Vec<DVec3> {
     position
 }
 
-fn files(s: &Scene, params: &Params) -> crate::Outputs {
+pub(crate) fn files(s: &Scene, params: &Params) -> crate::Outputs {
     files_of(s, &skeleton(s), params)
 }
 
 /// The scene's skeleton (bonefit's defaults).
-fn skeleton(s: &Scene) -> bonefit::Skeleton {
+pub(crate) fn skeleton(s: &Scene) -> bonefit::Skeleton {
     bonefit::run(
         &s.trajectories,
         &s.segmentation,
@@ -148,13 +148,13 @@ fn skeleton(s: &Scene) -> bonefit::Skeleton {
 }
 
 /// The files of the scene with `skeleton` in place of its own.
-fn files_of(s: &Scene, skeleton: &bonefit::Skeleton, params: &Params) -> crate::Outputs {
+pub(crate) fn files_of(s: &Scene, skeleton: &bonefit::Skeleton, params: &Params) -> crate::Outputs {
     let input = inputs(s, &s.segmentation, skeleton);
     run(&input, params).unwrap_or_else(|e| panic!("{e}"))
 }
 
 /// The scene's inputs with `segmentation` and `skeleton` in place of its own.
-fn inputs<'a>(
+pub(crate) fn inputs<'a>(
     s: &'a Scene,
     segmentation: &'a segment::Segmentation,
     skeleton: &'a bonefit::Skeleton,
@@ -168,7 +168,7 @@ fn inputs<'a>(
     }
 }
 
-fn text(out: &crate::Outputs, name: &str) -> String {
+pub(crate) fn text(out: &crate::Outputs, name: &str) -> String {
     String::from_utf8(out.files.get(name).cloned().unwrap_or_default()).unwrap_or_default()
 }
 
@@ -180,18 +180,18 @@ fn known(positions: &Value) -> usize {
 }
 
 /// A JSON position `[x, y, z]` (NaN where a coordinate is missing).
-fn json_point(p: &Value) -> DVec3 {
+pub(crate) fn json_point(p: &Value) -> DVec3 {
     DVec3::from_array([0, 1, 2].map(|i| p[i].as_f64().unwrap_or(f64::NAN)))
 }
 
-fn json(out: &crate::Outputs) -> Value {
+pub(crate) fn json(out: &crate::Outputs) -> Value {
     serde_json::from_str(&text(out, "skeleton.json")).unwrap_or(Value::Null)
 }
 
 /// A scene with a torso pose gap (root unknown) and a long thigh gap: the poses, the
 /// markers and (for the thigh) the knee's fitted centre and the shank's pose are missing there, so nothing can
 /// orient those segments.
-fn gappy_scene() -> Scene {
+pub(crate) fn gappy_scene() -> Scene {
     let mut s = scene(120, 60.0);
     for f in 30..50 {
         s.fits.poses[0].rotations[f] = [f64::NAN; 4];
@@ -285,7 +285,13 @@ fn bvh_forward_kinematics_reproduces_the_json() {
 #[test]
 fn y_up_bvh_is_the_same_motion_turned() {
     let s = gappy_scene();
-    let out = files(&s, &Params { y_up: true });
+    let out = files(
+        &s,
+        &Params {
+            y_up: true,
+            ..Params::default()
+        },
+    );
     // (x, y, z) Z-up → (x, z, −y) Y-up.
     let checked = check_round_trip(&out, |p| DVec3::new(p.x, p.z, -p.y));
     assert!(checked > 200);
@@ -656,7 +662,13 @@ fn trc_has_the_json_positions_and_gaps() {
     assert!(compared < tracks * frames && compared > tracks * frames / 2);
     // Y-up is the same motion turned as the BVH is: (x, y, z) -> (x, z, -y).
     // The JSON is never turned, so the turned TRC is checked against the same positions.
-    let turned = files(&s, &Params { y_up: true });
+    let turned = files(
+        &s,
+        &Params {
+            y_up: true,
+            ..Params::default()
+        },
+    );
     assert_eq!(json(&turned), doc);
     let neg = |c: f64| if c == 0.0 { 0.0 } else { -c };
     assert_eq!(check_trc(&turned, |[x, y, z]| [x, z, neg(y)]), compared);
@@ -719,7 +731,9 @@ fn outputs_are_deterministic_and_round_trip_through_serde() {
             "report.html",
             "skeleton.bvh",
             "skeleton.glb",
-            "skeleton.json"
+            "skeleton.json",
+            "skeleton.mot",
+            "skeleton.osim"
         ]
     );
     let json_bytes = serde_json::to_vec(&a).unwrap_or_default();
@@ -852,7 +866,21 @@ fn end_to_end_synthetic_robot_arm_bvh_reproduces_json() {
     let checked = check_round_trip(&out, |p| p);
     assert_eq!(checked, skeleton.joints.len() * 180);
     assert_eq!(check_glb(&out, |p| p), checked);
-    let y_up = run(&input, &Params { y_up: true }).unwrap_or_else(|e| panic!("{e}"));
+    // Clean hinges turn about their fitted axes only: the OpenSim model's pins follow.
+    let (joints, markers, compared) = crate::osim_tests::check_model(&out, &input, |p| p);
+    assert_eq!(compared, checked);
+    assert!(
+        joints < 0.01 && markers < 0.01,
+        "model off by {joints} / {markers} mm"
+    );
+    let y_up = run(
+        &input,
+        &Params {
+            y_up: true,
+            ..Params::default()
+        },
+    )
+    .unwrap_or_else(|e| panic!("{e}"));
     check_round_trip(&y_up, |p| DVec3::new(p.x, p.z, -p.y));
     check_glb(&y_up, |p| DVec3::new(p.x, p.z, -p.y));
     let estimate: synth::score::Estimate =
@@ -1089,7 +1117,13 @@ fn glb_forward_kinematics_and_skinned_bones_reproduce_the_json() {
     // As many as the BVH compares: every known joint position.
     assert_eq!(checked, check_round_trip(&out, |p| p));
     assert!(checked > 200, "only {checked} positions compared");
-    let y_up = files(&s, &Params { y_up: true });
+    let y_up = files(
+        &s,
+        &Params {
+            y_up: true,
+            ..Params::default()
+        },
+    );
     assert_eq!(check_glb(&y_up, |p| DVec3::new(p.x, p.z, -p.y)), checked);
     assert_ne!(
         y_up.files.get("skeleton.glb"),
