@@ -15,7 +15,10 @@
 //! rotation best (the skeleton's rotation also carries what skin tilts off the axis).
 //! Markers: the root point and every joint centre (named as in joints.trc) and every
 //! marker of a tree segment at its median place in that segment's frame over the frames
-//! both are known. Metres and radians in the model, degrees in the motion.
+//! both are known. Drawn as the BVH is (OpenSim shows a body only through its geometry): a
+//! sphere at each body's joint and a cylinder along each bone to the next joint or, past
+//! a leaf, to its End Site, sized by the median bone. Metres and radians in the model,
+//! degrees in the motion.
 //!
 //! Mass and inertia cannot be read off marker motion: every body has a nominal 1 kg at
 //! its markers' centroid and a 0.001 kg·m² inertia so the model loads and its
@@ -41,6 +44,12 @@ const MAX_MARKER_FRAMES: usize = 2000;
 
 /// Nominal principal moments of inertia of every body (kg·m²).
 const NOMINAL_INERTIA: f64 = 0.001;
+
+/// Radius of the sphere drawn at a joint, as a share of the median bone length.
+const JOINT_RADIUS_SHARE: f64 = 0.08;
+
+/// Radius of the cylinder drawn along a bone, as a share of the median bone length.
+const BONE_RADIUS_SHARE: f64 = 0.04;
 
 /// One joint of the model: its OpenSim type, the orientation of both of its offset
 /// frames in their bodies (the frames coincide at the rest pose) and its coordinates.
@@ -535,6 +544,52 @@ fn write_motion(joints: &[ModelJoint], rows: &[Vec<f64>], rate: f64) -> String {
     mot
 }
 
+/// A frame whose Y is `direction` (a cylinder's axis), for a bone's drawing.
+fn frame_with_y(direction: DVec3) -> DMat3 {
+    let y = direction.normalize();
+    let x = y.any_orthonormal_vector();
+    DMat3::from_cols(x, y, x.cross(y))
+}
+
+/// The drawing of one body: a sphere at its origin (its joint) and a cylinder along each
+/// bone it carries, `bones` from its origin (m), each on a frame of its own at the bone's
+/// middle (a cylinder's axis is its frame's Y); `size` is the median bone length (m).
+fn write_drawing(out: &mut String, bones: &[(String, DVec3)], size: f64) {
+    let drawn: Vec<&(String, DVec3)> = bones.iter().filter(|(_, b)| b.length() > 1e-6).collect();
+    if !drawn.is_empty() {
+        out.push_str("\t\t\t\t\t<components>\n");
+        for (name, bone) in drawn {
+            let _ = write!(
+                out,
+                "\t\t\t\t\t\t<PhysicalOffsetFrame name=\"{name}\">\n\
+                 \t\t\t\t\t\t\t<attached_geometry>\n\
+                 \t\t\t\t\t\t\t\t<Cylinder name=\"{name}_geometry\">\n\
+                 \t\t\t\t\t\t\t\t\t<socket_frame>..</socket_frame>\n\
+                 \t\t\t\t\t\t\t\t\t<radius>{:.6}</radius>\n\
+                 \t\t\t\t\t\t\t\t\t<half_height>{:.6}</half_height>\n\
+                 \t\t\t\t\t\t\t\t</Cylinder>\n\
+                 \t\t\t\t\t\t\t</attached_geometry>\n\
+                 \t\t\t\t\t\t\t<socket_parent>..</socket_parent>\n\
+                 \t\t\t\t\t\t\t<translation>{}</translation>\n\
+                 \t\t\t\t\t\t\t<orientation>{}</orientation>\n\
+                 \t\t\t\t\t\t</PhysicalOffsetFrame>\n",
+                BONE_RADIUS_SHARE * size,
+                bone.length() / 2.0,
+                vec3(*bone / 2.0),
+                vec3(DVec3::from_array(xyz_angles(frame_with_y(*bone))))
+            );
+        }
+        out.push_str("\t\t\t\t\t</components>\n");
+    }
+    let _ = write!(
+        out,
+        "\t\t\t\t\t<attached_geometry>\n\t\t\t\t\t\t<Sphere name=\"joint_geometry\">\n\
+         \t\t\t\t\t\t\t<socket_frame>..</socket_frame>\n\t\t\t\t\t\t\t<radius>{:.6}</radius>\n\
+         \t\t\t\t\t\t</Sphere>\n\t\t\t\t\t</attached_geometry>\n",
+        JOINT_RADIUS_SHARE * size
+    );
+}
+
 /// Writes skeleton.osim and skeleton.mot (see the module docs).
 pub(crate) fn write(input: &Inputs<'_>, params: &Params) -> Result<(Vec<u8>, Vec<u8>), Error> {
     let skel = input.skeleton;
@@ -565,18 +620,34 @@ pub(crate) fn write(input: &Inputs<'_>, params: &Params) -> Result<(Vec<u8>, Vec
     out.push_str(
         "\t\t<Ground name=\"ground\" />\n\t\t<BodySet name=\"bodyset\">\n\t\t\t<objects>\n",
     );
+    // Bones as the BVH draws them: to each child joint, and from a leaf's joint to its
+    // End Site; the drawing is sized by the median bone.
+    let mut bones: Vec<Vec<(String, DVec3)>> = vec![Vec::new(); n + 1];
+    for (j, joint) in skel.joints.iter().enumerate() {
+        let bone = DVec3::from_array(joint.offset) / 1000.0;
+        bones[joint.parent.unwrap_or(n)].push((format!("bone_to_{}", escape(&joint.name)), bone));
+        if !skel.joints.iter().any(|child| child.parent == Some(j)) {
+            let end = crate::bvh::end_site(input, j) / 1000.0;
+            bones[j].push((format!("bone_past_{}", escape(&joint.name)), end));
+        }
+    }
+    let mut lengths: Vec<f64> = skel.joints.iter().map(|j| j.bone_length / 1000.0).collect();
+    lengths.retain(|l| l.is_finite() && *l > 0.0);
+    lengths.sort_by(f64::total_cmp);
+    let size = lengths.get(lengths.len() / 2).copied().unwrap_or(0.1);
     for (b, markers) in places.iter().enumerate() {
         let centroid = if markers.is_empty() {
             DVec3::ZERO
         } else {
             markers.iter().map(|(_, p)| *p).sum::<DVec3>() / markers.len() as f64
         };
+        let _ = writeln!(out, "\t\t\t\t<Body name=\"{}\">", body_name(b));
+        write_drawing(&mut out, &bones[b], size);
         let _ = write!(
             out,
-            "\t\t\t\t<Body name=\"{}\">\n\t\t\t\t\t<mass>{NOMINAL_MASS_KG}</mass>\n\
+            "\t\t\t\t\t<mass>{NOMINAL_MASS_KG}</mass>\n\
              \t\t\t\t\t<mass_center>{}</mass_center>\n\
              \t\t\t\t\t<inertia>{i} {i} {i} 0 0 0</inertia>\n\t\t\t\t</Body>\n",
-            body_name(b),
             vec3(centroid),
             i = NOMINAL_INERTIA
         );

@@ -443,3 +443,64 @@ fn labels_opensim_refuses_are_renamed_and_escaped() {
     assert!(osim.contains("<Marker name=\"Subject:L_ASI\">"));
     assert!(osim.contains("<Marker name=\"a_b&amp;&lt;c&gt;\">"));
 }
+
+#[test]
+fn each_bone_is_drawn_from_its_joint_to_the_next() {
+    let s = scene(20, 60.0);
+    let out = files(&s, &Params::default());
+    let model = Model::read(&text(&out, "skeleton.osim"));
+    // Where each joint sits on its parent body: its parent offset frame's translation.
+    let joint_at: BTreeMap<String, DVec3> = model
+        .joints()
+        .iter()
+        .filter_map(|j| {
+            let frames = j.child("frames")?;
+            Some((
+                j.name.clone(),
+                frames.children.first()?.vector("translation"),
+            ))
+        })
+        .collect();
+    let bodies = model
+        .model()
+        .child("BodySet")
+        .and_then(|b| b.child("objects"));
+    let mut drawn = 0;
+    for body in bodies.map(|b| &b.children[..]).unwrap_or_default() {
+        let sphere = body
+            .child("attached_geometry")
+            .and_then(|g| g.child("Sphere"));
+        assert!(
+            sphere.is_some_and(|s| s.numbers("radius")[0] > 0.0),
+            "{}",
+            body.name
+        );
+        let frames = body.child("components").map(|c| &c.children[..]);
+        for frame in frames.unwrap_or_default() {
+            let cylinder = frame
+                .child("attached_geometry")
+                .and_then(|g| g.child("Cylinder"))
+                .expect("a bone's cylinder");
+            let half = cylinder.numbers("half_height")[0];
+            let o = frame.vector("orientation");
+            let axis = xyz(o.x, o.y, o.z) * DVec3::Y * half;
+            let middle = frame.vector("translation");
+            // One end at the body's origin (its joint), the other at the next joint.
+            assert!(
+                (middle - axis).length() < 1e-5,
+                "{}: {middle} − {axis}",
+                frame.name
+            );
+            if let Some(next) = frame.name.strip_prefix("bone_to_") {
+                assert!(
+                    (middle + axis - joint_at[next]).length() < 1e-5,
+                    "{}",
+                    frame.name
+                );
+            }
+            drawn += 1;
+        }
+    }
+    // A bone to each of the three joints, and one past each of the two leaves' joints.
+    assert_eq!(drawn, 3 + 2);
+}
