@@ -133,6 +133,7 @@ fn recomputing_without_the_cache_gives_byte_identical_files() {
             "skeleton.glb",
             "joints.csv",
             "joints.trc",
+            "joints.c3d",
             "skeleton.osim",
             "skeleton.mot",
             "report.html",

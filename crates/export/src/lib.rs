@@ -18,6 +18,9 @@
 //! - `joints.trc`: the root point and every joint centre as virtual markers named as in
 //!   the BVH, at the capture's rate and first frame, empty where unknown; opens in OpenSim
 //!   and other marker tools like a capture. Y-up with `export.y_up`.
+//! - `joints.c3d`: the same as a C3D file (float, mm) for Visual3D, Nexus, Mokka and ezc3d;
+//!   numbered from 1 where the capture's frame numbers leave C3D's 1–65535, and left out
+//!   for a capture longer than 65535 frames.
 //! - `skeleton.glb`: the BVH's hierarchy and motion as binary glTF 2.0 (an armature
 //!   from a skin over the root, joint and End Site nodes, a mesh of one octahedral bone
 //!   per offset, one animation keyed per frame) in metres; Blender, three.js, Unity and
@@ -58,7 +61,7 @@ use serde::{Deserialize, Serialize};
 pub const STAGE: &str = "export";
 
 /// Schema version of [`Outputs`] and of skeleton.json's layout; bump when either changes.
-pub const SCHEMA_VERSION: u32 = 16;
+pub const SCHEMA_VERSION: u32 = 17;
 
 /// Everything the files are made from.
 #[derive(Clone, Copy, Debug)]
@@ -79,7 +82,7 @@ pub struct Inputs<'a> {
 #[derive(Clone, Debug, Default, PartialEq, Eq, Serialize, Deserialize)]
 pub struct Outputs {
     /// File name → file bytes (skeleton.json, skeleton.bvh, skeleton.glb, joints.csv,
-    /// joints.trc, skeleton.osim, skeleton.mot, report.html).
+    /// joints.trc, joints.c3d, skeleton.osim, skeleton.mot, report.html).
     #[serde(with = "byte_files")]
     pub files: BTreeMap<String, Vec<u8>>,
 }
@@ -88,7 +91,7 @@ pub struct Outputs {
 #[derive(Clone, Debug, Default, PartialEq, Serialize, Deserialize)]
 #[serde(default, deny_unknown_fields)]
 pub struct Params {
-    /// Rotate the BVH, the glTF and joints.trc from Z-up to Y-up (x, y, z) → (x, z, −y)
+    /// Rotate the BVH, the glTF, joints.trc and joints.c3d from Z-up to Y-up (x, y, z) → (x, z, −y)
     /// for Y-up consumers (Blender's BVH import, glTF viewers, OpenSim), and hang
     /// skeleton.osim's root on a ground frame turned the same way; the JSON and CSV stay
     /// in the capture's frame. Default false.
@@ -104,7 +107,7 @@ pub struct Params {
 pub const PARAM_DOCS: &[(&str, &str)] = &[
     (
         "y_up",
-        "rotate the BVH, skeleton.glb and joints.trc from the capture's Z-up to Y-up \
+        "rotate the BVH, skeleton.glb, joints.trc and joints.c3d from the capture's Z-up to Y-up \
          ((x, y, z) -> (x, z, -y)) for Y-up consumers (glTF and OpenSim's ground are Y-up), \
          and hang skeleton.osim's root on a ground frame turned the same way; skeleton.json \
          and joints.csv stay in the capture's frame; default false",
@@ -118,8 +121,8 @@ pub const PARAM_DOCS: &[(&str, &str)] = &[
     ),
 ];
 
-/// Makes skeleton.json, skeleton.bvh, skeleton.glb, joints.csv, joints.trc, skeleton.osim,
-/// skeleton.mot and report.html.
+/// Makes skeleton.json, skeleton.bvh, skeleton.glb, joints.csv, joints.trc, joints.c3d
+/// (where the capture fits C3D's 65535 frames), skeleton.osim, skeleton.mot and report.html.
 pub fn run(input: &Inputs<'_>, params: &Params) -> Result<Outputs, Error> {
     let document = json::document(input)?;
     let mut files = BTreeMap::new();
@@ -127,7 +130,14 @@ pub fn run(input: &Inputs<'_>, params: &Params) -> Result<Outputs, Error> {
     files.insert("skeleton.bvh".to_owned(), bvh::write(input, params)?);
     files.insert("skeleton.glb".to_owned(), glb::write(input, params)?);
     files.insert("joints.csv".to_owned(), csv::write(input.skeleton));
-    files.insert("joints.trc".to_owned(), trc::write(input, params)?);
+    let joints = trc::joint_trajectories(input, params)?;
+    files.insert(
+        "joints.trc".to_owned(),
+        mocap_io::trc::write(&joints).into_bytes(),
+    );
+    if let Some(c3d) = trc::c3d(&joints)? {
+        files.insert("joints.c3d".to_owned(), c3d);
+    }
     let (model, motion) = osim::write(input, params)?;
     files.insert("skeleton.osim".to_owned(), model);
     files.insert("skeleton.mot".to_owned(), motion);

@@ -602,10 +602,27 @@ fn csv_rows_only_where_known() {
 /// then the joints) mapped by `axes`: same labels, rate, first frame and every sample, and
 /// missing exactly where the JSON has null. Returns the samples compared.
 fn check_trc(out: &crate::Outputs, axes: impl Fn([f64; 3]) -> [f64; 3]) -> usize {
+    let compared = check_joint_markers(out, "joints.trc", &axes);
+    // joints.c3d holds the same samples, as floats (within 0.001 mm of the rounded mm).
+    assert_eq!(check_joint_markers(out, "joints.c3d", &axes), compared);
+    compared
+}
+
+/// A joint-marker file read back by mocap-io's reader for its format: see [`check_trc`].
+fn check_joint_markers(
+    out: &crate::Outputs,
+    name: &str,
+    axes: impl Fn([f64; 3]) -> [f64; 3],
+) -> usize {
     let doc = json(out);
-    let bytes = out.files.get("joints.trc").cloned().unwrap_or_default();
-    let capture = mocap_io::trc::parse(&bytes, &mocap_io::ReadOptions::default())
-        .unwrap_or_else(|e| panic!("joints.trc does not parse back: {e}"));
+    let bytes = out.files.get(name).cloned().unwrap_or_default();
+    let options = mocap_io::ReadOptions::default();
+    let capture = if name.ends_with(".c3d") {
+        mocap_io::c3d::parse(&bytes, &options)
+    } else {
+        mocap_io::trc::parse(&bytes, &options)
+    };
+    let capture = capture.unwrap_or_else(|e| panic!("{name} does not parse back: {e}"));
     let t = &capture.trajectories;
     let joints = doc["joints"].as_array().cloned().unwrap_or_default();
     let mut tracks = vec![(
@@ -622,7 +639,7 @@ fn check_trc(out: &crate::Outputs, axes: impl Fn([f64; 3]) -> [f64; 3]) -> usize
         .map(|(n, _)| n.as_str().unwrap_or(""))
         .collect();
     assert_eq!(t.labels(), labels.as_slice());
-    assert_eq!(Some(t.frame_rate()), doc["frame_rate"].as_f64());
+    assert!((t.frame_rate() - doc["frame_rate"].as_f64().unwrap_or(0.0)).abs() < 1e-4);
     assert_eq!(Some(t.first_frame()), doc["first_frame"].as_i64());
     assert_eq!(Some(t.frames() as u64), doc["frame_count"].as_u64());
     let mut compared = 0;
@@ -637,8 +654,10 @@ fn check_trc(out: &crate::Outputs, axes: impl Fn([f64; 3]) -> [f64; 3]) -> usize
                 );
                 continue;
             }
-            let want = axes(json_point(p).to_array());
-            assert_eq!(got, Some(want), "{name} frame {f}");
+            let want = DVec3::from_array(axes(json_point(p).to_array()));
+            let got = got.map_or(f64::INFINITY, |g| (DVec3::from_array(g) - want).length());
+            // TRC text holds the JSON's rounded mm exactly; C3D's floats to their precision.
+            assert!(got < 1e-3, "{name} frame {f}: {got} mm off");
             compared += 1;
         }
     }
@@ -726,6 +745,7 @@ fn outputs_are_deterministic_and_round_trip_through_serde() {
     assert_eq!(
         a.files.keys().map(String::as_str).collect::<Vec<_>>(),
         [
+            "joints.c3d",
             "joints.csv",
             "joints.trc",
             "report.html",
@@ -1176,4 +1196,35 @@ fn a_ball_joint_turning_about_one_axis_warns() {
     assert!(warned(head) && gain(head) > 20.0, "{head}");
     assert!(!warned(hip) && gain(hip) < 10.0, "{hip}");
     assert!(!warned(knee) && gain(knee) > 20.0, "{knee}");
+}
+
+#[test]
+fn joints_c3d_counts_from_one_and_is_left_out_past_the_formats_frames() {
+    let track = |first: i64, frames: usize| {
+        mocap_io::Trajectories::new(
+            vec!["root".to_owned()],
+            100.0,
+            first,
+            frames,
+            vec![[1.0, 2.0, 3.0]; frames],
+        )
+        .unwrap_or_else(|e| panic!("{e}"))
+    };
+    let read = |bytes: Vec<u8>| {
+        mocap_io::c3d::parse(&bytes, &mocap_io::ReadOptions::default())
+            .unwrap_or_else(|e| panic!("{e}"))
+            .trajectories
+    };
+    let kept = crate::trc::c3d(&track(7, 10)).unwrap_or_else(|e| panic!("{e}"));
+    assert_eq!(kept.map(read).map(|t| t.first_frame()), Some(7));
+    // A capture numbered from 0 (CSV) or running past 65535 is numbered from 1.
+    for (first, frames) in [(0, 10), (65_000, 1000)] {
+        let bytes = crate::trc::c3d(&track(first, frames)).unwrap_or_else(|e| panic!("{e}"));
+        let t = bytes
+            .map(read)
+            .unwrap_or_else(|| panic!("no joints.c3d from {first}"));
+        assert_eq!((t.first_frame(), t.frames()), (1, frames));
+    }
+    let long = crate::trc::c3d(&track(1, 65_536)).unwrap_or_else(|e| panic!("{e}"));
+    assert!(long.is_none(), "a C3D holds at most 65535 frames");
 }

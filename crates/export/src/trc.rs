@@ -1,15 +1,18 @@
-//! joints.trc: the root point and every joint centre as virtual markers, so OpenSim (and
-//! any marker tool: Mokka, Vicon Nexus, Motive, a C3D/TRC reader in Python) opens the
-//! skeleton's motion as it opens a capture: to view it beside the markers, or to drive a
-//! model's inverse kinematics from joint centres.
+//! joints.trc and joints.c3d: the root point and every joint centre as virtual markers, so
+//! OpenSim (and any marker tool: Mokka, Vicon Nexus, Visual3D, Motive, a C3D/TRC reader in
+//! Python) opens the skeleton's motion as it opens a capture: to view it beside the
+//! markers, or to drive a model's inverse kinematics from joint centres.
 
 use crate::{Error, Inputs, Params};
 
 /// The root point first (named as the BVH ROOT), then the joints in skeleton order, one
 /// trajectory each; frame rate and first frame of the capture; mm, rounded to 0.001 like
-/// skeleton.json; empty fields where a position is unknown (null in the JSON). With
-/// `y_up`, (x, y, z) → (x, z, −y) as for the BVH: OpenSim's ground is Y-up.
-pub(crate) fn write(input: &Inputs<'_>, params: &Params) -> Result<Vec<u8>, Error> {
+/// skeleton.json; missing where a position is unknown (null in the JSON). With `y_up`,
+/// (x, y, z) → (x, z, −y) as for the BVH: OpenSim's ground is Y-up.
+pub(crate) fn joint_trajectories(
+    input: &Inputs<'_>,
+    params: &Params,
+) -> Result<mocap_io::Trajectories, Error> {
     let skel = input.skeleton;
     // The BVH's checks (a frame rate, a sample per frame on every track) are the TRC's too.
     crate::bvh::children(skel)?;
@@ -34,7 +37,38 @@ pub(crate) fn write(input: &Inputs<'_>, params: &Params) -> Result<Vec<u8>, Erro
         positions,
     )
     .map_err(|e| Error::Mismatch(format!("joint trajectories: {e}")))?;
-    Ok(mocap_io::trc::write(&trajectories).into_bytes())
+    Ok(trajectories)
+}
+
+/// joints.c3d: the same trajectories as a C3D file (mocap-io's writer: float, mm, missing
+/// samples with residual −1), for the tools biomechanics reads C3D in (Visual3D, Nexus,
+/// Mokka, ezc3d). C3D counts frames from 1 to 65535: a capture that starts below 1 or
+/// ends past 65535 is numbered from 1 here (joints.trc keeps the capture's numbers), and
+/// one longer than 65535 frames gets no joints.c3d (`None`).
+pub(crate) fn c3d(joints: &mocap_io::Trajectories) -> Result<Option<Vec<u8>>, Error> {
+    const LAST: i64 = u16::MAX as i64;
+    let frames = joints.frames() as i64;
+    if frames > LAST {
+        return Ok(None);
+    }
+    let first = joints.first_frame();
+    let renumbered;
+    let joints = if first >= 1 && first + frames - 1 <= LAST {
+        joints
+    } else {
+        renumbered = mocap_io::Trajectories::new(
+            joints.labels().to_vec(),
+            joints.frame_rate(),
+            1,
+            joints.frames(),
+            joints.positions().to_vec(),
+        )
+        .map_err(|e| Error::Mismatch(format!("joint trajectories: {e}")))?;
+        &renumbered
+    };
+    mocap_io::c3d::write(joints)
+        .map(Some)
+        .map_err(|e| Error::Mismatch(format!("joints.c3d: {e}")))
 }
 
 /// One position as written: rounded like skeleton.json, rotated for `y_up`, missing
