@@ -91,10 +91,10 @@ pub struct Outputs {
 #[derive(Clone, Debug, Default, PartialEq, Serialize, Deserialize)]
 #[serde(default, deny_unknown_fields)]
 pub struct Params {
-    /// Rotate the BVH, the glTF, joints.trc and joints.c3d from Z-up to Y-up (x, y, z) → (x, z, −y)
-    /// for Y-up consumers (Blender's BVH import, glTF viewers, OpenSim), and hang
-    /// skeleton.osim's root on a ground frame turned the same way; the JSON and CSV stay
-    /// in the capture's frame. Default false.
+    /// Rotate the BVH, the glTF, joints.trc and joints.c3d from Z-up to Y-up
+    /// (x, y, z) → (x, z, −y) for Y-up consumers (Blender's BVH import, glTF viewers,
+    /// OpenSim), and hang skeleton.osim's root on a ground frame turned the same way; the
+    /// JSON and CSV stay in the capture's frame. Default false.
     pub y_up: bool,
     /// Make every joint of skeleton.osim a ball joint, so skeleton.mot reproduces the
     /// skeleton's motion exactly, instead of each joint's fitted kind (a hinge a pin, a
@@ -107,10 +107,10 @@ pub struct Params {
 pub const PARAM_DOCS: &[(&str, &str)] = &[
     (
         "y_up",
-        "rotate the BVH, skeleton.glb, joints.trc and joints.c3d from the capture's Z-up to Y-up \
-         ((x, y, z) -> (x, z, -y)) for Y-up consumers (glTF and OpenSim's ground are Y-up), \
-         and hang skeleton.osim's root on a ground frame turned the same way; skeleton.json \
-         and joints.csv stay in the capture's frame; default false",
+        "rotate the BVH, skeleton.glb, joints.trc and joints.c3d from the capture's Z-up \
+         to Y-up ((x, y, z) -> (x, z, -y)) for Y-up consumers (glTF and OpenSim's ground are \
+         Y-up), and hang skeleton.osim's root on a ground frame turned the same way; \
+         skeleton.json and joints.csv stay in the capture's frame; default false",
     ),
     (
         "osim_ball_joints",
