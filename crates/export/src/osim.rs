@@ -9,10 +9,11 @@
 //! the root hangs on the ground by a `FreeJoint`; a ball joint is a `BallJoint`, a hinge a
 //! `PinJoint` about its fitted axis, a universal joint a `UniversalJoint` about its two
 //! fitted axes, a rigid pair a `WeldJoint`; each sits at the skeleton's constant offset,
-//! so with every coordinate at the motion's value the joints are where forward
-//! kinematics puts them: exactly for ball joints and the root, and for a hinge or
-//! universal joint the model's one or two degrees of freedom that fit the skeleton's
-//! rotation best (the skeleton's rotation also carries what skin tilts off the axis).
+//! so with every coordinate at the motion's value (see [`motion`]) the joints are where
+//! forward kinematics puts them: exactly below ball joints and the root, and below a hinge
+//! or universal joint as near as its one or two turns can put them (the skeleton's
+//! rotation also carries what skin tilts off the axes; `export.osim_ball_joints` makes
+//! every joint a ball).
 //! Markers: the root point and every joint centre (named as in joints.trc) and every
 //! marker of a tree segment at its median place in that segment's frame over the frames
 //! both are known. Drawn as the BVH is (OpenSim shows a body only through its geometry): a
