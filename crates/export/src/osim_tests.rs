@@ -260,6 +260,7 @@ pub(crate) fn check_model(
         doc["frame_count"].as_u64().unwrap_or(0) as usize
     );
     let (mut joint_error, mut marker_error, mut compared) = (0.0f64, 0.0f64, 0);
+    let mut markers_compared = 0;
     for (f, values) in rows.iter().enumerate() {
         assert!(
             (times[f] - f as f64 / rate).abs() < 1e-6,
@@ -287,9 +288,14 @@ pub(crate) fn check_model(
         for (m, label) in input.trajectories.labels().iter().enumerate() {
             if let (Some(at), Some(p)) = (markers.get(label), input.trajectories.get(f, m)) {
                 marker_error = marker_error.max((*at - axes(DVec3::from_array(p))).length());
+                markers_compared += 1;
             }
         }
     }
+    assert!(
+        markers_compared > rows.len(),
+        "markers compared in too few frames"
+    );
     (joint_error, marker_error, compared)
 }
 
