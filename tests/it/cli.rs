@@ -1,6 +1,6 @@
 //! The runner as a user drives it: default run, caching, reruns, bad input, inspect.
 
-use crate::support::{Scratch, read_json, xtask, xtask_ok};
+use crate::support::{Scratch, read_json, root, xtask, xtask_ok};
 
 fn stages(json: &serde_json::Value) -> Vec<(String, bool)> {
     json["stages"]
@@ -181,4 +181,86 @@ fn inspect_json_summarises_a_capture() {
     assert_eq!(json["middle_frame"].as_array().unwrap().len(), markers);
     assert!(json["frames"].as_u64().unwrap() > 0);
     assert!(json["warnings"].is_array());
+}
+
+#[test]
+fn a_batch_runs_every_capture_and_names_the_ones_that_failed() {
+    let tmp = Scratch::new("batch");
+    let captures = tmp.path("captures");
+    std::fs::create_dir_all(&captures).unwrap();
+    for name in ["robotarm-clean.c3d", "human-clean.c3d"] {
+        std::fs::copy(root().join("fixtures").join(name), captures.join(name)).unwrap();
+    }
+    std::fs::write(captures.join("broken.trc"), "PathFileType\t4\n").unwrap();
+    // Not a capture's name: left out of the folder's batch.
+    std::fs::write(captures.join("notes.txt"), "session notes").unwrap();
+    let (out, cache) = (tmp.path("out"), tmp.path("cache"));
+    let args = [
+        "run",
+        captures.to_str().unwrap(),
+        "--out",
+        out.to_str().unwrap(),
+        "--cache",
+        cache.to_str().unwrap(),
+        "--json",
+    ];
+    let result = xtask(&args);
+    assert!(!result.status.success(), "a failed capture fails the batch");
+    let stderr = String::from_utf8_lossy(&result.stderr);
+    assert!(
+        stderr.contains("1 of 3 captures failed") && stderr.contains("broken.trc"),
+        "{stderr}"
+    );
+    // Every good capture was written in its own folder, the broken one nowhere.
+    for stem in ["robotarm-clean", "human-clean"] {
+        let skeleton = read_json(&out.join(stem).join("skeleton.json"));
+        assert!(!skeleton["joints"].as_array().unwrap().is_empty(), "{stem}");
+    }
+    assert!(!out.join("broken").exists() && !out.join("notes").exists());
+    // One JSON entry per capture, in name order: a report or the error.
+    let reports: serde_json::Value = serde_json::from_slice(&result.stdout).unwrap();
+    let entries = reports.as_array().unwrap();
+    let inputs: Vec<&str> = entries
+        .iter()
+        .map(|e| e["input"].as_str().unwrap())
+        .collect();
+    assert!(inputs[0].ends_with("broken.trc") && inputs[1].ends_with("human-clean.c3d"));
+    assert!(inputs[2].ends_with("robotarm-clean.c3d"));
+    assert!(entries[0]["error"].as_str().unwrap().contains("broken.trc"));
+    assert_eq!(entries[1]["report"]["joints"], 17);
+    assert!(entries[2]["report"]["files"].as_array().unwrap().len() >= 6);
+}
+
+#[test]
+fn a_batch_refuses_two_captures_that_would_write_one_folder() {
+    let tmp = Scratch::new("batch-stems");
+    for dir in ["a", "b"] {
+        std::fs::create_dir_all(tmp.path(dir)).unwrap();
+        std::fs::copy(
+            root().join("fixtures/robotarm-clean.c3d"),
+            tmp.path(&format!("{dir}/trial.c3d")),
+        )
+        .unwrap();
+    }
+    let out = tmp.path("out");
+    let (a, b) = (tmp.path("a/trial.c3d"), tmp.path("b/trial.c3d"));
+    let result = xtask(&[
+        "run",
+        a.to_str().unwrap(),
+        b.to_str().unwrap(),
+        "--out",
+        out.to_str().unwrap(),
+    ]);
+    assert!(!result.status.success());
+    let stderr = String::from_utf8_lossy(&result.stderr);
+    assert!(stderr.contains("would both write"), "{stderr}");
+    assert!(
+        !out.exists(),
+        "nothing runs before the batch is known to be sound"
+    );
+    let empty = tmp.path("a-folder-without-captures");
+    std::fs::create_dir_all(&empty).unwrap();
+    let result = xtask(&["run", empty.to_str().unwrap()]);
+    assert!(!result.status.success());
+    assert!(String::from_utf8_lossy(&result.stderr).contains("no C3D, TRC or CSV file"));
 }

@@ -20,10 +20,15 @@ under <cache>/<stage>-v<schema>/<key>.cbor, keyed by the stage, its schema versi
 parameters and its inputs' content hashes: a rerun recomputes only what changed and what \
 is downstream of it. Output files are written only when every stage succeeded, each \
 atomically. `cargo xtask params` lists every STAGE.PARAM.")]
+#[derive(Clone)]
 pub struct Args {
-    /// Capture file: C3D, TRC or CSV [default: fixtures/human-clean.c3d].
-    pub input: Option<PathBuf>,
-    /// Output folder [default: out/<input stem>/].
+    /// Capture files (C3D, TRC or CSV) or folders of them [default:
+    /// fixtures/human-clean.c3d]. More than one capture, or a folder, is a batch: each
+    /// capture's files go to <out>/<its stem>/, a capture that fails does not stop the
+    /// others, and the exit status says whether any failed.
+    pub input: Vec<PathBuf>,
+    /// Output folder [default: out/<input stem>/; for a batch, the folder that receives
+    /// one folder per capture, default out/].
     #[arg(long, value_name = "DIR")]
     pub out: Option<PathBuf>,
     /// Set a stage parameter, e.g. jointfit.alpha=0.25 or jointfit.method=aguiar
@@ -79,17 +84,121 @@ impl Report {
     }
 }
 
-/// Runs `run`.
+/// Runs `run`: one capture, or a batch (see [`Args::input`]).
 pub fn main(args: &Args) -> Result<()> {
-    let report = execute(args, &Progress::stderr())?;
+    let Some(batch) = batch(args)? else {
+        let report = execute(args, &Progress::stderr())?;
+        print_report(&report);
+        if args.json {
+            println!("{}", serde_json::to_string_pretty(&report.json())?);
+        }
+        return Ok(());
+    };
+    let mut failed: Vec<String> = Vec::new();
+    let mut reports: Vec<serde_json::Value> = Vec::new();
+    for (input, out) in &batch {
+        eprintln!("== {}", input.display());
+        let one = Args {
+            input: vec![input.clone()],
+            out: Some(out.clone()),
+            ..args.clone()
+        };
+        match execute(&one, &Progress::stderr()) {
+            Ok(report) => {
+                print_report(&report);
+                reports.push(json!({"input": input, "report": report.json()}));
+            }
+            Err(e) => {
+                eprintln!("error: {e:#}");
+                failed.push(input.display().to_string());
+                reports.push(json!({"input": input, "error": format!("{e:#}")}));
+            }
+        }
+    }
+    if args.json {
+        println!("{}", serde_json::to_string_pretty(&reports)?);
+    }
+    eprintln!(
+        "{} captures: {} written, {} failed",
+        batch.len(),
+        batch.len() - failed.len(),
+        failed.len()
+    );
+    if !failed.is_empty() {
+        bail!(
+            "{} of {} captures failed: {}",
+            failed.len(),
+            batch.len(),
+            failed.join(", ")
+        );
+    }
+    Ok(())
+}
+
+/// Warnings, then the summary, on stderr.
+fn print_report(report: &Report) {
     for w in &report.warnings {
         eprintln!("warning: {w}");
     }
-    eprintln!("{}", summary(&report));
-    if args.json {
-        println!("{}", serde_json::to_string_pretty(&report.json())?);
+    eprintln!("{}", summary(report));
+}
+
+/// Whether a file's name ends as a capture's does (.c3d, .trc, .csv, any case).
+fn is_capture_name(path: &Path) -> bool {
+    path.extension().is_some_and(|e| {
+        let e = e.to_string_lossy().to_ascii_lowercase();
+        matches!(e.as_str(), "c3d" | "trc" | "csv")
+    })
+}
+
+/// The captures of a batch with each one's output folder, or `None` for a single capture
+/// (one file given, or none). A folder gives its capture files (not its subfolders), in
+/// name order; two captures with one stem would write one folder, so that is an error
+/// named before anything runs.
+pub fn batch(args: &Args) -> Result<Option<Vec<(PathBuf, PathBuf)>>> {
+    if args.input.len() <= 1 && !args.input.iter().any(|p| p.is_dir()) {
+        return Ok(None);
     }
-    Ok(())
+    let mut captures: Vec<PathBuf> = Vec::new();
+    for path in &args.input {
+        if path.is_dir() {
+            let mut found: Vec<PathBuf> = std::fs::read_dir(path)
+                .with_context(|| format!("{}: cannot list the folder", path.display()))?
+                .filter_map(|e| e.ok().map(|e| e.path()))
+                .filter(|p| p.is_file() && is_capture_name(p))
+                .collect();
+            if found.is_empty() {
+                bail!("{}: no C3D, TRC or CSV file in this folder", path.display());
+            }
+            found.sort();
+            captures.extend(found);
+        } else {
+            captures.push(path.clone());
+        }
+    }
+    let root = args.out.clone().unwrap_or_else(|| PathBuf::from("out"));
+    let mut by_stem: std::collections::BTreeMap<String, &PathBuf> = Default::default();
+    let mut batch = Vec::with_capacity(captures.len());
+    for input in &captures {
+        let stem = stem_of(input);
+        if let Some(first) = by_stem.insert(stem.clone(), input) {
+            bail!(
+                "{} and {} would both write {}: run them separately with --out, or rename one",
+                first.display(),
+                input.display(),
+                root.join(&stem).display()
+            );
+        }
+        batch.push((input.clone(), root.join(stem)));
+    }
+    Ok(Some(batch))
+}
+
+/// A capture's file name without its extension ("capture" if it has none).
+fn stem_of(input: &Path) -> String {
+    input
+        .file_stem()
+        .map_or_else(|| "capture".into(), |s| s.to_string_lossy().into_owned())
 }
 
 /// The input a run reads: the argument, or the bundled fixture.
@@ -100,9 +209,10 @@ pub fn input_path(input: Option<&Path>) -> PathBuf {
     )
 }
 
-/// Runs the pipeline and writes the outputs, without printing the summary.
+/// Runs the pipeline on one capture (the first input, or the bundled fixture) and writes
+/// the outputs, without printing the summary.
 pub fn execute(args: &Args, progress: &Progress) -> Result<Report> {
-    let input = input_path(args.input.as_deref());
+    let input = input_path(args.input.first().map(PathBuf::as_path));
     if !input.is_file() {
         bail!("{}: no such capture file", input.display());
     }
@@ -113,12 +223,7 @@ pub fn execute(args: &Args, progress: &Progress) -> Result<Report> {
     }
     let out = match &args.out {
         Some(dir) => dir.clone(),
-        None => {
-            let stem = input
-                .file_stem()
-                .map_or_else(|| "capture".into(), |s| s.to_string_lossy().into_owned());
-            PathBuf::from("out").join(stem)
-        }
+        None => PathBuf::from("out").join(stem_of(&input)),
     };
     let cache = Cache::open(&cache::resolve_root(args.cache.as_deref()))?;
     let (products, stages) = pipeline::run_cached(&input, &params, &cache, force_from, progress)?;
@@ -361,7 +466,7 @@ mod tests {
 
     fn args(input: &Path, dir: &Path, set: &[&str]) -> Args {
         Args {
-            input: Some(input.to_path_buf()),
+            input: vec![input.to_path_buf()],
             out: Some(dir.join("out")),
             set: set.iter().map(|s| s.to_string()).collect(),
             from: None,
