@@ -94,6 +94,8 @@ pub fn main(args: &Args) -> Result<()> {
         }
         return Ok(());
     };
+    // A bad --set would fail every capture alike: say so once, before any runs.
+    Params::from_assignments(&args.set)?;
     let mut failed: Vec<String> = Vec::new();
     let mut reports: Vec<serde_json::Value> = Vec::new();
     for (input, out) in &batch {
@@ -155,7 +157,7 @@ fn is_capture_name(path: &Path) -> bool {
 /// (one file given, or none). A folder gives its capture files (not its subfolders), in
 /// name order; two captures with one stem would write one folder, so that is an error
 /// named before anything runs.
-pub fn batch(args: &Args) -> Result<Option<Vec<(PathBuf, PathBuf)>>> {
+fn batch(args: &Args) -> Result<Option<Vec<(PathBuf, PathBuf)>>> {
     if args.input.len() <= 1 && !args.input.iter().any(|p| p.is_dir()) {
         return Ok(None);
     }
