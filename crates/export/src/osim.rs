@@ -35,6 +35,7 @@ use glam::{DMat3, DQuat, DVec3, Vec3Swizzles};
 use jointfit::JointKind;
 
 use crate::bvh::{children, held_root_translations};
+use crate::report::escape;
 use crate::{Error, Inputs, Params};
 
 /// Nominal mass of every body (kg): marker motion does not measure it.
@@ -407,7 +408,8 @@ fn median_point(mut points: Vec<DVec3>) -> DVec3 {
 }
 
 /// An OpenSim component name: OpenSim refuses whitespace, '/', '\\', '*' and '+' in
-/// names, so those become '_'; XML's special characters are escaped.
+/// names, so those become '_'; markup's special characters are escaped (the report's
+/// escaping: its `&#39;` is XML's too).
 fn component_name(label: &str) -> String {
     let cleaned: String = label
         .chars()
@@ -420,22 +422,6 @@ fn component_name(label: &str) -> String {
         })
         .collect();
     escape(&cleaned)
-}
-
-/// Text with XML's five special characters escaped.
-fn escape(text: &str) -> String {
-    let mut out = String::with_capacity(text.len());
-    for c in text.chars() {
-        match c {
-            '&' => out.push_str("&amp;"),
-            '<' => out.push_str("&lt;"),
-            '>' => out.push_str("&gt;"),
-            '"' => out.push_str("&quot;"),
-            '\'' => out.push_str("&apos;"),
-            c => out.push(c),
-        }
-    }
-    out
 }
 
 /// Three numbers to a micrometre (or microradian), no negative zero.

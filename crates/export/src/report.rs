@@ -42,8 +42,8 @@ pub(crate) fn write(doc: &SkeletonJson) -> Vec<u8> {
     out.into_bytes()
 }
 
-/// Text safe inside HTML elements and attribute values.
-fn escape(text: &str) -> String {
+/// Text safe inside HTML (and XML) elements and attribute values.
+pub(crate) fn escape(text: &str) -> String {
     let mut out = String::with_capacity(text.len());
     for c in text.chars() {
         match c {
