@@ -145,18 +145,10 @@ fn print_report(report: &Report) {
     eprintln!("{}", summary(report));
 }
 
-/// Whether a file's name ends as a capture's does (.c3d, .trc, .csv, any case).
-fn is_capture_name(path: &Path) -> bool {
-    path.extension().is_some_and(|e| {
-        let e = e.to_string_lossy().to_ascii_lowercase();
-        matches!(e.as_str(), "c3d" | "trc" | "csv")
-    })
-}
-
 /// The captures of a batch with each one's output folder, or `None` for a single capture
-/// (one file given, or none). A folder gives its capture files (not its subfolders), in
-/// name order; two captures with one stem would write one folder, so that is an error
-/// named before anything runs.
+/// (one file given, or none). A folder gives its capture files (those whose extension
+/// `mocap_io::detect_format` knows; not its subfolders), in name order; two captures
+/// with one stem would write one folder, so that is an error named before anything runs.
 fn batch(args: &Args) -> Result<Option<Vec<(PathBuf, PathBuf)>>> {
     if args.input.len() <= 1 && !args.input.iter().any(|p| p.is_dir()) {
         return Ok(None);
@@ -167,7 +159,7 @@ fn batch(args: &Args) -> Result<Option<Vec<(PathBuf, PathBuf)>>> {
             let mut found: Vec<PathBuf> = std::fs::read_dir(path)
                 .with_context(|| format!("{}: cannot list the folder", path.display()))?
                 .filter_map(|e| e.ok().map(|e| e.path()))
-                .filter(|p| p.is_file() && is_capture_name(p))
+                .filter(|p| p.is_file() && mocap_io::detect_format(p, &[]).is_some())
                 .collect();
             if found.is_empty() {
                 bail!("{}: no C3D, TRC or CSV file in this folder", path.display());
