@@ -53,11 +53,39 @@ const JOINT_RADIUS_SHARE: f64 = 0.08;
 /// Radius of the cylinder drawn along a bone, as a share of the median bone length.
 const BONE_RADIUS_SHARE: f64 = 0.04;
 
+/// The OpenSim joint types the model uses.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+enum JointType {
+    /// The root on the ground: three turns (body-fixed X-Y-Z), then three translations.
+    Free,
+    /// Three turns, body-fixed X-Y-Z.
+    Ball,
+    /// One turn about the frame's Z.
+    Pin,
+    /// A turn about the frame's X, then one about the turned Y.
+    Universal,
+    /// No motion.
+    Weld,
+}
+
+impl JointType {
+    /// The element's tag in the model file.
+    fn tag(self) -> &'static str {
+        match self {
+            JointType::Free => "FreeJoint",
+            JointType::Ball => "BallJoint",
+            JointType::Pin => "PinJoint",
+            JointType::Universal => "UniversalJoint",
+            JointType::Weld => "WeldJoint",
+        }
+    }
+}
+
 /// One joint of the model: its OpenSim type, the orientation of both of its offset
 /// frames in their bodies (the frames coincide at the rest pose) and its coordinates.
 struct ModelJoint {
     /// OpenSim joint type.
-    kind: &'static str,
+    kind: JointType,
     /// Orientation of the joint frame in the parent's (and the child's) rest frame.
     frame: DMat3,
     /// Coordinate names, in the joint's order.
@@ -71,59 +99,53 @@ struct ModelJoint {
 }
 
 impl ModelJoint {
-    /// The joint's coordinate values (radians) for a child-in-parent rotation `local`,
-    /// where `targets` pairs each point the child carries (in its rest frame, from the
-    /// joint) with where it should be (in the parent's rest frame, from the joint).
-    fn values(&self, local: DMat3, targets: &[(DVec3, DVec3)]) -> Vec<f64> {
+    /// Appends to `values` the joint's coordinate values (radians) for a child-in-parent
+    /// rotation `local`, where `targets` pairs each point the child carries (in its rest
+    /// frame, from the joint) with where it should be (in the parent's rest frame, from
+    /// the joint).
+    fn push_values(&self, local: DMat3, targets: &[(DVec3, DVec3)], values: &mut Vec<f64>) {
         // The joint turns its frame by F⁻¹ L F when the child turns by L in the parent.
         let m = self.frame.transpose() * local * self.frame;
         // In the joint's frame: each carried point and its target, and the frame's own
         // axes where the rotation takes them (at 1 mm, so they only settle what the
         // points leave free, as when nothing is carried off the axis).
         let back = self.frame.transpose();
-        let pairs = targets
-            .iter()
-            .map(|&(u, w)| (back * u, back * w))
-            .chain([DVec3::X, DVec3::Y, DVec3::Z].map(|e| (e, m * e)));
+        let pairs = || {
+            targets
+                .iter()
+                .map(move |&(u, w)| (back * u, back * w))
+                .chain([DVec3::X, DVec3::Y, DVec3::Z].map(|e| (e, m * e)))
+        };
         match self.kind {
-            "BallJoint" => xyz_angles(m).to_vec(),
-            "PinJoint" => vec![turn_about_x(
-                pairs
-                    .map(|(u, w)| (u.zxy(), w.zxy()))
-                    .collect::<Vec<_>>()
-                    .iter(),
-            )],
-            // Rx(a)·Ry(b), each angle best for the other in turn (a few rounds settle it).
-            "UniversalJoint" => {
-                let pairs: Vec<(DVec3, DVec3)> = pairs.collect();
-                let a0 = f64::atan2(m.col(1).z, m.col(1).y);
-                let (mut a, mut b) = (a0, 0.0);
-                for _ in 0..ROUNDS {
-                    let about_y: Vec<(DVec3, DVec3)> = pairs
-                        .iter()
-                        .map(|&(u, w)| (u.yzx(), (DMat3::from_rotation_x(-a) * w).yzx()))
-                        .collect();
-                    b = turn_about_x(about_y.iter());
-                    let about_x: Vec<(DVec3, DVec3)> = pairs
-                        .iter()
-                        .map(|&(u, w)| (DMat3::from_rotation_y(b) * u, w))
-                        .collect();
-                    a = turn_about_x(about_x.iter());
-                }
-                vec![a, b]
+            JointType::Ball => values.extend(xyz_angles(m)),
+            JointType::Pin => {
+                values.push(turn_about_x(pairs().map(|(u, w)| (u.zxy(), w.zxy()))));
             }
-            _ => Vec::new(),
+            // Rx(a)·Ry(b), each angle best for the other in turn (a few rounds settle it).
+            JointType::Universal => {
+                let (mut a, mut b) = (f64::atan2(m.col(1).z, m.col(1).y), 0.0);
+                for _ in 0..ROUNDS {
+                    let undo_a = DMat3::from_rotation_x(-a);
+                    b = turn_about_x(pairs().map(|(u, w)| (u.yzx(), (undo_a * w).yzx())));
+                    let turn_b = DMat3::from_rotation_y(b);
+                    a = turn_about_x(pairs().map(|(u, w)| (turn_b * u, w)));
+                }
+                values.extend([a, b]);
+            }
+            JointType::Free | JointType::Weld => {}
         }
     }
 
     /// The child-in-parent rotation the joint makes at coordinate `values`.
     fn rotation(&self, values: &[f64]) -> DMat3 {
         let turn = match (self.kind, values) {
-            ("BallJoint", &[a, b, c]) => {
+            (JointType::Ball, &[a, b, c]) => {
                 DMat3::from_rotation_x(a) * DMat3::from_rotation_y(b) * DMat3::from_rotation_z(c)
             }
-            ("PinJoint", &[a]) => DMat3::from_rotation_z(a),
-            ("UniversalJoint", &[a, b]) => DMat3::from_rotation_x(a) * DMat3::from_rotation_y(b),
+            (JointType::Pin, &[a]) => DMat3::from_rotation_z(a),
+            (JointType::Universal, &[a, b]) => {
+                DMat3::from_rotation_x(a) * DMat3::from_rotation_y(b)
+            }
             _ => DMat3::IDENTITY,
         };
         self.frame * turn * self.frame.transpose()
@@ -134,7 +156,7 @@ impl ModelJoint {
 const ROUNDS: usize = 8;
 
 /// The angle a of Rx(a) that puts each `u` nearest its `w` (least squares).
-fn turn_about_x<'a>(pairs: impl Iterator<Item = &'a (DVec3, DVec3)>) -> f64 {
+fn turn_about_x(pairs: impl Iterator<Item = (DVec3, DVec3)>) -> f64 {
     let (mut sin, mut cos) = (0.0, 0.0);
     for (u, w) in pairs {
         sin += u.y * w.z - u.z * w.y;
@@ -213,15 +235,19 @@ fn model_joints(
                 .and_then(|p| p.universal_axes)
                 .and_then(|[a, b]| Some((in_parent(a, b)?, in_parent(b, a)?)));
             let (kind, frame, coordinates) = if let Some(axis) = hinge_axis {
-                ("PinJoint", frame_with_z(axis), vec![name("angle")])
+                (JointType::Pin, frame_with_z(axis), vec![name("angle")])
             } else if let Some((first, second)) = cardan_axes {
                 let coordinates = vec![name("rx"), name("ry")];
-                ("UniversalJoint", frame_with_xy(first, second), coordinates)
+                (
+                    JointType::Universal,
+                    frame_with_xy(first, second),
+                    coordinates,
+                )
             } else if pair.is_some_and(|p| p.kind == JointKind::Rigid) {
-                ("WeldJoint", DMat3::IDENTITY, Vec::new())
+                (JointType::Weld, DMat3::IDENTITY, Vec::new())
             } else {
                 let coordinates = vec![name("rx"), name("ry"), name("rz")];
-                ("BallJoint", DMat3::IDENTITY, coordinates)
+                (JointType::Ball, DMat3::IDENTITY, coordinates)
             };
             ModelJoint {
                 kind,
@@ -234,7 +260,7 @@ fn model_joints(
         .collect();
     let root = &skel.root_name;
     joints.push(ModelJoint {
-        kind: "FreeJoint",
+        kind: JointType::Free,
         frame: DMat3::IDENTITY,
         coordinates: ["rx", "ry", "rz", "tx", "ty", "tz"]
             .iter()
@@ -260,13 +286,17 @@ fn motion(input: &Inputs<'_>, joints: &[ModelJoint]) -> Vec<Vec<f64>> {
     let root_translations = held_root_translations(&skel.root_translations);
     let mut rows: Vec<Vec<f64>> = Vec::with_capacity(skel.frame_count);
     let mut targets: Vec<(DVec3, DVec3)> = Vec::new();
+    let mut turns: Vec<DQuat> = Vec::with_capacity(n + 1);
+    let mut rotations: Vec<DMat3> = Vec::with_capacity(n + 1);
+    let mut places: Vec<DVec3> = Vec::with_capacity(n);
+    let mut model_rotations: Vec<DMat3> = vec![DMat3::IDENTITY; n + 1];
+    let mut model_places: Vec<DVec3> = vec![DVec3::ZERO; n];
     for (f, &root_point) in root_translations.iter().enumerate() {
         // The skeleton's pose: every body's rotation, every joint's place (full FK).
-        let rotations: Vec<DMat3> = segment_rotations(skel, f)
-            .into_iter()
-            .map(DMat3::from_quat)
-            .collect();
-        let mut places: Vec<DVec3> = Vec::with_capacity(n);
+        segment_rotations(skel, f, &mut turns);
+        rotations.clear();
+        rotations.extend(turns.iter().map(|&q| DMat3::from_quat(q)));
+        places.clear();
         for joint in &skel.joints {
             let (origin, turn) = match joint.parent {
                 Some(p) => (places[p], rotations[p]),
@@ -275,10 +305,8 @@ fn motion(input: &Inputs<'_>, joints: &[ModelJoint]) -> Vec<Vec<f64>> {
             places.push(origin + turn * DVec3::from_array(joint.offset));
         }
         // The model's pose, built as the values are read.
-        let mut model_rotations: Vec<DMat3> = vec![DMat3::IDENTITY; n + 1];
-        let mut model_places: Vec<DVec3> = vec![DVec3::ZERO; n];
         model_rotations[n] = rotations[n];
-        let mut row = Vec::new();
+        let mut row = Vec::with_capacity(rows.last().map_or(0, Vec::len));
         for (j, (joint, model)) in skel.joints.iter().zip(joints).enumerate() {
             let (origin, turn) = match joint.parent {
                 Some(p) => (model_places[p], model_rotations[p]),
@@ -300,9 +328,9 @@ fn motion(input: &Inputs<'_>, joints: &[ModelJoint]) -> Vec<Vec<f64>> {
                     .iter()
                     .map(|&u| (u, back * (rotations[j] * u + places[j] - at))),
             );
-            let values = model.values(back * rotations[j], &targets);
-            model_rotations[j] = turn * model.rotation(&values);
-            row.extend(values);
+            let first = row.len();
+            model.push_values(back * rotations[j], &targets, &mut row);
+            model_rotations[j] = turn * model.rotation(&row[first..]);
         }
         row.extend(xyz_angles(rotations[n]));
         row.extend((root_point / 1000.0).to_array());
@@ -317,16 +345,16 @@ fn motion(input: &Inputs<'_>, joints: &[ModelJoint]) -> Vec<Vec<f64>> {
     rows
 }
 
-/// Global rotation of every joint's child segment (then the root's) in frame `f`.
-fn segment_rotations(skel: &bonefit::Skeleton, f: usize) -> Vec<DQuat> {
+/// Global rotation of every joint's child segment (then the root's) in frame `f`, into
+/// `global` (cleared first).
+fn segment_rotations(skel: &bonefit::Skeleton, f: usize, global: &mut Vec<DQuat>) {
     let root = DQuat::from_array(skel.root_rotations[f]).normalize();
-    let mut global: Vec<DQuat> = Vec::with_capacity(skel.joints.len() + 1);
+    global.clear();
     for joint in &skel.joints {
         let parent = joint.parent.map_or(root, |p| global[p]);
         global.push((parent * DQuat::from_array(joint.local_rotations[f])).normalize());
     }
     global.push(root);
-    global
 }
 
 /// Each tree segment's capture markers with their median place in the segment's body
@@ -349,8 +377,9 @@ fn marker_places(input: &Inputs<'_>, bodies: &[usize]) -> Vec<Vec<(usize, DVec3)
         })
         .collect();
     let frames = skel.frame_count.min(traj.frames());
+    let mut rotations: Vec<DQuat> = Vec::with_capacity(n + 1);
     for f in (0..frames).step_by(frames.div_ceil(MAX_MARKER_FRAMES).max(1)) {
-        let rotations = segment_rotations(skel, f);
+        segment_rotations(skel, f, &mut rotations);
         for (b, &s) in bodies.iter().enumerate() {
             let origin = if b == n {
                 skel.root_positions[f]
@@ -451,7 +480,7 @@ fn write_joint(
     parent: &OffsetFrame,
     child: &OffsetFrame,
 ) {
-    let tag = model.kind;
+    let tag = model.kind.tag();
     let _ = writeln!(out, "\t\t\t\t<{tag} name=\"{}\">", escape(name));
     let _ = writeln!(
         out,
@@ -467,7 +496,7 @@ fn write_joint(
         out.push_str("\t\t\t\t\t<coordinates>\n");
         for (k, (coordinate, value)) in model.coordinates.iter().zip(defaults).enumerate() {
             // A free joint's last three coordinates are translations (m); the rest turn.
-            let range = if tag == "FreeJoint" && k >= 3 {
+            let range = if model.kind == JointType::Free && k >= 3 {
                 "-100 100"
             } else {
                 "-3.1415926535897931 3.1415926535897931"
@@ -736,9 +765,16 @@ pub(crate) fn write(input: &Inputs<'_>, params: &Params) -> Result<(Vec<u8>, Vec
 mod tests {
     use glam::{DMat3, DVec3};
 
-    use super::{ModelJoint, component_name, frame_with_xy, frame_with_z, xyz_angles};
+    use super::{JointType, ModelJoint, component_name, frame_with_xy, frame_with_z, xyz_angles};
 
-    fn joint(kind: &'static str, frame: DMat3) -> ModelJoint {
+    /// The values `joint` reads for `local` with `targets`.
+    fn read_values(joint: &ModelJoint, local: DMat3, targets: &[(DVec3, DVec3)]) -> Vec<f64> {
+        let mut out = Vec::new();
+        joint.push_values(local, targets, &mut out);
+        out
+    }
+
+    fn joint(kind: JointType, frame: DMat3) -> ModelJoint {
         ModelJoint {
             kind,
             frame,
@@ -776,19 +812,17 @@ mod tests {
     #[test]
     fn each_joint_reads_back_the_turns_it_can_make() {
         let axis = DVec3::new(0.3, -0.8, 0.5).normalize();
-        let pin = joint("PinJoint", frame_with_z(axis));
-        assert!(close(
-            pin.frame * DMat3::from_rotation_z(0.0) * pin.frame.transpose(),
-            DMat3::IDENTITY
-        ));
+        let pin = joint(JointType::Pin, frame_with_z(axis));
+        // The pin's frame is a rotation (orthonormal), so at 0 the child sits as at rest.
+        assert!(close(pin.frame * pin.frame.transpose(), DMat3::IDENTITY));
         for angle in [-2.5, -0.3, 0.0, 1.1, 3.0] {
             let turn = DMat3::from_axis_angle(axis, angle);
-            let values = pin.values(turn, &[]);
+            let values = read_values(&pin, turn, &[]);
             assert!((values[0] - angle).abs() < 1e-9, "{values:?} for {angle}");
             assert!(close(pin.rotation(&values), turn));
         }
         let second = DVec3::new(0.9, 0.1, 0.2);
-        let cardan = joint("UniversalJoint", frame_with_xy(axis, second));
+        let cardan = joint(JointType::Universal, frame_with_xy(axis, second));
         let f = cardan.frame;
         assert!(
             (f * DVec3::X - axis).length() < 1e-12,
@@ -796,7 +830,8 @@ mod tests {
         );
         for (a, b) in [(0.4, -0.7), (-1.2, 0.3), (2.0, 1.0)] {
             let turn = f * DMat3::from_rotation_x(a) * DMat3::from_rotation_y(b) * f.transpose();
-            let values = cardan.values(
+            let values = read_values(
+                &cardan,
                 turn,
                 &[(
                     DVec3::new(0.0, 0.0, -400.0),
@@ -809,9 +844,9 @@ mod tests {
             );
             assert!(close(cardan.rotation(&values), turn));
         }
-        let ball = joint("BallJoint", DMat3::IDENTITY);
+        let ball = joint(JointType::Ball, DMat3::IDENTITY);
         let turn = DMat3::from_axis_angle(axis, 1.3);
-        assert!(close(ball.rotation(&ball.values(turn, &[])), turn));
+        assert!(close(ball.rotation(&read_values(&ball, turn, &[])), turn));
     }
 
     #[test]
