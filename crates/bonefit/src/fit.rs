@@ -1289,7 +1289,6 @@ mod tests {
         }
     }
 
-    /// Hides marker `m` of the trajectories at the frames `range`.
     /// Segment `segment` without a pose (rotation and translation) at `range`.
     fn unpose(s: &mut Scene, segment: usize, range: std::ops::Range<usize>) {
         let poses = &mut s.fits.poses[segment];
@@ -1299,6 +1298,7 @@ mod tests {
         }
     }
 
+    /// Hides marker `m` of the trajectories at the frames `range`.
     fn hide_marker(s: &mut Scene, m: usize, range: std::ops::Range<usize>) {
         let markers = s.trajectories.markers();
         let mut positions = s.trajectories.positions().to_vec();
