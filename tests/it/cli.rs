@@ -1,4 +1,5 @@
-//! The runner as a user drives it: default run, caching, reruns, bad input, inspect.
+//! The runner as a user drives it: default run, caching, reruns, bad input, inspect,
+//! batches.
 
 use crate::support::{Scratch, read_json, root, xtask, xtask_ok};
 
