@@ -39,6 +39,7 @@ use rayon::prelude::*;
 use crate::eigen::symmetric_eigen;
 use crate::eigen4::largest_eigenpair4;
 use crate::fitsplit::{QUANTILE, median_distances, quantile, reference_shape};
+use crate::pairsplit::{self, PairTest};
 use crate::pairstats::PairStats;
 use crate::reassign::{Pose, horn, inertia_det, inertia_tensor, invert3, rotation_matrix};
 use crate::rigidity::merge_best_pairs;
@@ -114,20 +115,24 @@ impl JointEvidence {
 }
 
 /// One part of a cluster posed per strided frame.
-struct PartFit {
+pub(crate) struct PartFit {
     /// Pose per strided frame (`None` with fewer than 3 visible markers).
-    poses: Vec<Option<Pose>>,
+    pub(crate) poses: Vec<Option<Pose>>,
     /// Residual sum of squares and degrees of freedom per strided frame.
-    residuals: Vec<(f64, f64)>,
+    pub(crate) residuals: Vec<(f64, f64)>,
     /// Robust residual variance per coordinate, mm².
-    var: f64,
+    pub(crate) var: f64,
     /// Trace of the inverse inertia tensor of the part's shape, 1/mm²: rotation variance
     /// (rad²) per unit of residual variance.
     rot_gain: f64,
     /// Inverse inertia tensor of the part's shape (segment-local), 1/mm².
-    inv_inertia: [[f64; 3]; 3],
+    pub(crate) inv_inertia: [[f64; 3]; 3],
     /// Markers in the part.
-    markers: usize,
+    pub(crate) markers: usize,
+    /// The reference shape the poses carry (segment-local, mm; the handedness that fit).
+    pub(crate) shape: Vec<[f64; 3]>,
+    /// Which of the shape's markers each strided frame's pose saw (bit k: `shape[k]`).
+    pub(crate) seen: Vec<u64>,
 }
 
 /// Trace of the inverse of the inertia tensor of `shape` about its centroid, 1/mm²;
@@ -146,12 +151,13 @@ fn inverse_inertia_trace(shape: &[[f64; 3]]) -> f64 {
 
 /// Inverse of the inertia tensor of `shape` about its centroid, 1/mm²; `None` when the
 /// points are collinear.
-fn inverse_inertia(shape: &[[f64; 3]]) -> Option<[[f64; 3]; 3]> {
+pub(crate) fn inverse_inertia(shape: &[[f64; 3]]) -> Option<[[f64; 3]; 3]> {
     invert3(&inertia_tensor(shape).1)
 }
 
-/// Poses per strided frame and each frame's residual (sum of squares mm², dof).
-type PosedFrames = (Vec<Option<Pose>>, Vec<(f64, f64)>);
+/// Poses per strided frame, each frame's residual (sum of squares mm², dof) and the
+/// markers it saw (bit mask over the part's markers).
+type PosedFrames = (Vec<Option<Pose>>, Vec<(f64, f64)>, Vec<u64>);
 
 /// Poses the markers at `positions` of `cluster` (pair distances `dist`) in every strided
 /// frame, with the shape's handedness that fits better; `None` without a reference shape.
@@ -165,24 +171,28 @@ fn part_fit(
     let shape = reference_shape(dist, cluster.len(), positions)?;
     let mirrored: Vec<[f64; 3]> = shape.iter().map(|p| [-p[0], p[1], p[2]]).collect();
     let markers = traj.markers().max(1);
-    let mut best: Option<(f64, PosedFrames)> = None;
-    for candidate in [&shape, &mirrored] {
+    let mut best: Option<(f64, usize, PosedFrames)> = None;
+    for (handedness, candidate) in [&shape, &mirrored].into_iter().enumerate() {
         let mut p = Vec::with_capacity(positions.len());
         let mut q = Vec::with_capacity(positions.len());
         let mut total = 0.0;
         let mut poses = Vec::new();
         let mut residuals = Vec::new();
+        let mut seen_frames = Vec::new();
         for frame in traj.positions().chunks_exact(markers).step_by(stride) {
             p.clear();
             q.clear();
+            let mut seen = 0u64;
             for (a, &pos) in positions.iter().enumerate() {
                 if let Some(&x) = cluster.get(pos).and_then(|&m| frame.get(m))
                     && mocap_io::is_present(x)
                 {
                     p.push(candidate[a]);
                     q.push(x);
+                    seen |= 1 << a;
                 }
             }
+            seen_frames.push(seen);
             if p.len() >= 3 {
                 let (pose, ss) = horn(&p, &q);
                 total += ss;
@@ -194,10 +204,10 @@ fn part_fit(
             }
         }
         if best.as_ref().is_none_or(|b| total < b.0) {
-            best = Some((total, (poses, residuals)));
+            best = Some((total, handedness, (poses, residuals, seen_frames)));
         }
     }
-    let (_, (poses, residuals)) = best?;
+    let (_, handedness, (poses, residuals, seen)) = best?;
     let mut v: Vec<f64> = residuals
         .iter()
         .filter(|r| r.1 > 0.0)
@@ -210,6 +220,8 @@ fn part_fit(
         rot_gain: inverse_inertia_trace(&shape),
         inv_inertia: inverse_inertia(&shape).unwrap_or([[f64::INFINITY; 3]; 3]),
         markers: positions.len(),
+        shape: if handedness == 0 { shape } else { mirrored },
+        seen,
     })
 }
 
@@ -485,7 +497,7 @@ fn evidence(a: &PartFit, b: &PartFit, typical_var: f64) -> Option<JointEvidence>
 }
 
 /// Per-coordinate median of `points`.
-fn median_point(points: &[[f64; 3]]) -> [f64; 3] {
+pub(crate) fn median_point(points: &[[f64; 3]]) -> [f64; 3] {
     let mut column = Vec::with_capacity(points.len());
     std::array::from_fn(|i| {
         column.clear();
@@ -499,7 +511,7 @@ fn median_point(points: &[[f64; 3]]) -> [f64; 3] {
 /// covariance of one rigid body: both centroids' errors (`centroid_var`, mm²) and the
 /// frame's rotation error (`var` J⁻¹) swinging the median lever arm. 0 when the covariance
 /// is singular.
-fn centroid_travel_z(
+pub(crate) fn centroid_travel_z(
     local: &[[f64; 3]],
     mid: [f64; 3],
     centroid_var: f64,
@@ -545,18 +557,18 @@ fn stride_of(traj: &Trajectories) -> usize {
 }
 
 /// A cluster's parts posed on demand, each subset (bit mask of cluster positions) once.
-struct PartCache<'a> {
-    traj: &'a Trajectories,
-    cluster: &'a [usize],
+pub(crate) struct PartCache<'a> {
+    pub(crate) traj: &'a Trajectories,
+    pub(crate) cluster: &'a [usize],
     dist: Vec<f64>,
-    stride: usize,
+    pub(crate) stride: usize,
     /// The capture's typical segment fit variance, mm² (0: each part's own only).
-    typical_var: f64,
+    pub(crate) typical_var: f64,
     fits: BTreeMap<u64, Option<PartFit>>,
 }
 
 impl<'a> PartCache<'a> {
-    fn new(traj: &'a Trajectories, cluster: &'a [usize], typical_sigma_mm: f64) -> Self {
+    pub(crate) fn new(traj: &'a Trajectories, cluster: &'a [usize], typical_sigma_mm: f64) -> Self {
         Self {
             traj,
             cluster,
@@ -567,7 +579,7 @@ impl<'a> PartCache<'a> {
         }
     }
 
-    fn fit(&mut self, mask: u64) -> Option<&PartFit> {
+    pub(crate) fn fit(&mut self, mask: u64) -> Option<&PartFit> {
         let (traj, cluster, stride) = (self.traj, self.cluster, self.stride);
         let dist = &self.dist;
         self.fits
@@ -710,6 +722,8 @@ pub(crate) struct JointTest {
     pub rotation_alone_z: f64,
     /// Largest SCoRE residual as a fraction of the parts' relative translation.
     pub centre_fraction: f64,
+    /// The route for a part of two markers, tried where no cut into parts of ≥ 3 passes.
+    pub pair: PairTest,
     /// The capture's typical segment fit σ, mm per coordinate (skin and noise).
     pub typical_sigma_mm: f64,
     /// Largest fit σ of a part, mm: a part must fit like an ordinary segment, or a marker
@@ -731,7 +745,8 @@ impl JointTest {
 }
 
 /// Splits `cluster` (marker indices) while its best bipartition passes the joint test
-/// (see the module docs); recursively.
+/// (see the module docs), or where none does, while its best pair passes the pair route
+/// (`pairsplit`); recursively.
 pub(crate) fn split_by_joint(
     traj: &Trajectories,
     stats: &PairStats,
@@ -739,20 +754,24 @@ pub(crate) fn split_by_joint(
     cluster: &[usize],
     test: JointTest,
 ) -> Vec<Vec<usize>> {
-    if cluster.len() < 2 * MIN_PART {
+    let pair_route = test.pair.on && cluster.len() >= 5;
+    if cluster.len() < 2 * MIN_PART && !pair_route {
         return vec![cluster.to_vec()];
     }
     let mut cache = PartCache::new(traj, cluster, test.typical_sigma_mm);
-    match best_bipartition(&mut cache, stats, min_overlap) {
-        Some((mask, e))
-            if e.is_joint(
-                test.min_z,
-                test.min_travel_z,
-                (test.rotation_travel_z, test.rotation_alone_z),
-                test.centre_fraction,
-                test.max_part_sigma_mm,
-            ) =>
-        {
+    let cut = best_bipartition(&mut cache, stats, min_overlap)
+        .filter(|(_, e)| test.passes(e))
+        .map(|(mask, _)| mask)
+        .or_else(|| {
+            // No cut into posable parts: a segment of two markers merged with its neighbour.
+            let (mask, e) =
+                pairsplit::best_pair(&mut cache, pairsplit::MAX_MARKERS, test.pair.max_spin_deg)
+                    .filter(|_| pair_route)?;
+            e.is_joint(&test.pair, test.max_part_sigma_mm)
+                .then_some(mask)
+        });
+    match cut {
+        Some(mask) => {
             let a: Vec<usize> = (0..cluster.len())
                 .filter(|&i| (mask >> i) & 1 == 1)
                 .map(|i| cluster[i])
@@ -1042,6 +1061,7 @@ mod tests {
             rotation_travel_z: 2.5,
             rotation_alone_z: 8.0,
             centre_fraction: 1.0,
+            pair: crate::pairsplit::PairTest::default(),
             typical_sigma_mm: typical_sigma(traj, &truth),
             max_part_sigma_mm: 2.0 * typical_sigma(traj, &truth),
         };
@@ -1114,6 +1134,7 @@ mod tests {
                     rotation_travel_z: 0.0,
                     rotation_alone_z: 0.0,
                     centre_fraction: 1.0,
+                    pair: crate::pairsplit::PairTest::default(),
                     typical_sigma_mm: typical,
                     max_part_sigma_mm: 2.0 * typical.max(0.5),
                 };
@@ -1152,6 +1173,7 @@ mod tests {
                 rotation_travel_z: 0.0,
                 rotation_alone_z: 0.0,
                 centre_fraction: 1.0,
+                pair: crate::pairsplit::PairTest::default(),
                 typical_sigma_mm: typical_sigma(&traj, &truth),
                 max_part_sigma_mm: 2.0 * typical_sigma(&traj, &truth),
             };

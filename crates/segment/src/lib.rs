@@ -33,7 +33,10 @@
 //! spin, unless it is far beyond it, `joint_rotation_alone_z`), or where that centroid
 //! swings beyond what their fits allow (`joint_travel_z`: a part of three markers in line
 //! with the axis poses its rotation badly), about a common point (`joint_split_z`, see
-//! `jointsplit`), again on the clusters the settling after a cut changed; neighbours that
+//! `jointsplit`), again on the clusters the settling after a cut changed; on a marker set
+//! with two markers on some segments it also cuts a pair from a cluster of ≥ 5 where the
+//! pair turns and travels about a point fixed in the rest's frame (`joint_pair_share`, see
+//! `pairsplit`); neighbours that
 //! move as one rigid body merge (`joint_merge_z`); a marker no body holds leaves its
 //! cluster (`eject_ratio`); a two-marker cluster whose markers two different bodies hold
 //! dissolves into them, a lone marker a body holds joins it (`pair_hold`), a pair one
@@ -74,6 +77,7 @@ mod glitch;
 mod jointsplit;
 mod kmeans;
 mod linkage;
+mod pairsplit;
 mod pairstats;
 mod params;
 mod reassign;
@@ -90,6 +94,7 @@ mod testscene;
 
 pub use error::Error;
 pub use jointsplit::JointEvidence;
+pub use pairsplit::PairEvidence;
 pub use params::{Affinity, Linkage, Method, PARAM_DOCS, Params};
 pub use segmentation::*;
 pub use swing::Swing;
@@ -340,12 +345,26 @@ fn segment_capture(
     if params.reassign_ratio > 0.0 {
         settle(&mut clusters);
     }
-    // Only a cluster of two parts of ≥ 3 markers can be tested (`jointsplit::MIN_PART`).
-    if params.joint_split_z > 0.0 && clusters.iter().any(|c| c.len() >= 2 * jointsplit::MIN_PART) {
+    // A marker set with two markers on some segments shows them as clusters of two; only
+    // there can a cluster be a segment of two merged with its neighbour, which the pair
+    // route cuts (at three to six markers per segment its cuts are false splits).
+    let pair_route = sparse_marker_set(&clusters, params.joint_pair_share);
+    // Only a cluster of two parts of ≥ 3 markers can be tested (`jointsplit::MIN_PART`), or
+    // of 3 + 2 by the pair route.
+    let testable = if pair_route {
+        5
+    } else {
+        2 * jointsplit::MIN_PART
+    };
+    if params.joint_split_z > 0.0 && clusters.iter().any(|c| c.len() >= testable) {
         // Skin leaves a segment's fit σ as large as two segments' at a low-motion joint; how
         // the parts turn relative to each other does not (see `jointsplit`). After the
         // reassignment, so a single misplaced marker does not pass for a joint.
-        let test = joint_test(params, typical_sigma(traj, &clusters, &mut sigma_memo));
+        let test = joint_test(
+            params,
+            typical_sigma(traj, &clusters, &mut sigma_memo),
+            pair_route,
+        );
         // A new joint leaves its near-axis markers to settle, as after the fit split; a
         // cluster the settling changed is tested again (hexapod-noise-s10003: a body split
         // from a leg took back two markers that had joined a coxa, and body + coxa stood
@@ -516,13 +535,21 @@ fn segment_capture(
         // A cluster the holds, ejections and orphan pairings assembled has not been put to
         // the joint test (human-hard-s20038's abdomen and thorax, z 5.05 on their true cut);
         // one the rigid merge joined was judged one body and is not cut again.
-        let test = joint_test(params, typical_sigma(traj, &clusters, &mut sigma_memo));
+        let test = joint_test(
+            params,
+            typical_sigma(traj, &clusters, &mut sigma_memo),
+            pair_route,
+        );
         rigidity::normalise(&mut clusters);
         clusters = jointsplit::split_all(traj, &stats, min_overlap, clusters, test, &judged);
         rigidity::normalise(&mut clusters);
     }
     if params.regroup_ratio > 0.0 {
-        let test = joint_test(params, typical_sigma(traj, &clusters, &mut sigma_memo));
+        let test = joint_test(
+            params,
+            typical_sigma(traj, &clusters, &mut sigma_memo),
+            pair_route,
+        );
         regroup::regroup_over_splits(
             traj,
             &stats,
@@ -533,7 +560,11 @@ fn segment_capture(
         );
     }
     let near_joints = if params.near_joint_fraction > 0.0 && params.joint_split_z > 0.0 {
-        let test = joint_test(params, typical_sigma(traj, &clusters, &mut sigma_memo));
+        let test = joint_test(
+            params,
+            typical_sigma(traj, &clusters, &mut sigma_memo),
+            pair_route,
+        );
         jointsplit::near_joints(
             traj,
             &stats,
@@ -576,14 +607,30 @@ fn segment_capture(
     })
 }
 
+/// Whether at least `share` of the clusters of ≥ 2 markers hold exactly two (a marker set
+/// with two on some segments), so the joint test's pair route runs; above 1, never.
+fn sparse_marker_set(clusters: &[Vec<usize>], share: f64) -> bool {
+    let two = clusters.iter().filter(|c| c.len() == 2).count();
+    let posed = clusters.iter().filter(|c| c.len() >= 2).count();
+    share <= 1.0 && two as f64 >= share * posed as f64
+}
+
 /// The joint test `params` set, for a capture whose typical segment fit σ is `typical_mm`.
-fn joint_test(params: &Params, typical_mm: f64) -> jointsplit::JointTest {
+fn joint_test(params: &Params, typical_mm: f64, pair_route: bool) -> jointsplit::JointTest {
     jointsplit::JointTest {
         min_z: params.joint_split_z,
         min_travel_z: params.joint_travel_z,
         rotation_travel_z: params.joint_rotation_travel_z,
         rotation_alone_z: params.joint_rotation_alone_z,
         centre_fraction: params.joint_centre_fraction,
+        pair: pairsplit::PairTest {
+            on: pair_route,
+            min_travel_z: params.joint_travel_z,
+            min_swing_z: params.joint_split_z,
+            swing_travel_z: params.joint_rotation_travel_z,
+            centre_fraction: params.joint_pair_centre_fraction,
+            max_spin_deg: params.joint_pair_max_spin_deg,
+        },
         typical_sigma_mm: typical_mm,
         // Each part must fit like the ordinary segment the fit split accepts.
         max_part_sigma_mm: params.segment_sigma_mm(typical_mm),
@@ -626,6 +673,46 @@ pub fn joint_evidence(
     sigma_mm: f64,
 ) -> Option<JointEvidence> {
     jointsplit::evidence_of(traj, a, b, sigma_mm)
+}
+
+/// How the two markers `pair` move in the frame of `body` (≥ 3 markers): the pair route of
+/// the joint test (`joint_pair_share`), rotation noise from a marker σ of `sigma_mm`, the
+/// frames read as `params` says; `None` when `body` cannot be posed. A diagnostic.
+pub fn pair_evidence(
+    traj: &Trajectories,
+    body: &[usize],
+    pair: [usize; 2],
+    sigma_mm: f64,
+    params: &Params,
+) -> Option<PairEvidence> {
+    let mut union = body.to_vec();
+    union.extend(pair);
+    let mut cache = jointsplit::PartCache::new(traj, &union, sigma_mm);
+    pairsplit::pair_evidence(
+        &mut cache,
+        0b11 << body.len(),
+        params.joint_pair_max_spin_deg,
+    )
+}
+
+/// The two markers of `markers` (5 to 16) that fit best as a pair beside a body of the
+/// rest, and their evidence (see [`pair_evidence`]). A diagnostic.
+pub fn pair_split_candidate(
+    traj: &Trajectories,
+    markers: &[usize],
+    sigma_mm: f64,
+    params: &Params,
+) -> Option<([usize; 2], PairEvidence)> {
+    let mut cache = jointsplit::PartCache::new(traj, markers, sigma_mm);
+    let (mask, e) = pairsplit::best_pair(
+        &mut cache,
+        pairsplit::MAX_MARKERS,
+        params.joint_pair_max_spin_deg,
+    )?;
+    let mut it = (0..markers.len())
+        .filter(|&i| (mask >> i) & 1 == 1)
+        .map(|i| markers[i]);
+    Some(([it.next()?, it.next()?], e))
 }
 
 /// The capture's typical segment fit σ for `clusters` (marker indices), mm: the median

@@ -136,6 +136,15 @@ pub struct Params {
     /// ... unless the rotation's Mahalanobis length is above this; 0 = never.
     #[serde(default = "default_joint_rotation_alone_z")]
     pub joint_rotation_alone_z: f64,
+    /// Joint test's pair route, run where at least this share of the clusters of ≥ 2 markers hold two (a sparse marker set): a cluster of 5 to 16 markers the test leaves whole splits off the two markers that fit best as a pair beside the rest when, in the rest's frame, the pair's midpoint travels (joint_travel_z) or its direction turns (joint_split_z) about one centre; 0 = always, above 1 = never.
+    #[serde(default = "default_joint_pair_share")]
+    pub joint_pair_share: f64,
+    /// ... and one centre fixed in the rest keeps both markers at constant distances within this fraction of the midpoint's travel.
+    #[serde(default = "default_joint_pair_centre_fraction")]
+    pub joint_pair_centre_fraction: f64,
+    /// ... and the rest is posed with a rotation noise about its worst axis of at most this many degrees (median frame).
+    #[serde(default = "default_joint_pair_max_spin_deg")]
+    pub joint_pair_max_spin_deg: f64,
     /// After every other step, a cluster that neither the joint test nor the rigid merge has judged is put to the joint test.
     pub joint_retest: bool,
     /// Three clusters that are two segments regroup (see `regroup`): a cluster of ≤ 4
@@ -172,6 +181,21 @@ fn default_joint_rotation_travel_z() -> f64 {
 /// `Params::joint_rotation_alone_z`'s default, for artifacts written before it existed.
 fn default_joint_rotation_alone_z() -> f64 {
     8.0
+}
+
+/// `Params::joint_pair_share`'s default, for artifacts written before it existed.
+fn default_joint_pair_share() -> f64 {
+    0.15
+}
+
+/// `Params::joint_pair_centre_fraction`'s default, for artifacts written before it existed.
+fn default_joint_pair_centre_fraction() -> f64 {
+    0.3
+}
+
+/// `Params::joint_pair_max_spin_deg`'s default, for artifacts written before it existed.
+fn default_joint_pair_max_spin_deg() -> f64 {
+    20.0
 }
 
 fn default_regroup_ratio() -> f64 {
@@ -229,6 +253,9 @@ impl Default for Params {
             joint_centre_fraction: 1.0,
             joint_rotation_travel_z: default_joint_rotation_travel_z(),
             joint_rotation_alone_z: default_joint_rotation_alone_z(),
+            joint_pair_share: default_joint_pair_share(),
+            joint_pair_centre_fraction: default_joint_pair_centre_fraction(),
+            joint_pair_max_spin_deg: default_joint_pair_max_spin_deg(),
             joint_retest: true,
             regroup_ratio: default_regroup_ratio(),
             eject_ratio: 8.0,
@@ -465,6 +492,18 @@ pub const PARAM_DOCS: &[(&str, &str)] = &[
         "joint test: a relative rotation whose robust Mahalanobis length is above this means articulation without joint_rotation_travel_z's travel: no pose error turns a part that far, while a part seen from a long frame posed from markers near its line travels through a wide covariance (random-hard trees: true joints at rotation z 6-16 with 45-263 mm of travel score travel z 1.4-2.5 with their true parts, truth_evidence example). The trials in which every true joint passes with its true parts (truth_evidence, seeds 20001..20050 and 30001..30050), without the travel rule / with it / with it and this bound: random trees 92 / 84 / 90, humans 89 / 85 / 86, quadrupeds 65 / 61 / 61, hexapods 36 / 35 / 35. cargo xtask eval --presets hard: seeds 20001..20050,30001..30050 and 40001..40100 the same trees and means with and without it (558, 1.3882 %; 543, 1.4005 %), 50001..50100 546 -> 547 (snake s50052; 1.4068 -> 1.4065 %), --markers 4:8 the same 564; at 6.5 the first seeds lose human s20007 (a mixed cluster whose parts turn at z 6.87 with travel z 1.23). 0 = never; default 8.0 (twice joint_split_z's)",
     ),
     (
+        "joint_pair_share",
+        "the joint test's route for a part of two markers, run where at least this share of the clusters of ≥ 2 markers (after the reassignment, before the joint test) hold exactly two: a marker set with two markers on some segments, where a segment of two merged with its neighbour is a cluster the test's parts of ≥ 3 cannot cut. A cluster of 5 to 16 markers the test leaves whole is cut into the two markers that fit best as a pair beside the rest (smallest pooled σ of the rest's rigid fit and the pair's distance) and the rest, when in the rest's frame (posed per frame) the pair's midpoint travels with a robust Mahalanobis length above joint_travel_z (under the covariance one rigid body gives it: the rest's rotation error σ² J⁻¹ of the markers each frame saw, at the midpoint's lever, and both position errors; ≈ 2 on one body) while its direction turns with one above 2 (≈ 1.7 on one body), or its direction turns above joint_split_z while the midpoint travels above joint_rotation_travel_z, as the test weighs parts of ≥ 3; one centre fixed in the rest must keep both markers at constant distances (joint_pair_centre_fraction) on an arc that visibly turns (their distance to it at most 8 × the travel), the frames read must pose the rest well (joint_pair_max_spin_deg) and both must fit like ordinary segments. pair_table example (hard, seeds 20001..20012, every subject): of 455 true joints between a 2-marker segment and one of ≥ 3 at --markers 2:3, the route's best cut of their union is the true one in 416 and passes in 328; of 466 final single-segment clusters of ≥ 5 markers at the default markers, none passes. The share of two-marker clusters is 0.11 at most at the default 3-6 markers (median 0) and 0.43 median at 2-3 (p10 0.17; same seeds). Always on (0), cargo xtask eval --presets hard, seeds 20001..20050,30001..30050, the default markers lose 4 trees (568 -> 564; cuts in clusters a stray marker mixes) and --markers 2:3 gains 8 (275 -> 283, +8 -0); at 0.15 the default markers' trials are all unchanged, numbers for 2:3 and the other sets in the README (Accuracy). 0 = always, above 1 = never; default 0.15",
+    ),
+    (
+        "joint_pair_centre_fraction",
+        "the pair route (joint_pair_share): one centre fixed in the rest that keeps both markers at constant distances (a shared-centre sphere fit) must leave a residual (75th-percentile frame) of at most this fraction of the midpoint's travel; default 0.3",
+    ),
+    (
+        "joint_pair_max_spin_deg",
+        "the pair route (joint_pair_share): the rest's rotation noise about its worst posed axis (√(σ² λ_max(J⁻¹)) of the markers each frame saw, median frame) must be at most this: three markers nearly in a line spin about it, far beyond the linearised covariance, and swing the pair on a circle any centre on that line fits; default 20",
+    ),
+    (
         "near_joint_fraction",
         "a diagnostic, nothing is cut: a final segment of ≥ 6 markers whose best cut (the one the joint test weighs, smallest pooled σ) scores at least this fraction of joint_split_z on its rotation or of joint_travel_z on its centroid's travel is listed in Segmentation::near_joints, in skeleton.json (the segment's near_joint, with both parts) and among the run's findings, as possibly two segments that turn little about a joint: skin leaves such joints under the test (a hexapod's coxae merged into its body, a quadruped's carpus into its forearm). The parts are the test's best cut, which skin can put elsewhere than the joint. cargo xtask eval --presets hard (its 'listed as maybe two' figures: segments of ≥ 6 markers holding ≥ 3 markers of each of two true segments, and the rest): seeds 20001-20050,30001-30050 102 of 140 and 131 of 2013 (hexapod 84 of 113 and 30 of 356, quadruped 15 of 20 and 36 of 445); at 0.7 112 and 225, at 0.8 82 and 85; seeds 40001-40100 117 of 175 and 145 of 2035 (measured with joint_rotation_travel_z, which this listing does not read: a cut it refuses as pose error is listed when its rotation scores this fraction). Of the real captures' 16 segments of ≥ 6 markers, 3 are listed: btk Res16bits' head, shoulder and arm with the hand as the other part (rotation z 4.67, failing the test's centre condition) in its C3D and its TRC, and OpenSim subject01_walk1's right foot (z 3.10). Costs the segment stage about 0.01 s of 0.27 on cargo xtask bench's capture; 0 = off; default 0.75",
     ),
@@ -570,6 +609,12 @@ impl Params {
         positive("joint_centre_fraction", self.joint_centre_fraction)?;
         non_negative("joint_rotation_travel_z", self.joint_rotation_travel_z)?;
         non_negative("joint_rotation_alone_z", self.joint_rotation_alone_z)?;
+        non_negative("joint_pair_share", self.joint_pair_share)?;
+        positive(
+            "joint_pair_centre_fraction",
+            self.joint_pair_centre_fraction,
+        )?;
+        positive("joint_pair_max_spin_deg", self.joint_pair_max_spin_deg)?;
         non_negative("eject_ratio", self.eject_ratio)?;
         non_negative("joint_merge_z", self.joint_merge_z)?;
         non_negative("pair_hold", self.pair_hold)?;

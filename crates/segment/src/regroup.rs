@@ -182,6 +182,7 @@ mod tests {
             rotation_travel_z: p.joint_rotation_travel_z,
             rotation_alone_z: p.joint_rotation_alone_z,
             centre_fraction: p.joint_centre_fraction,
+            pair: crate::pairsplit::PairTest::default(),
             typical_sigma_mm: typical,
             max_part_sigma_mm: p.segment_sigma_mm(typical),
         }

@@ -176,7 +176,7 @@ fn swing_about(points: &[[f64; 3]], centre: [f64; 3], r2: f64, spread_mm: f64) -
 
 /// Solves the `N × N` system `a x = b` by Gaussian elimination with partial pivoting;
 /// `None` when a pivot is negligible against the matrix's scale (the points fix no fit).
-fn solve<const N: usize>(mut a: [[f64; N]; N], mut b: [f64; N]) -> Option<[f64; N]> {
+pub(crate) fn solve<const N: usize>(mut a: [[f64; N]; N], mut b: [f64; N]) -> Option<[f64; N]> {
     let scale = a
         .iter()
         .flat_map(|r| r.iter())
