@@ -6,33 +6,20 @@
 //!
 //! `MARKERS=2:3 cargo run --release -p segment --example pair_table SUBJECT PRESET SEEDS [frames]`
 //!
-//! One line per case: `joint`/`joint-best`/`pure`/`mixed`, travel mm, travel z, centre
-//! residual over travel, direction swing °, pair σ and body σ over the typical σ.
+//! One line per case: `joint` (the true cut), `joint-best` (the route's cut of the two true
+//! segments' markers, `right` when it is the true one), `pure`/`mixed` (the route's cut of
+//! a final segment of ≥ 5 markers), `cut-off` (a final two-marker segment cut from a true
+//! segment of more, against the rest of it); then the travel (mm and z), the centre's
+//! residual and the markers' distance to it over the travel, the direction's swing (° and
+//! z), pair, body and pooled σ over the typical σ, the body's spin (°). A `sizes` line per
+//! trial gives the share of final segments of two markers (the route's gate reads the
+//! same share when the joint test starts). `PAIR=SHARE` sets `joint_pair_share` (0: the
+//! route always on, 2: never).
 #![allow(clippy::print_stdout)]
 
 mod common;
 
-/// The smallest ρ from the pair to the body over the largest ρ within the body (mm/mm).
-fn order(traj: &mocap_io::Trajectories, cluster: &[usize], pair: [usize; 2]) -> f64 {
-    let body: Vec<usize> = cluster
-        .iter()
-        .copied()
-        .filter(|m| !pair.contains(m))
-        .collect();
-    let mut within: f64 = 0.0;
-    for (k, &a) in body.iter().enumerate() {
-        for &b in &body[k + 1..] {
-            within = within.max(common::rho_mm(traj, a, b));
-        }
-    }
-    let across = body
-        .iter()
-        .flat_map(|&a| pair.iter().map(move |&b| (a, b)))
-        .map(|(a, b)| common::rho_mm(traj, a, b))
-        .fold(f64::INFINITY, f64::min);
-    across / within
-}
-
+/// One case's evidence on one line (σs over the typical segment σ `sigma`).
 fn line(kind: &str, name: &str, e: &segment::PairEvidence, sigma: f64, extra: &str) {
     println!(
         "{kind:<10} {name:<34} travel {:7.2} tz {:6.2} frac {:5.3} rad/tr {:7.2} swing {:6.2} sz {:6.2} pair {:5.2} body {:5.2} pooled {:5.2} spin {:6.2} {extra}",
@@ -84,12 +71,13 @@ fn main() {
             let union = [body.as_slice(), pair.as_slice()].concat();
             if let Some((cut, e)) = segment::pair_split_candidate(traj, &union, sigma, &params) {
                 let right = cut.iter().all(|m| pair.contains(m));
-                let extra = format!(
-                    "order {:.2} {}",
-                    order(traj, &union, cut),
-                    if right { "right" } else { "wrong" }
+                line(
+                    "joint-best",
+                    &name,
+                    &e,
+                    sigma,
+                    if right { "right" } else { "wrong" },
                 );
-                line("joint-best", &name, &e, sigma, &extra);
             }
         }
         let Ok(seg) = segment::run(traj, &params) else {
@@ -148,8 +136,7 @@ fn main() {
                 let same = truth[cut[0]] == truth[cut[1]];
                 let labels = traj.labels();
                 let extra = format!(
-                    "order {:.2} {} markers, owners {owners:?}, cut {} {}+{} of {:?}",
-                    order(traj, &s.markers, cut),
+                    "{} markers, owners {owners:?}, cut {} {}+{} of {:?}",
                     s.markers.len(),
                     if same { "one-seg" } else { "across" },
                     labels[cut[0]],

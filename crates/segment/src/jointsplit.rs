@@ -29,7 +29,9 @@
 //! The bipartition tried is the one two free rigid bodies fit best
 //! (smallest pooled σ): every bipartition into parts of ≥ 3 markers up to
 //! [`MAX_ENUMERATED`] markers; above that, the cuts of the spectral bisection of the
-//! cluster's ρ affinity, refined by single-marker moves. Each part is split again.
+//! cluster's ρ affinity, refined by single-marker moves. Each part is split again. Where no
+//! such cut passes, a sparse marker set's cluster may still lose a pair of markers by the
+//! pair route (`pairsplit`).
 
 use std::collections::{BTreeMap, BTreeSet};
 
@@ -764,9 +766,11 @@ pub(crate) fn split_by_joint(
         .map(|(mask, _)| mask)
         .or_else(|| {
             // No cut into posable parts: a segment of two markers merged with its neighbour.
+            if !pair_route {
+                return None;
+            }
             let (mask, e) =
-                pairsplit::best_pair(&mut cache, pairsplit::MAX_MARKERS, test.pair.max_spin_deg)
-                    .filter(|_| pair_route)?;
+                pairsplit::best_pair(&mut cache, pairsplit::MAX_MARKERS, test.pair.max_spin_deg)?;
             e.is_joint(&test.pair, test.max_part_sigma_mm)
                 .then_some(mask)
         });

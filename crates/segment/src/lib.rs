@@ -36,10 +36,10 @@
 //! `jointsplit`), again on the clusters the settling after a cut changed; on a marker set
 //! with two markers on some segments it also cuts a pair from a cluster of ≥ 5 where the
 //! pair turns and travels about a point fixed in the rest's frame (`joint_pair_share`, see
-//! `pairsplit`); neighbours that
-//! move as one rigid body merge (`joint_merge_z`); a marker no body holds leaves its
-//! cluster (`eject_ratio`); a two-marker cluster whose markers two different bodies hold
-//! dissolves into them, a lone marker a body holds joins it (`pair_hold`), a pair one
+//! `pairsplit`); neighbours that move as one rigid body merge (`joint_merge_z`); a marker
+//! no body holds leaves its cluster (`eject_ratio`); a two-marker cluster whose markers two
+//! different bodies hold dissolves into them, a lone marker a body holds joins it
+//! (`pair_hold`), a pair one
 //! body holds rejoins it when the rigidity check had cut it from that body's spectral
 //! cluster and it sits there as still as the body's own markers (`pair_rejoin_ratio`: skin
 //! alike on two markers), and a pair only one of whose markers a body holds re-pairs when

@@ -12,7 +12,7 @@
 use std::collections::BTreeMap;
 
 use crate::fitsplit::{QUANTILE, median, quantile};
-use crate::jointsplit::{PartCache, inverse_inertia};
+use crate::jointsplit::{PartCache, inverse_inertia, median_point};
 use crate::swing::solve;
 
 /// Fewest strided frames with the body posed and both markers seen.
@@ -244,7 +244,7 @@ pub(crate) fn pair_evidence(
         .iter()
         .map(|f| std::array::from_fn(|i| 0.5 * (f.local[0][i] + f.local[1][i])))
         .collect();
-    let mid = crate::jointsplit::median_point(&mids);
+    let mid = median_point(&mids);
     let mut travel2: Vec<f64> = mids
         .iter()
         .map(|m| (0..3).map(|i| (m[i] - mid[i]).powi(2)).sum())
