@@ -142,7 +142,7 @@ pub struct Params {
     /// ... and one centre fixed in the rest keeps both markers at constant distances within this fraction of the midpoint's travel.
     #[serde(default = "default_joint_pair_centre_fraction")]
     pub joint_pair_centre_fraction: f64,
-    /// ... and the rest is posed with a rotation noise about its worst axis of at most this many degrees (median frame).
+    /// ... read only in the frames whose seen markers pose the rest with a rotation noise about its worst axis of at most this many degrees.
     #[serde(default = "default_joint_pair_max_spin_deg")]
     pub joint_pair_max_spin_deg: f64,
     /// After every other step, a cluster that neither the joint test nor the rigid merge has judged is put to the joint test.
@@ -501,7 +501,7 @@ pub const PARAM_DOCS: &[(&str, &str)] = &[
     ),
     (
         "joint_pair_max_spin_deg",
-        "the pair route (joint_pair_share): the rest's rotation noise about its worst posed axis (√(σ² λ_max(J⁻¹)) of the markers each frame saw, median frame) must be at most this: three markers nearly in a line spin about it, far beyond the linearised covariance, and swing the pair on a circle any centre on that line fits; default 20",
+        "the pair route (joint_pair_share) reads only the frames whose seen markers of the rest pose it with a rotation noise about its worst axis (√(σ² λ_max(J⁻¹)) of those markers) of at most this: three markers nearly in a line (a body that lost its one marker off the line to a gap: snake-hard-s30030 at the default markers) spin about it far beyond the linearised covariance, and swing a pair on one rigid body with them on a circle any centre on that line fits; default 20",
     ),
     (
         "near_joint_fraction",
