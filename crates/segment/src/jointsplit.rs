@@ -513,30 +513,14 @@ pub(crate) fn median_point(points: &[[f64; 3]]) -> [f64; 3] {
 /// covariance of one rigid body: both centroids' errors (`centroid_var`, mm²) and the
 /// frame's rotation error (`var` J⁻¹) swinging the median lever arm. 0 when the covariance
 /// is singular.
-pub(crate) fn centroid_travel_z(
+fn centroid_travel_z(
     local: &[[f64; 3]],
     mid: [f64; 3],
     centroid_var: f64,
     var: f64,
     inv_inertia: &[[f64; 3]; 3],
 ) -> f64 {
-    // δ(R_Aᵀ d) = [m]× ε for a rotation error ε of the frame: covariance [m]× Σ [m]×ᵀ.
-    let cross = [
-        [0.0, -mid[2], mid[1]],
-        [mid[2], 0.0, -mid[0]],
-        [-mid[1], mid[0], 0.0],
-    ];
-    let cov: [[f64; 3]; 3] = std::array::from_fn(|i| {
-        std::array::from_fn(|j| {
-            let mut s = if i == j { centroid_var } else { 0.0 };
-            for k in 0..3 {
-                for l in 0..3 {
-                    s += cross[i][k] * var * inv_inertia[k][l] * cross[j][l];
-                }
-            }
-            s
-        })
-    });
+    let cov = lever_covariance(mid, var, inv_inertia, centroid_var);
     if !cov.iter().flatten().all(|x| x.is_finite()) {
         return 0.0;
     }
@@ -551,6 +535,32 @@ pub(crate) fn centroid_travel_z(
         })
         .collect();
     quantile(&mut d2, QUANTILE).max(0.0).sqrt()
+}
+
+/// Covariance of a point at `lever` from a body's centroid under the body's rotation error
+/// (`var` J⁻¹: δ = ε × lever, so [l]× Σ [l]×ᵀ) plus an isotropic `position_var` (mm²).
+pub(crate) fn lever_covariance(
+    lever: [f64; 3],
+    var: f64,
+    inv_inertia: &[[f64; 3]; 3],
+    position_var: f64,
+) -> [[f64; 3]; 3] {
+    let cross = [
+        [0.0, -lever[2], lever[1]],
+        [lever[2], 0.0, -lever[0]],
+        [-lever[1], lever[0], 0.0],
+    ];
+    std::array::from_fn(|i| {
+        std::array::from_fn(|j| {
+            let mut s = if i == j { position_var } else { 0.0 };
+            for k in 0..3 {
+                for l in 0..3 {
+                    s += cross[i][k] * var * inv_inertia[k][l] * cross[j][l];
+                }
+            }
+            s
+        })
+    })
 }
 
 /// Frames used: every `stride`-th.
@@ -942,8 +952,6 @@ pub(crate) fn best_of(
 #[cfg(test)]
 mod tests {
     use mocap_io::Trajectories;
-    use rand::{Rng, SeedableRng};
-    use rand_chacha::ChaCha8Rng;
 
     use super::{JointEvidence, JointTest, RigidMerge, merge_rigid, near_joints, split_by_joint};
     use crate::fitsplit::typical_sigma;
@@ -976,42 +984,7 @@ mod tests {
             [10.0, -40.0, 290.0],
             [-30.0, -25.0, 360.0],
         ];
-        let n = parent.len() + child.len();
-        let mut rng = ChaCha8Rng::seed_from_u64(seed);
-        let mut unit = || {
-            let v: [f64; 3] = std::array::from_fn(|_| rng.random_range(-1.0..1.0));
-            let n = (v[0] * v[0] + v[1] * v[1] + v[2] * v[2]).sqrt().max(1e-9);
-            v.map(|x| x / n)
-        };
-        // As the generator's skin: half a direction shared by the body, half the marker's own.
-        let shared = [unit(), unit()];
-        let dirs: Vec<[f64; 3]> = (0..n)
-            .map(|k| {
-                let own = unit();
-                std::array::from_fn(|i| 0.5 * shared[usize::from(k >= 4)][i] + 0.5 * own[i])
-            })
-            .collect();
-        let frames = 400;
-        let mut positions = Vec::new();
-        for f in 0..frames {
-            let t = f as f64 * 0.04;
-            let drive = (0.7 * t).sin();
-            let (s, c) = (swing_deg.to_radians() * drive).sin_cos();
-            let shift = [150.0 * (0.3 * t).sin(), 80.0 * (0.2 * t).cos(), 900.0];
-            for (k, p) in parent.iter().chain(child.iter()).enumerate() {
-                let q = if k >= 4 {
-                    [p[0], c * p[1] - s * p[2], s * p[1] + c * p[2]]
-                } else {
-                    *p
-                };
-                let noise: [f64; 3] = std::array::from_fn(|_| rng.random_range(-0.5..0.5));
-                positions.push(std::array::from_fn(|i| {
-                    q[i] + shift[i] + skin_mm * drive * dirs[k][i] + noise[i]
-                }));
-            }
-        }
-        let labels: Vec<String> = (0..n).map(|m| format!("M{m}")).collect();
-        Trajectories::new(labels, 100.0, 1, frames, positions).expect("capture")
+        crate::testscene::skin_hinged_capture(&parent, child, swing_deg, skin_mm, seed)
     }
 
     /// A relative rotation well above the parts' pose noise that leaves the worse posed

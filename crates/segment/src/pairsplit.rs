@@ -12,7 +12,7 @@
 use std::collections::BTreeMap;
 
 use crate::fitsplit::{QUANTILE, median, quantile};
-use crate::jointsplit::{PartCache, inverse_inertia, median_point};
+use crate::jointsplit::{PartCache, inverse_inertia, lever_covariance, median_point};
 use crate::swing::solve;
 
 /// Fewest strided frames with the body posed and both markers seen.
@@ -158,15 +158,29 @@ struct PairFrame {
     geometry: SeenGeometry,
 }
 
-/// The evidence of the pair at the cluster positions set in `pair` (two bits) against the
-/// rest of `cache`'s cluster (≥ 3 markers), read in the frames whose body rotation noise
-/// is at most `max_spin_deg` about every axis; `None` when the body cannot be posed or too
-/// few frames are read.
-pub(crate) fn pair_evidence(
-    cache: &mut PartCache<'_>,
-    pair: u64,
-    max_spin_deg: f64,
-) -> Option<PairEvidence> {
+/// A pair read in the frames of the rest of its cluster (the body): what ranks the cut and
+/// what its evidence is read from.
+struct PairReading {
+    frames: Vec<PairFrame>,
+    /// The pair's length per frame, mm.
+    lengths: Vec<f64>,
+    /// Their median, mm.
+    typical_length: f64,
+    /// The pair's robust distance spread as a variance per coordinate, mm².
+    pair_var: f64,
+    /// Pooled robust σ of the body's rigid fit and the pair's distance, mm.
+    pooled_sigma_mm: f64,
+    /// The body's own robust fit variance, mm², and the larger of it and the typical one.
+    body_var: (f64, f64),
+    /// The capture's typical segment fit variance, mm².
+    typical_var: f64,
+}
+
+/// The pair at the cluster positions set in `pair` (two bits) against the rest of
+/// `cache`'s cluster (≥ 3 markers), in the frames whose body rotation noise is at most
+/// `max_spin_deg` about every axis; `None` when the body cannot be posed or too few frames
+/// are read.
+fn read_pair(cache: &mut PartCache<'_>, pair: u64, max_spin_deg: f64) -> Option<PairReading> {
     let n = cache.cluster.len();
     if pair.count_ones() != 2 || !(5..=63).contains(&n) {
         return None;
@@ -219,18 +233,20 @@ pub(crate) fn pair_evidence(
     if frames.len() < MIN_FRAMES {
         return None;
     }
-    let length = |l: &[[f64; 3]; 2]| {
-        (0..3)
-            .map(|i| (l[1][i] - l[0][i]).powi(2))
-            .sum::<f64>()
-            .sqrt()
-    };
-    let mut lengths: Vec<f64> = frames.iter().map(|f| length(&f.local)).collect();
-    let typical_length = median(&mut lengths);
-    // A pair's distance scatters by √2 σ along its line under σ per coordinate per marker.
-    let half_dev2: Vec<f64> = frames
+    let lengths: Vec<f64> = frames
         .iter()
-        .map(|f| 0.5 * (length(&f.local) - typical_length).powi(2))
+        .map(|f| {
+            (0..3)
+                .map(|i| (f.local[1][i] - f.local[0][i]).powi(2))
+                .sum::<f64>()
+                .sqrt()
+        })
+        .collect();
+    let typical_length = median(&mut lengths.clone());
+    // A pair's distance scatters by √2 σ along its line under σ per coordinate per marker.
+    let half_dev2: Vec<f64> = lengths
+        .iter()
+        .map(|l| 0.5 * (l - typical_length).powi(2))
         .collect();
     let pair_var = quantile(&mut half_dev2.clone(), QUANTILE);
     let mut pooled: Vec<f64> = frames
@@ -238,7 +254,40 @@ pub(crate) fn pair_evidence(
         .zip(&half_dev2)
         .map(|(f, h)| (f.residual.0 + h) / (f.residual.1 + 1.0))
         .collect();
-    let var_b = pair_var.max(typical_var);
+    Some(PairReading {
+        frames,
+        lengths,
+        typical_length,
+        pair_var,
+        pooled_sigma_mm: quantile(&mut pooled, QUANTILE).sqrt(),
+        body_var: (body.var, body_var),
+        typical_var,
+    })
+}
+
+/// The evidence of the pair at the cluster positions set in `pair` (two bits) against the
+/// rest of `cache`'s cluster (≥ 3 markers), read in the frames whose body rotation noise
+/// is at most `max_spin_deg` about every axis; `None` when the body cannot be posed or too
+/// few frames are read.
+pub(crate) fn pair_evidence(
+    cache: &mut PartCache<'_>,
+    pair: u64,
+    max_spin_deg: f64,
+) -> Option<PairEvidence> {
+    evidence(&read_pair(cache, pair, max_spin_deg)?)
+}
+
+/// What a pair's reading shows (see [`PairEvidence`]); `None` when no centre fits.
+fn evidence(reading: &PairReading) -> Option<PairEvidence> {
+    let PairReading {
+        frames,
+        lengths,
+        typical_length,
+        pair_var,
+        ..
+    } = reading;
+    let (own_body_var, body_var) = reading.body_var;
+    let var_b = pair_var.max(reading.typical_var);
 
     let mids: Vec<[f64; 3]> = frames
         .iter()
@@ -267,8 +316,9 @@ pub(crate) fn pair_evidence(
     // The pair's direction in the body's frame about its mean.
     let units: Vec<[f64; 3]> = frames
         .iter()
-        .map(|f| {
-            let len = length(&f.local).max(1e-9);
+        .zip(lengths)
+        .map(|(f, len)| {
+            let len = len.max(1e-9);
             std::array::from_fn(|i| (f.local[1][i] - f.local[0][i]) / len)
         })
         .collect();
@@ -306,46 +356,21 @@ pub(crate) fn pair_evidence(
         radius_mm,
         swing_deg: swing.to_degrees(),
         swing_z,
-        pooled_sigma_mm: quantile(&mut pooled, QUANTILE).sqrt(),
-        body_sigma_mm: body.var.sqrt(),
+        pooled_sigma_mm: reading.pooled_sigma_mm,
+        body_sigma_mm: own_body_var.sqrt(),
         pair_sigma_mm: pair_var.sqrt(),
         body_spin_deg: median(&mut spin).to_degrees(),
     })
 }
 
-/// Covariance of a point at `lever` from a body's centroid under the body's rotation error
-/// (`var` J⁻¹: δ = ε × lever, covariance [l]× Σ [l]×ᵀ) plus an isotropic `position_var`.
-fn lever_covariance(
-    lever: [f64; 3],
-    var: f64,
-    inv_inertia: &[[f64; 3]; 3],
-    position_var: f64,
-) -> [[f64; 3]; 3] {
-    let cross = [
-        [0.0, -lever[2], lever[1]],
-        [lever[2], 0.0, -lever[0]],
-        [-lever[1], lever[0], 0.0],
-    ];
-    std::array::from_fn(|i| {
-        std::array::from_fn(|j| {
-            let mut s = if i == j { position_var } else { 0.0 };
-            for k in 0..3 {
-                for l in 0..3 {
-                    s += cross[i][k] * var * inv_inertia[k][l] * cross[j][l];
-                }
-            }
-            s
-        })
-    })
-}
-
-/// `vᵀ cov⁻¹ v`; infinite when `cov` is singular (no error budget at all).
+/// `vᵀ cov⁻¹ v`; 0 when `cov` is singular: a frame with no error budget to weigh by is no
+/// evidence (as the joint test's travel takes it).
 fn mahalanobis2(cov: &[[f64; 3]; 3], v: [f64; 3]) -> f64 {
     match crate::reassign::invert3(cov) {
         Some(w) => (0..3)
             .map(|i| (0..3).map(|j| v[i] * w[i][j] * v[j]).sum::<f64>())
             .sum(),
-        None => f64::INFINITY,
+        None => 0.0,
     }
 }
 
@@ -460,7 +485,8 @@ fn common_centre(local: &[[[f64; 3]; 2]], origin: [f64; 3]) -> Option<(f64, f64)
 
 /// The two-marker part of `cache`'s cluster (≥ 5 markers, at most `max_markers`) with the
 /// smallest pooled σ against the rest, as a mask of cluster positions, and its evidence.
-/// Frames are read as [`pair_evidence`] reads them (`max_spin_deg`).
+/// Frames are read as [`pair_evidence`] reads them (`max_spin_deg`). Only the pooled σ ranks
+/// the cuts, so only the best is weighed (the next where no centre fits it).
 pub(crate) fn best_pair(
     cache: &mut PartCache<'_>,
     max_markers: usize,
@@ -470,29 +496,26 @@ pub(crate) fn best_pair(
     if n < 5 || n > max_markers.min(63) {
         return None;
     }
-    let mut best: Option<(u64, PairEvidence)> = None;
+    let mut ranked: Vec<(f64, u64)> = Vec::new();
     for i in 0..n {
         for j in i + 1..n {
             let mask = (1u64 << i) | (1u64 << j);
-            let Some(e) = pair_evidence(cache, mask, max_spin_deg) else {
-                continue;
-            };
-            if best
-                .as_ref()
-                .is_none_or(|(_, b)| e.pooled_sigma_mm < b.pooled_sigma_mm)
-            {
-                best = Some((mask, e));
+            if let Some(r) = read_pair(cache, mask, max_spin_deg) {
+                ranked.push((r.pooled_sigma_mm, mask));
             }
         }
     }
-    best
+    // Stable: among equal σ the first in enumeration order.
+    ranked.sort_by(|a, b| a.0.total_cmp(&b.0));
+    ranked.into_iter().find_map(|(_, mask)| {
+        let e = pair_evidence(cache, mask, max_spin_deg)?;
+        Some((mask, e))
+    })
 }
 
 #[cfg(test)]
 mod tests {
     use mocap_io::Trajectories;
-    use rand::{Rng, SeedableRng};
-    use rand_chacha::ChaCha8Rng;
 
     use super::{PairEvidence, PairTest};
     use crate::fitsplit::typical_sigma;
@@ -505,40 +528,7 @@ mod tests {
     /// as the generator's) and ±0.5 mm of noise.
     fn capture(parent: &[[f64; 3]; 3], swing_deg: f64, skin_mm: f64, seed: u64) -> Trajectories {
         let child = [[30.0, 35.0, -150.0], [-40.0, 5.0, -240.0]];
-        let mut rng = ChaCha8Rng::seed_from_u64(seed);
-        let mut unit = || {
-            let v: [f64; 3] = std::array::from_fn(|_| rng.random_range(-1.0..1.0));
-            let n = (v[0] * v[0] + v[1] * v[1] + v[2] * v[2]).sqrt().max(1e-9);
-            v.map(|x| x / n)
-        };
-        let shared = [unit(), unit()];
-        let dirs: Vec<[f64; 3]> = (0..5)
-            .map(|k| {
-                let own = unit();
-                std::array::from_fn(|i| 0.5 * shared[usize::from(k >= 3)][i] + 0.5 * own[i])
-            })
-            .collect();
-        let frames = 400;
-        let mut positions = Vec::new();
-        for f in 0..frames {
-            let t = f as f64 * 0.04;
-            let drive = (0.7 * t).sin();
-            let (s, c) = (swing_deg.to_radians() * drive).sin_cos();
-            let shift = [150.0 * (0.3 * t).sin(), 80.0 * (0.2 * t).cos(), 900.0];
-            for (k, p) in parent.iter().chain(child.iter()).enumerate() {
-                let q = if k >= 3 {
-                    [p[0], c * p[1] - s * p[2], s * p[1] + c * p[2]]
-                } else {
-                    *p
-                };
-                let noise: [f64; 3] = std::array::from_fn(|_| rng.random_range(-0.5..0.5));
-                positions.push(std::array::from_fn(|i| {
-                    q[i] + shift[i] + skin_mm * drive * dirs[k][i] + noise[i]
-                }));
-            }
-        }
-        let labels: Vec<String> = (0..5).map(|m| format!("M{m}")).collect();
-        Trajectories::new(labels, 100.0, 1, frames, positions).expect("capture")
+        crate::testscene::skin_hinged_capture(parent, &child, swing_deg, skin_mm, seed)
     }
 
     const SPREAD: [[f64; 3]; 3] = [

@@ -495,6 +495,20 @@ fn eval_trial(subject: synth::Subject, preset: synth::Preset, seed: u64) -> synt
     trial_of(subject, preset, seed, 480)
 }
 
+/// A synthetic trial as `cargo xtask eval --markers 2:3` makes it: 480 frames, two or
+/// three markers per segment.
+fn sparse_eval_trial(subject: synth::Subject, preset: synth::Preset, seed: u64) -> synth::Trial {
+    let config = synth::SynthConfig {
+        subject,
+        preset,
+        seed,
+        frames: 480,
+        markers_per_segment: (2, 3),
+        ..synth::SynthConfig::default()
+    };
+    synth::generate(&config).expect("synthetic trial")
+}
+
 /// A synthetic trial with the generator's defaults but its length.
 fn trial_of(
     subject: synth::Subject,
@@ -675,15 +689,7 @@ fn white_noise_is_taken_out_of_the_affinity() {
 /// so the tolerance stays on the noise level (skin, 480 frames, markers 2:3).
 #[test]
 fn few_markers_per_segment_keep_the_tolerance_on_the_noise() {
-    let config = synth::SynthConfig {
-        subject: synth::Subject::Human,
-        preset: synth::Preset::Skin,
-        seed: 6002,
-        frames: 480,
-        markers_per_segment: (2, 3),
-        ..synth::SynthConfig::default()
-    };
-    let trial = synth::generate(&config).expect("synthetic trial");
+    let trial = sparse_eval_trial(synth::Subject::Human, synth::Preset::Skin, 6002);
     let seg = run(&trial.trajectories, &Params::default()).expect("segments");
     let on_noise = Params::default().tolerance_factor * seg.noise_mm;
     assert!(
@@ -1400,15 +1406,7 @@ fn the_pair_route_runs_on_sparse_marker_sets() {
 /// where without the route the snake has a link too few.
 #[test]
 fn a_two_marker_link_merged_with_its_neighbour_is_cut_by_the_pair_route() {
-    let config = synth::SynthConfig {
-        subject: synth::Subject::Snake,
-        preset: synth::Preset::Hard,
-        seed: 30048,
-        frames: 480,
-        markers_per_segment: (2, 3),
-        ..synth::SynthConfig::default()
-    };
-    let trial = synth::generate(&config).expect("synthetic trial");
+    let trial = sparse_eval_trial(synth::Subject::Snake, synth::Preset::Hard, 30048);
     let traj = &trial.trajectories;
     let mut truth = trial.true_segment_markers();
     truth.iter_mut().for_each(|s| s.sort_unstable());

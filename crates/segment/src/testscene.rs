@@ -74,3 +74,57 @@ pub(crate) fn hinged_capture(
         }
     })
 }
+
+/// `parent` fixed and `child` hinged about the x axis through the origin, swinging
+/// ±`swing_deg` as sin(0.7 t) over 400 frames at t = 0.04 f, all translating (parent
+/// markers first, labels `M0`…); each marker carries smooth skin of up to `skin_mm` swept
+/// with the joint angle, half its body's direction and half its own (as the generator's
+/// skin), and uniform ±0.5 mm noise, drawn from `seed`.
+pub(crate) fn skin_hinged_capture(
+    parent: &[[f64; 3]],
+    child: &[[f64; 3]],
+    swing_deg: f64,
+    skin_mm: f64,
+    seed: u64,
+) -> Trajectories {
+    use rand::{Rng, SeedableRng};
+    let split = parent.len();
+    let n = split + child.len();
+    let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(seed);
+    let mut unit = || {
+        let v: [f64; 3] = std::array::from_fn(|_| rng.random_range(-1.0..1.0));
+        let n = (v[0] * v[0] + v[1] * v[1] + v[2] * v[2]).sqrt().max(1e-9);
+        v.map(|x| x / n)
+    };
+    let shared = [unit(), unit()];
+    let dirs: Vec<[f64; 3]> = (0..n)
+        .map(|k| {
+            let own = unit();
+            std::array::from_fn(|i| 0.5 * shared[usize::from(k >= split)][i] + 0.5 * own[i])
+        })
+        .collect();
+    let frames = 400;
+    let mut positions = Vec::new();
+    for f in 0..frames {
+        let t = f as f64 * 0.04;
+        let drive = (0.7 * t).sin();
+        let (s, c) = (swing_deg.to_radians() * drive).sin_cos();
+        let shift = [150.0 * (0.3 * t).sin(), 80.0 * (0.2 * t).cos(), 900.0];
+        for (k, p) in parent.iter().chain(child.iter()).enumerate() {
+            let q = if k >= split {
+                [p[0], c * p[1] - s * p[2], s * p[1] + c * p[2]]
+            } else {
+                *p
+            };
+            let noise: [f64; 3] = std::array::from_fn(|_| rng.random_range(-0.5..0.5));
+            positions.push(std::array::from_fn(|i| {
+                q[i] + shift[i] + skin_mm * drive * dirs[k][i] + noise[i]
+            }));
+        }
+    }
+    let labels: Vec<String> = (0..n).map(|m| format!("M{m}")).collect();
+    match Trajectories::new(labels, 100.0, 1, frames, positions) {
+        Ok(traj) => traj,
+        Err(e) => panic!("test scene: {e}"),
+    }
+}
