@@ -130,6 +130,7 @@ pub fn scene(frames: usize, rate: f64) -> Scene {
                 evidence: "exact".into(),
                 centre_from_distances: false,
                 seeded: false,
+                posed_through: None,
                 first_pass_kind: None,
                 misfit_over_noise: f64::NAN,
             });

@@ -199,6 +199,7 @@ pub(crate) fn fit_pair(
             ),
             centre_from_distances: false,
             seeded: false,
+            posed_through: None,
             first_pass_kind: None,
             misfit_over_noise: f64::NAN,
         };
@@ -414,6 +415,7 @@ pub(crate) fn fit_pair(
         evidence,
         centre_from_distances: false,
         seeded: false,
+        posed_through: None,
         first_pass_kind: None,
         misfit_over_noise,
     }

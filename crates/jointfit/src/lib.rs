@@ -389,6 +389,9 @@ fn fit_all(
                 "2-marker frames filled through this joint"
             };
             fit.seeded |= anchor.seed;
+            if anchor.posed_by_anchor {
+                fit.posed_through = Some(s);
+            }
             fit.evidence.push_str(&format!(
                 "; segment {s} {how} in {} frames (common centre in segment {}: {})",
                 anchor.frames_posed,
@@ -399,6 +402,7 @@ fn fit_all(
         if let Some((nb, second)) = &anchor.second_centre {
             let (a, b) = (s.min(*nb), s.max(*nb));
             if let Some(fit) = fits.iter_mut().find(|p| p.a == a && p.b == b) {
+                fit.posed_through = Some(s);
                 fit.evidence.push_str(&format!(
                     "; segment {s} posed through this joint too, with its anchor {}'s \
                      (common centre in segment {nb}: {})",

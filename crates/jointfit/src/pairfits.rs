@@ -3,7 +3,7 @@
 use serde::{Deserialize, Serialize};
 
 /// Schema version of [`PairFits`]; bump when its fields or the algorithm's output change.
-pub const SCHEMA_VERSION: u32 = 27;
+pub const SCHEMA_VERSION: u32 = 28;
 
 /// Per-frame rigid poses of every segment and the joint fitted to every segment pair.
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
@@ -126,6 +126,11 @@ pub struct PairFit {
     /// its two-marker segments was posed from both segments' markers' common centre.
     #[serde(default)]
     pub seeded: bool,
+    /// The segment of the two whose poses come through this joint (posed from its markers
+    /// and the centre as the other segment carries it; see `anchor.rs`), if any: the cost
+    /// is then low partly by construction and is no scale for another pair's.
+    #[serde(default)]
+    pub posed_through: Option<usize>,
     /// The kind the first pass (the segments' own poses) gave, where a second pass along
     /// the tree changed it and `Params::tree_from_second_pass` is off: topo's rules read it
     /// with the first pass's cost and rotation, so the tree is the one those poses

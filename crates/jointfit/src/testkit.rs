@@ -158,6 +158,7 @@ pub(crate) fn point_fit(a: usize, b: usize, centres: [[f64; 3]; 2], residual: f6
         evidence: String::new(),
         centre_from_distances: false,
         seeded: false,
+        posed_through: None,
         first_pass_kind: None,
         misfit_over_noise: f64::NAN,
     }

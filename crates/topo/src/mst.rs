@@ -636,6 +636,7 @@ mod tests {
                     evidence: String::new(),
                     centre_from_distances: false,
                     seeded: false,
+                    posed_through: None,
                     first_pass_kind: None,
                     misfit_over_noise: f64::NAN,
                 });
@@ -1015,6 +1016,28 @@ mod tests {
         assert!(stays(&seg, &f, &Params::default()));
         let (seg, f) = twin_arms(2, 300.0);
         assert!(stays(&seg, &f, &Params::default()));
+    }
+
+    #[test]
+    fn a_twin_posed_through_its_twin_is_weighed_against_the_twins_own_joint() {
+        // Clavicle 2 hung on clavicle 1 at 3 mm, its pair with the thorax 7 mm: 2.33 × the
+        // edge, too dear for the rule. But where one clavicle is posed through the other
+        // (two markers, no pose of its own), that edge is cheap by construction, and the
+        // thorax's pair with clavicle 2 is weighed against clavicle 1's own, 4 mm.
+        let moved = |posed_through: Option<usize>| {
+            let (seg, mut f) = twin_arms(1, 300.0);
+            fit_mut(&mut f, 0, 2).cost = 7.0;
+            fit_mut(&mut f, 1, 2).posed_through = posed_through;
+            let t = run(&seg, &f, &Params::default()).unwrap_or_else(|e| panic!("{e}"));
+            let note = t.notes.iter().any(|n| {
+                n.contains("segment 2 hung on segment 0, not on 1")
+                    && n.contains("1.75 × the larger of its pair with 1")
+            });
+            (edge_set(&t).contains(&(0, 2)), note)
+        };
+        assert_eq!(moved(None), (false, false));
+        assert_eq!(moved(Some(2)), (true, true));
+        assert_eq!(moved(Some(1)), (true, true));
     }
 
     /// Twin arms (see `twin_arms`) with a head 7 that fits a centre with clavicle 1 best

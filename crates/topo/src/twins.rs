@@ -80,6 +80,19 @@ fn fair_pair(fits: &PairFits, a: usize, b: usize, cost: f64, bound: f64) -> Opti
     (ratio.is_finite() && ratio <= bound).then_some((i, ratio))
 }
 
+/// What a twin Y's pair with X's parent is weighed against: Y's edge to X, the cost of the
+/// pair the move replaces; but where one of X and Y is posed through that very joint its
+/// cost is low by construction (a two-marker clavicle posed through the other clavicle
+/// keeps its centre there by its own fit), and a twin hung on the parent costs about what
+/// X's own joint with the parent does: the larger of the two.
+fn twin_scale(fits: &PairFits, pair: usize, cost: f64, parent_cost: f64) -> f64 {
+    if fits.pairs[pair].posed_through.is_some() && parent_cost.is_finite() {
+        cost.max(parent_cost)
+    } else {
+        cost
+    }
+}
+
 /// Fewest bones below a twin: one bone of a like length is a coin toss in a random tree
 /// (random-hard-s40070: two segments with one child each, bones of 501 and 592 mm).
 const MIN_BONES: usize = 2;
@@ -129,7 +142,8 @@ pub(crate) fn hang_twins_on_one_parent(
                     if p == y {
                         continue;
                     }
-                    let Some((pi, ratio)) = fair_pair(fits, p, y, cost, params.twin_cost_ratio)
+                    let scale = twin_scale(fits, pair, cost, edges[pe].3);
+                    let Some((pi, ratio)) = fair_pair(fits, p, y, scale, params.twin_cost_ratio)
                     else {
                         continue;
                     };
@@ -157,10 +171,17 @@ pub(crate) fn hang_twins_on_one_parent(
         } else {
             edges[e].0
         };
+        let against = match fits.pairs[edges[e].2].posed_through {
+            Some(s) => format!(
+                "the larger of its pair with {x} (low by construction: segment {s} is posed \
+                 through it) and {x}'s with {p}"
+            ),
+            None => format!("its pair with {x}"),
+        };
         notes.push(format!(
             "segment {y} hung on segment {p}, not on {x}: what hangs below {y} is built like \
              what else hangs below {x} (twins on one parent), and its pair with {p} costs \
-             {ratio:.2} × its pair with {x} (topo.twin_cost_ratio)"
+             {ratio:.2} × {against} (topo.twin_cost_ratio)"
         ));
         edges[e] = (p.min(y), p.max(y), pi, fits.pairs[pi].cost);
         moved[y] = true;
