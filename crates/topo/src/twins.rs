@@ -11,6 +11,11 @@
 //! below the two segments (one bone of a like length is a coin toss), and not a segment
 //! carrying several branches (rather a body cut in pieces).
 //!
+//! Where one of X and Y is posed through their very joint (two markers and the centre as
+//! the other carries it: `PairFit::posed_through`), that edge is cheap by construction,
+//! and Y's pair with P is weighed against the larger of it and X's own joint with P: a
+//! twin hung on P costs about what its twin's joint there does.
+//!
 //! A leaf hung on one twin that fits a centre with the other twin and with their parent
 //! about as well (`twin_leaf_cost_ratio`) sits where the twins meet the parent, not on
 //! one twin's far side (where a hand or a paw hangs, away from the mirror limb): it moves
