@@ -45,7 +45,12 @@
 //! the tree (second pass), its other joint's centre, its markers' common centre in that
 //! neighbour's frame, is a fourth point of its pose when the two centres fit alike
 //! (`Params::anchor_two_centres`); a two-marker S no single centre can pose (each in line
-//! with its markers) is posed from the two best centres at once.
+//! with its markers) is posed from the two best centres at once. Exactly in line, the
+//! centre adds no spin to any frame; where a hinge square to the line swings it in one
+//! plane, S's twist about the line is N's, so S takes swing-only poses along it through
+//! N, as one marker does, when N holds its markers clearly steadier than any other posed
+//! neighbour would (a robot link's two markers along its bone, which would otherwise be
+//! posed through the next link's joint).
 //!
 //! Segments with their own poses (≥ 3 markers) get the same anchor search, and frames
 //! where only 2 of their markers are visible are filled from those 2 plus the anchor's
@@ -364,9 +369,36 @@ pub(crate) fn anchor_segments(
         let Some(Some(fit)) = memo[s][nb].clone() else {
             break;
         };
-        let new = anchored_poses(traj, s, &segments[s], &poses[nb], &tracks[nb], &fit, params);
-        let track = pose_track(&new);
-        let count = posed_count(&track);
+        let mut new = anchored_poses(traj, s, &segments[s], &poses[nb], &tracks[nb], &fit, params);
+        let mut track = pose_track(&new);
+        let mut count = posed_count(&track);
+        // Two markers in line with N's centre leave no frame a spin, so the fit refuses
+        // them all. Where the joint swings their line in one plane (a hinge square to it:
+        // `swing_plane_ratio` under `Params::hinge_ratio`) the line's twist is N's, and
+        // where N also holds them clearly steadier than any other posed neighbour
+        // (`Params::anchor_steadier_ratio`) they are posed along the line as one marker
+        // is, not through a worse neighbour's joint (a robot link's markers along its bone).
+        if count < params.min_frames
+            && segments[s].len() == 2
+            && fit.excursion_deg >= params.anchor_min_excursion_deg
+        {
+            let other = (0..n)
+                .filter(|&x| x != s && x != nb && posed[x] && open(s, x))
+                .filter_map(|x| memo[s][x].as_ref()?.as_ref())
+                .filter(|f| f.identified)
+                .map(|f| f.rms_mm)
+                .fold(f64::INFINITY, f64::min);
+            if fit.rms_mm < params.anchor_steadier_ratio * other {
+                let line = line_poses(traj, s, &segments[s], &poses[nb], &tracks[nb], &fit);
+                let line_track = pose_track(&line);
+                let line_count = posed_count(&line_track);
+                if line_count >= params.min_frames
+                    && swing_plane_ratio(&line, &poses[nb]) < params.hinge_ratio
+                {
+                    (new, track, count) = (line, line_track, line_count);
+                }
+            }
+        }
         if count < params.min_frames {
             // Too few frames with both markers and the neighbour: try the next candidate.
             failed[s][nb] = true;
@@ -1323,6 +1355,117 @@ fn anchored_poses(
         rotations,
         translations,
         rms_mm,
+    }
+}
+
+/// Swing-only poses of a segment whose markers lie in line with the centre N carries (the
+/// one-marker convention of the module docs, along the markers' line): per frame N's
+/// rotation composed with the smallest rotation carrying the centre→markers direction from
+/// its mean to the frame's (the twist about that line is N's, by convention), placed so
+/// the centre is where N carries it. Local frame: N's axes, origin at the markers' mean
+/// place; `rms_mm` the markers' RMS distance from their posed places.
+fn line_poses(
+    traj: &Trajectories,
+    id: usize,
+    markers: &[usize],
+    n_poses: &SegmentPoses,
+    n_track: &[Option<Pose>],
+    fit: &CentreFit,
+) -> SegmentPoses {
+    let c = fit.centre;
+    let frames = traj.frames();
+    let nan3 = [f64::NAN; 3];
+    let mut out = SegmentPoses {
+        segment: id,
+        reference: vec![nan3; markers.len()],
+        rotations: vec![[f64::NAN; 4]; frames],
+        translations: vec![nan3; frames],
+        rms_mm: vec![f64::NAN; frames],
+    };
+    // Each marker's mean place in N's frame, from the centre fit.
+    let places: Vec<DVec3> = fit.radii.iter().map(|&(r, u)| c + r * u).collect();
+    if places.len() != markers.len() || places.iter().any(|p| !p.is_finite()) {
+        return out;
+    }
+    let origin = places.iter().sum::<DVec3>() / places.len() as f64;
+    let Some(dir0) = (origin - c).try_normalize() else {
+        return out;
+    };
+    for (r, p) in out.reference.iter_mut().zip(&places) {
+        *r = (*p - origin).to_array();
+    }
+    let centre_local = c - origin;
+    for f in 0..frames {
+        let Some(pose) = &n_track[f] else { continue };
+        let seen = || {
+            markers
+                .iter()
+                .zip(&places)
+                .filter_map(|(&m, &place)| Some((place, DVec3::from_array(traj.get(f, m)?))))
+        };
+        // The seen markers' mean place now, against the same markers' reference mean.
+        let (mut now, mut then, mut count) = (DVec3::ZERO, DVec3::ZERO, 0usize);
+        for (place, x) in seen() {
+            now += pose.inverse_apply(x);
+            then += place;
+            count += 1;
+        }
+        let (Some(u), Some(u0)) = (
+            (now / count as f64 - c).try_normalize(),
+            (then / count as f64 - c).try_normalize(),
+        ) else {
+            continue;
+        };
+        let swing = DQuat::from_rotation_arc(u0, u) * DQuat::from_rotation_arc(dir0, u0);
+        let mut rot = (DQuat::from_array(n_poses.rotations[f]) * swing).normalize();
+        if rot.w < 0.0 {
+            rot = -rot;
+        }
+        let trans = pose.apply(c) - rot * centre_local;
+        let sq: f64 = seen()
+            .map(|(place, x)| (rot * (place - origin) + trans).distance_squared(x))
+            .sum();
+        out.rotations[f] = rot.to_array();
+        out.translations[f] = trans.to_array();
+        out.rms_mm[f] = (sq / count as f64).sqrt();
+    }
+    out
+}
+
+/// How far the line of a segment posed by [`line_poses`] leaves one plane through the
+/// centre as it swings, in N's frame: √(λ₃ / λ₂) of the second moments of its direction
+/// about the centre (λ₁ ≥ λ₂ ≥ λ₃), out-of-plane spread over in-plane swing. A hinge
+/// whose axis is square to the line swings it in a plane and turns it about nothing else,
+/// so the line's poses are the joint's (ratio near 0); about a ball joint the line covers
+/// a patch and its own twist, which no pose of two markers in line can see, is unknown.
+fn swing_plane_ratio(line: &SegmentPoses, n_poses: &SegmentPoses) -> f64 {
+    let direction = line_direction(line);
+    let mut m = [[0.0f64; 3]; 3];
+    for (q, qn) in line.rotations.iter().zip(&n_poses.rotations) {
+        if !q[3].is_finite() || !qn[3].is_finite() {
+            continue;
+        }
+        // The line's direction in N's frame.
+        let rel = DQuat::from_array(*qn).inverse() * DQuat::from_array(*q);
+        let d = (rel * direction).to_array();
+        for i in 0..3 {
+            for j in 0..3 {
+                m[i][j] += d[i] * d[j];
+            }
+        }
+    }
+    let (values, _) = sym_eigen(m);
+    if values[1].is_nan() || values[1] <= 0.0 {
+        return f64::INFINITY;
+    }
+    (values[2].max(0.0) / values[1]).sqrt()
+}
+
+/// The direction of a two-marker segment's marker line in its local frame.
+fn line_direction(poses: &SegmentPoses) -> DVec3 {
+    match poses.reference.as_slice() {
+        [a, b] => (DVec3::from_array(*b) - DVec3::from_array(*a)).normalize_or_zero(),
+        _ => DVec3::ZERO,
     }
 }
 

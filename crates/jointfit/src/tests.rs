@@ -1809,3 +1809,80 @@ fn tree_centres_keep_a_joint_the_frames_read_never_pose() {
         fits.pairs[second].centre_in_b
     );
 }
+
+/// A two-marker segment whose markers lie in line with its hinge (a robot link's markers
+/// along its bone): no frame's fit through that joint sees a spin, yet the hinge swings
+/// the line in one plane, so it is posed along the line through its neighbour; about a
+/// ball joint it is not.
+#[test]
+fn two_markers_in_line_with_a_hinge_are_posed_along_the_line() {
+    let run = |in_line: bool, ball: bool| {
+        let mut rng = TestRng(45);
+        let frames = 400;
+        let base = [
+            DVec3::new(60.0, 0.0, -100.0),
+            DVec3::new(-50.0, 30.0, -200.0),
+            DVec3::new(10.0, -70.0, -250.0),
+            DVec3::new(0.0, 40.0, -180.0),
+        ];
+        let hinge_in_base = DVec3::new(0.0, 0.0, -300.0);
+        // Along the link's bone (-z from the hinge), or 40 mm off it for the second.
+        let off = if in_line { 0.0 } else { 40.0 };
+        let link = [DVec3::new(0.0, 0.0, -80.0), DVec3::new(off, 0.0, -220.0)];
+        let mut positions = Vec::with_capacity(frames * 6);
+        let mut hinges = Vec::new();
+        let mut axes = Vec::new();
+        for f in 0..frames {
+            let phase = f as f64 / 90.0 * std::f64::consts::TAU;
+            let flex = 35f64.to_radians() * phase.sin();
+            let q = rng.rotation();
+            let t = rng.vec3(1000.0);
+            let mut mark = |p: DVec3| positions.push((p + rng.vec3(1.0)).to_array());
+            for m in base {
+                mark(q * m + t);
+            }
+            let h = q * hinge_in_base + t;
+            let abduct = if ball {
+                30f64.to_radians() * (0.7 * phase + 1.0).sin()
+            } else {
+                0.0
+            };
+            let ql = q * DQuat::from_rotation_x(flex) * DQuat::from_rotation_y(abduct);
+            for m in link {
+                mark(ql * m + h);
+            }
+            hinges.push(h);
+            axes.push(q * DVec3::X);
+        }
+        let labels = (0..6).map(|i| format!("M{i}")).collect();
+        let traj = mocap_io::Trajectories::new(labels, 100.0, 1, frames, positions).unwrap();
+        let fits =
+            run_on_segments(&traj, &[vec![0, 1, 2, 3], vec![4, 5]], &Params::default()).unwrap();
+        let hinge = pair(&fits, 0, 1);
+        // A hinge fixes its axis, not a point on it: the mean distance from the axis.
+        let (mut sum, mut count) = (0.0, 0);
+        for ((p, h), a) in hinge.positions.iter().zip(&hinges).zip(&axes) {
+            let d = DVec3::from_array(*p) - *h;
+            if d.is_finite() {
+                sum += (d - d.dot(*a) * *a).length();
+                count += 1;
+            }
+        }
+        (
+            hinge.posed_through,
+            sum / count.max(1) as f64,
+            hinge.evidence.clone(),
+        )
+    };
+    // Off the line, the link is posed from its markers and the centre as always.
+    let (through, error, evidence) = run(false, false);
+    assert_eq!(through, Some(1), "{evidence}");
+    assert!(error < 5.0, "{error} mm: {evidence}");
+    let (through, error, evidence) = run(true, false);
+    assert_eq!(through, Some(1), "{evidence}");
+    assert!(error < 5.0, "{error} mm: {evidence}");
+    // About a ball joint the line sweeps a patch, and its twist, which two markers in
+    // line cannot see, is not the neighbour's: no pose along the line.
+    let (through, _, evidence) = run(true, true);
+    assert_eq!(through, None, "{evidence}");
+}
