@@ -1480,7 +1480,8 @@ fn two_markers_on_every_segment_start_from_a_common_centre() {
 /// only the knee can pose the shank. Where the knee centre is 11.7 mm off the line of the
 /// shank's markers, the shank posed through it spins about that line and carries the
 /// ankle off; posed from the ankle's centre in the foot's frame too, it does not. Where it
-/// is 3.7 mm off, the knee alone poses nothing, both centres do.
+/// is 3.7 mm off, the knee alone poses the shank only along the markers' line, with the
+/// knee's twist, and both centres do much better.
 #[test]
 fn a_two_marker_segment_is_posed_through_both_its_joints() {
     let measure = |knee_marker: DVec3, params: &Params| {
@@ -1553,19 +1554,17 @@ fn a_two_marker_segment_is_posed_through_both_its_joints() {
         without.1,
         without.2
     );
-    // Measured: 3.7 mm off, knee 1.9 mm and ankle 5.1 mm with both centres, no pose without.
+    // Measured: 3.7 mm off, knee 1.9 mm and ankle 4.4 mm with both centres; through the
+    // knee alone, its markers nearly in line with it, the shank is posed along that line
+    // (the knee swings it in one plane) and the ankle lands 20.2 mm off.
     let nearer = DVec3::new(4.0, 4.0, -10.0);
     let (on, without) = (measure(nearer, &Params::default()), measure(nearer, &off));
     assert!(
-        without.1.is_nan(),
-        "posed through the knee alone: {}",
-        without.2
-    );
-    assert!(
-        on.0 < 5.0 && on.1 < 10.0,
-        "knee {:.1} mm, ankle {:.1} mm\n{}",
+        on.0 < 5.0 && on.1 < 10.0 && on.1 < 0.5 * without.1,
+        "knee {:.1} mm, ankle {:.1} mm; ankle through the knee alone {:.1} mm\n{}",
         on.0,
         on.1,
+        without.1,
         on.2
     );
 }
