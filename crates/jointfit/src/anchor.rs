@@ -378,6 +378,8 @@ pub(crate) fn anchor_segments(
         // where N also holds them clearly steadier than any other posed neighbour
         // (`Params::anchor_steadier_ratio`) they are posed along the line as one marker
         // is, not through a worse neighbour's joint (a robot link's markers along its bone).
+        // Only about a centre they visibly swing about: one taken for steadier distances
+        // alone can lie far out along the line (hexapod-hard-s30028 at 2:3, 2.8°).
         if count < params.min_frames
             && segments[s].len() == 2
             && fit.excursion_deg >= params.anchor_min_excursion_deg
