@@ -227,7 +227,11 @@ pub const PARAM_DOCS: &[(&str, &str)] = &[
     (
         "hinge_ratio",
         "kind \"hinge\" when the least-moving relative direction wobbles less than this \
-         fraction of the next one; ratio; default 0.3 (synthetic hard trials: hinges ≤ 0.26, ball joints ≥ 0.32)",
+         fraction of the next one; also, anchoring a two-marker segment in line with its \
+         neighbour's centre along that line needs the line's swing planar to this ratio \
+         (out-of-plane over in-plane spread: robot arm and quadruped hinges 0.15-0.20, a \
+         hexapod body on a ball hip 0.60); ratio; default 0.3 (synthetic hard trials: \
+         hinges ≤ 0.26, ball joints ≥ 0.32)",
     ),
     (
         "hinge_noise_ratio",
@@ -460,8 +464,11 @@ pub const PARAM_DOCS: &[(&str, &str)] = &[
          2.02 % against 1.97 (worst trial 68.9 % against 29.7), 2:3 hard 38/96 at 3.05 % \
          against 36 at 2.98. Real: Gait.trc's left upper arm (two \
          markers, with a one-marker wrist) 215 -> 325 mm, its ankles ball joints, the right \
-         one 21 -> 9 mm from the malleoli's midpoint; CMU 02_01's limbs unchanged; 0 = off; \
-         default 0.7",
+         one 21 -> 9 mm from the malleoli's midpoint; CMU 02_01's limbs unchanged. Also: \
+         a two-marker segment in line with its best neighbour's centre (no spin to fit) is \
+         posed along that line through it only below this fraction of every other posed \
+         neighbour's residual (and where hinge_ratio finds the line's swing planar; see \
+         anchor.rs); 0 = off; default 0.7",
     ),
     (
         "anchor_min_excursion_deg",
