@@ -92,6 +92,9 @@ pub(crate) struct Anchor {
     /// A two-marker S posed from its markers and both its joints' centres: the second
     /// neighbour and the centre of S's markers in its frame.
     pub second_centre: Option<(usize, CentreFit)>,
+    /// S's two markers lie in line with the centre: posed along that line, its twist about
+    /// the line taken from N (see [`line_poses`]).
+    pub along_line: bool,
 }
 
 impl Anchor {
@@ -106,6 +109,7 @@ impl Anchor {
             secondary: None,
             seed: false,
             second_centre: None,
+            along_line: false,
         }
     }
 }
@@ -372,6 +376,7 @@ pub(crate) fn anchor_segments(
         let mut new = anchored_poses(traj, s, &segments[s], &poses[nb], &tracks[nb], &fit, params);
         let mut track = pose_track(&new);
         let mut count = posed_count(&track);
+        let mut along_line = false;
         // Two markers in line with N's centre leave no frame a spin, so the fit refuses
         // them all. Where the joint swings their line in one plane (a hinge square to it:
         // `swing_plane_ratio` under `Params::hinge_ratio`) the line's twist is N's, and
@@ -397,7 +402,7 @@ pub(crate) fn anchor_segments(
                 if line_count >= params.min_frames
                     && swing_plane_ratio(&line, &poses[nb]) < params.hinge_ratio
                 {
-                    (new, track, count) = (line, line_track, line_count);
+                    (new, track, count, along_line) = (line, line_track, line_count, true);
                 }
             }
         }
@@ -409,7 +414,10 @@ pub(crate) fn anchor_segments(
         poses[s] = new;
         tracks[s] = track;
         posed[s] = true;
-        let mut anchor = Anchor::posing(nb, fit, count);
+        let mut anchor = Anchor {
+            along_line,
+            ..Anchor::posing(nb, fit, count)
+        };
         // Along the tree, a two-marker segment's other joint gives its pose a fourth point.
         let along = || {
             (0..n)
@@ -438,6 +446,8 @@ pub(crate) fn anchor_segments(
             if posed_count(&track) >= count {
                 anchor.frames_posed = posed_count(&track);
                 anchor.second_centre = Some(second);
+                // Two centres fix the twist the line left to N.
+                anchor.along_line = false;
                 poses[s] = new;
                 tracks[s] = track;
             }

@@ -383,6 +383,9 @@ fn fit_all(
             let how = if anchor.seed {
                 "posed first, from the two segments' markers' common centre (no segment had a \
                  pose of its own),"
+            } else if anchor.along_line {
+                "posed along its two markers' line, which runs through this joint's centre \
+                 (its twist about that line is the other segment's),"
             } else if anchor.posed_by_anchor {
                 "posed through this joint"
             } else {

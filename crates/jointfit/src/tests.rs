@@ -1878,9 +1878,14 @@ fn two_markers_in_line_with_a_hinge_are_posed_along_the_line() {
     let (through, error, evidence) = run(false, false);
     assert_eq!(through, Some(1), "{evidence}");
     assert!(error < 5.0, "{error} mm: {evidence}");
+    assert!(!evidence.contains("posed along"), "{evidence}");
     let (through, error, evidence) = run(true, false);
     assert_eq!(through, Some(1), "{evidence}");
     assert!(error < 5.0, "{error} mm: {evidence}");
+    assert!(
+        evidence.contains("segment 1 posed along its two markers' line"),
+        "{evidence}"
+    );
     // About a ball joint the line sweeps a patch, and its twist, which two markers in
     // line cannot see, is not the neighbour's: no pose along the line.
     let (through, _, evidence) = run(true, true);
