@@ -1336,46 +1336,15 @@ fn anchored_poses(
         return shape.into_poses(id, markers.len());
     }
     // One marker: swing-only pose relative to N (see the module docs).
-    let (r, dir0) = fit.radii.first().copied().unwrap_or((f64::NAN, DVec3::NAN));
-    let frames = traj.frames();
-    let nan3 = [f64::NAN; 3];
-    let mut rotations = vec![[f64::NAN; 4]; frames];
-    let mut translations = vec![nan3; frames];
-    let mut rms_mm = vec![f64::NAN; frames];
-    if r.is_finite() && dir0.is_finite() {
-        for f in 0..frames {
-            let (Some(pose), Some(p)) =
-                (&n_track[f], markers.first().and_then(|&m| traj.get(f, m)))
-            else {
-                continue;
-            };
-            let q = pose.inverse_apply(DVec3::from_array(p)) - c;
-            let Some(u) = q.try_normalize() else { continue };
-            let rot_n = DQuat::from_array(n_poses.rotations[f]);
-            let mut rot = (rot_n * DQuat::from_rotation_arc(dir0, u)).normalize();
-            if rot.w < 0.0 {
-                rot = -rot;
-            }
-            rotations[f] = rot.to_array();
-            translations[f] = (pose.apply(c) + r * (rot * dir0)).to_array();
-            rms_mm[f] = (q.length() - r).abs();
-        }
-    }
-    SegmentPoses {
-        segment: id,
-        reference: vec![[0.0; 3]],
-        rotations,
-        translations,
-        rms_mm,
-    }
+    line_poses(traj, id, markers, n_poses, n_track, fit)
 }
 
-/// Swing-only poses of a segment whose markers lie in line with the centre N carries (the
-/// one-marker convention of the module docs, along the markers' line): per frame N's
-/// rotation composed with the smallest rotation carrying the centre→markers direction from
-/// its mean to the frame's (the twist about that line is N's, by convention), placed so
-/// the centre is where N carries it. Local frame: N's axes, origin at the markers' mean
-/// place; `rms_mm` the markers' RMS distance from their posed places.
+/// Swing-only poses of a segment of one marker, or of markers in line with the centre N
+/// carries (see the module docs): per frame N's rotation composed with the smallest
+/// rotation carrying the centre→markers direction from its mean to the frame's (the twist
+/// about that line is N's, by convention), placed so the centre is where N carries it.
+/// Local frame: N's axes, origin at the markers' mean place; `rms_mm` the markers' RMS
+/// distance from their posed places (for one marker, its distance's from the radius).
 fn line_poses(
     traj: &Trajectories,
     id: usize,
