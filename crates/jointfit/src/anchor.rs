@@ -95,6 +95,10 @@ pub(crate) struct Anchor {
     /// S's two markers lie in line with the centre: posed along that line, its twist about
     /// the line taken from N (see [`line_poses`]).
     pub along_line: bool,
+    /// When the greedy search chose N: the other posed neighbour whose identified centre
+    /// held S's markers best, and its radial residual (mm). How decisive the choice was:
+    /// the chosen joint's pair is cheap by construction, the runner-up's is not.
+    pub next_best: Option<(usize, f64)>,
 }
 
 impl Anchor {
@@ -110,6 +114,7 @@ impl Anchor {
             seed: false,
             second_centre: None,
             along_line: false,
+            next_best: None,
         }
     }
 }
@@ -411,11 +416,34 @@ pub(crate) fn anchor_segments(
             failed[s][nb] = true;
             continue;
         }
+        // Weighed against every posed neighbour, on the tree or off it, as the first pass
+        // weighs them (the tree pass fits only tree neighbours until none is left to try).
+        // Fits not in the memo are not stored: the second-neighbour gap filling below reads
+        // the memo after the first gap fills have refreshed the neighbours' tracks, and
+        // must fit its candidates on those (storing them here changed 447 of 700 trials).
+        let others: Vec<usize> = (0..n).filter(|&x| x != s && x != nb && posed[x]).collect();
+        let next_best = others
+            .par_iter()
+            .filter_map(|&x| {
+                let fit = match &memo[s][x] {
+                    Some(fit) => fit.clone(),
+                    None => centre_fit(
+                        traj,
+                        &segments[s],
+                        &tracks[x],
+                        params,
+                        params.anchor_min_excursion_deg,
+                    ),
+                };
+                fit.filter(|f| f.identified).map(|f| (x, f.rms_mm))
+            })
+            .min_by(|a, b| a.1.total_cmp(&b.1).then(a.0.cmp(&b.0)));
         poses[s] = new;
         tracks[s] = track;
         posed[s] = true;
         let mut anchor = Anchor {
             along_line,
+            next_best,
             ..Anchor::posing(nb, fit, count)
         };
         // Along the tree, a two-marker segment's other joint gives its pose a fourth point.

@@ -395,8 +395,15 @@ fn fit_all(
             if anchor.posed_by_anchor {
                 fit.posed_through = Some(s);
             }
+            let next_best = match anchor.next_best {
+                Some((x, rms)) if anchor.posed_by_anchor && !anchor.seed => format!(
+                    "; next best, segment {x}'s: radial residual {rms:.2} mm, {:.2} times this",
+                    rms / anchor.fit.rms_mm
+                ),
+                _ => String::new(),
+            };
             fit.evidence.push_str(&format!(
-                "; segment {s} {how} in {} frames (common centre in segment {}: {})",
+                "; segment {s} {how} in {} frames (common centre in segment {}: {}{next_best})",
                 anchor.frames_posed,
                 anchor.neighbour,
                 anchor.fit.describe()

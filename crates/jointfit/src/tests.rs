@@ -452,6 +452,36 @@ fn synthetic_human_clean_score() {
     assert_eq!(tree, true_edges);
 }
 
+/// The same chain: the 1-marker segment is posed through its own joint, and that joint's
+/// evidence names the runner-up, the root, whose centre holds the marker worse (it turns
+/// with both joints about it); the 2-marker segment had no other posed neighbour to weigh.
+#[test]
+fn an_anchor_names_the_next_best_neighbour() {
+    let mut rng = TestRng(31);
+    let mut bodies = chain(
+        &mut rng,
+        &[Articulation::Ball(60.0), Articulation::Ball(60.0)],
+        4,
+    );
+    bodies[1].markers.truncate(2);
+    bodies[2].markers.truncate(1);
+    let trial = generate(&mut rng, &bodies, 400, 0.1, |_, _, _| false);
+    let fits = run_on_segments(&trial.traj, &trial.segments, &Params::default()).unwrap();
+    let evidence = &pair(&fits, 1, 2).evidence;
+    let (_, after) = evidence
+        .split_once("next best, segment 0's: radial residual ")
+        .unwrap_or_else(|| panic!("{evidence}"));
+    let ratio: f64 = after
+        .split_once(" mm, ")
+        .and_then(|(_, rest)| rest.split_once(" times this"))
+        .and_then(|(r, _)| r.parse().ok())
+        .unwrap_or_else(|| panic!("{evidence}"));
+    assert!(ratio > 1.0, "{evidence}");
+    let first = &pair(&fits, 0, 1).evidence;
+    assert!(first.contains("posed through this joint"), "{first}");
+    assert!(!first.contains("next best"), "{first}");
+}
+
 /// Root with 4 markers, then a ball-jointed 2-marker segment, then a ball-jointed
 /// 1-marker segment: anchoring poses both, so both joints are found.
 #[test]
