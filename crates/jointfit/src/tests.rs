@@ -452,20 +452,13 @@ fn synthetic_human_clean_score() {
     assert_eq!(tree, true_edges);
 }
 
-/// The same chain: the 1-marker segment is posed through its own joint, and that joint's
-/// evidence names the runner-up, the root, whose centre holds the marker worse (it turns
-/// with both joints about it); the 2-marker segment had no other posed neighbour to weigh.
+/// [`two_and_one_marker_chain`]: the 1-marker segment is posed through its own joint, and
+/// that joint's evidence names the runner-up, the root, whose centre holds the marker worse
+/// (it turns with both joints about it); the 2-marker segment had no other posed neighbour
+/// to weigh.
 #[test]
 fn an_anchor_names_the_next_best_neighbour() {
-    let mut rng = TestRng(31);
-    let mut bodies = chain(
-        &mut rng,
-        &[Articulation::Ball(60.0), Articulation::Ball(60.0)],
-        4,
-    );
-    bodies[1].markers.truncate(2);
-    bodies[2].markers.truncate(1);
-    let trial = generate(&mut rng, &bodies, 400, 0.1, |_, _, _| false);
+    let trial = two_and_one_marker_chain();
     let fits = run_on_segments(&trial.traj, &trial.segments, &Params::default()).unwrap();
     let evidence = &pair(&fits, 1, 2).evidence;
     let (_, after) = evidence
@@ -483,9 +476,8 @@ fn an_anchor_names_the_next_best_neighbour() {
 }
 
 /// Root with 4 markers, then a ball-jointed 2-marker segment, then a ball-jointed
-/// 1-marker segment: anchoring poses both, so both joints are found.
-#[test]
-fn two_and_one_marker_segments_are_anchored() {
+/// 1-marker segment, 400 frames.
+fn two_and_one_marker_chain() -> Trial {
     let mut rng = TestRng(31);
     let mut bodies = chain(
         &mut rng,
@@ -496,7 +488,13 @@ fn two_and_one_marker_segments_are_anchored() {
     bodies[2].markers.truncate(1);
     // 0.1 mm: body 0's markers happen to lie within ~25 mm of each other, so its own
     // pose noise (not anchoring) dominates the joint error at 0.3 mm (3.3 mm measured).
-    let trial = generate(&mut rng, &bodies, 400, 0.1, |_, _, _| false);
+    generate(&mut rng, &bodies, 400, 0.1, |_, _, _| false)
+}
+
+/// The chain above: anchoring poses both small segments, so both joints are found.
+#[test]
+fn two_and_one_marker_segments_are_anchored() {
+    let trial = two_and_one_marker_chain();
     let fits = run_on_segments(&trial.traj, &trial.segments, &Params::default()).unwrap();
     for s in 1..3 {
         let posed = fits.poses[s]
