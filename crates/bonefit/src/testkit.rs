@@ -131,6 +131,7 @@ pub fn scene(frames: usize, rate: f64) -> Scene {
                 centre_from_distances: false,
                 seeded: false,
                 posed_through: None,
+                next_best_anchor: None,
                 first_pass_kind: None,
                 misfit_over_noise: f64::NAN,
             });

@@ -468,6 +468,15 @@ pub(crate) fn document(input: &Inputs<'_>) -> Result<SkeletonJson, Error> {
                 r.parent_side_segment, r.child_side_segment, r.cost_ratio
             ));
         }
+        if let (Some(s), Some((x, ratio))) = (pair.posed_through, pair.next_best_anchor)
+            && ratio < 1.0
+        {
+            warnings.push(format!(
+                "segment {s} is posed through this joint although segment {x}'s centre holds its \
+                 markers better ({ratio:.2} times this one's residual): the tree kept this joint, \
+                 and may be wrong here"
+            ));
+        }
         if pair.seeded {
             warnings.push(
                 "every pose starts here: no segment has three markers of its own, so one of \

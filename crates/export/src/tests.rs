@@ -531,6 +531,32 @@ fn the_seeded_joint_warns() {
     }
 }
 
+/// A joint a segment is posed through warns where another neighbour's centre held that
+/// segment's markers better (the tree pass kept it on the worse fit), and only there.
+#[test]
+fn a_joint_kept_on_a_worse_anchor_warns() {
+    let mut s = scene(60, 60.0);
+    let head = s.fits.pairs.iter().position(|p| (p.a, p.b) == (0, 3));
+    let head = head.expect("torso-head pair");
+    s.fits.pairs[head].posed_through = Some(3);
+    s.fits.pairs[head].next_best_anchor = Some((1, 0.6));
+    let thigh = s.fits.pairs.iter().position(|p| (p.a, p.b) == (0, 1));
+    let thigh = thigh.expect("torso-thigh pair");
+    s.fits.pairs[thigh].posed_through = Some(1);
+    s.fits.pairs[thigh].next_best_anchor = Some((3, 1.4));
+    let doc = json(&files(&s, &Params::default()));
+    for joint in doc["joints"].as_array().into_iter().flatten() {
+        let warnings = joint["warnings"].to_string();
+        let warned = warnings.contains("holds its markers better");
+        assert_eq!(warned, joint["child_segment"] == 3, "{joint}");
+        assert_eq!(
+            warned,
+            warnings.contains("although segment 1's centre"),
+            "{joint}"
+        );
+    }
+}
+
 /// Each joint carries its runner-up pair (topo's) as a cost ratio; one below 1.2 warns,
 /// naming the pair, unless the joint is a rigid pair (taken before every cost).
 #[test]

@@ -200,6 +200,7 @@ pub(crate) fn fit_pair(
             centre_from_distances: false,
             seeded: false,
             posed_through: None,
+            next_best_anchor: None,
             first_pass_kind: None,
             misfit_over_noise: f64::NAN,
         };
@@ -416,6 +417,7 @@ pub(crate) fn fit_pair(
         centre_from_distances: false,
         seeded: false,
         posed_through: None,
+        next_best_anchor: None,
         first_pass_kind: None,
         misfit_over_noise,
     }

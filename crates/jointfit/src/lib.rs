@@ -396,10 +396,14 @@ fn fit_all(
                 fit.posed_through = Some(s);
             }
             let next_best = match anchor.next_best {
-                Some((x, rms)) if anchor.posed_by_anchor && !anchor.seed => format!(
-                    "; next best, segment {x}'s: radial residual {rms:.2} mm, {:.2} times this",
-                    rms / anchor.fit.rms_mm
-                ),
+                Some((x, rms)) if anchor.posed_by_anchor && !anchor.seed => {
+                    fit.next_best_anchor = Some((x, rms / anchor.fit.rms_mm));
+                    format!(
+                        "; next best, segment {x}'s: radial residual {rms:.2} mm, {:.2} times \
+                         this",
+                        rms / anchor.fit.rms_mm
+                    )
+                }
                 _ => String::new(),
             };
             fit.evidence.push_str(&format!(

@@ -3,7 +3,7 @@
 use serde::{Deserialize, Serialize};
 
 /// Schema version of [`PairFits`]; bump when its fields or the algorithm's output change.
-pub const SCHEMA_VERSION: u32 = 31;
+pub const SCHEMA_VERSION: u32 = 32;
 
 /// Per-frame rigid poses of every segment and the joint fitted to every segment pair.
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
@@ -131,6 +131,11 @@ pub struct PairFit {
     /// is then low partly by construction and is no scale for another pair's.
     #[serde(default)]
     pub posed_through: Option<usize>,
+    /// Where a segment is posed through this joint: the other posed neighbour whose centre
+    /// held that segment's markers next best, and its radial residual over this joint's
+    /// (below 1, the tree pass kept this joint on a worse fit than another's).
+    #[serde(default)]
+    pub next_best_anchor: Option<(usize, f64)>,
     /// The kind the first pass (the segments' own poses) gave, where a second pass along
     /// the tree changed it and `Params::tree_from_second_pass` is off: topo's rules read it
     /// with the first pass's cost and rotation, so the tree is the one those poses

@@ -159,6 +159,7 @@ pub(crate) fn point_fit(a: usize, b: usize, centres: [[f64; 3]; 2], residual: f6
         centre_from_distances: false,
         seeded: false,
         posed_through: None,
+        next_best_anchor: None,
         first_pass_kind: None,
         misfit_over_noise: f64::NAN,
     }

@@ -470,6 +470,12 @@ fn an_anchor_names_the_next_best_neighbour() {
         .and_then(|(r, _)| r.parse().ok())
         .unwrap_or_else(|| panic!("{evidence}"));
     assert!(ratio > 1.0, "{evidence}");
+    let field = pair(&fits, 1, 2).next_best_anchor;
+    assert!(
+        field.is_some_and(|(x, r)| x == 0 && (r - ratio).abs() < 0.01),
+        "{field:?}"
+    );
+    assert_eq!(pair(&fits, 0, 1).next_best_anchor, None);
     let first = &pair(&fits, 0, 1).evidence;
     assert!(first.contains("posed through this joint"), "{first}");
     assert!(!first.contains("next best"), "{first}");

@@ -637,6 +637,7 @@ mod tests {
                     centre_from_distances: false,
                     seeded: false,
                     posed_through: None,
+                    next_best_anchor: None,
                     first_pass_kind: None,
                     misfit_over_noise: f64::NAN,
                 });
