@@ -425,17 +425,19 @@ pub(crate) fn anchor_segments(
         let next_best = others
             .par_iter()
             .filter_map(|&x| {
-                let fit = match &memo[s][x] {
-                    Some(fit) => fit.clone(),
+                let identified = |f: &CentreFit| f.identified.then_some((x, f.rms_mm));
+                match &memo[s][x] {
+                    Some(fit) => fit.as_ref().and_then(identified),
                     None => centre_fit(
                         traj,
                         &segments[s],
                         &tracks[x],
                         params,
                         params.anchor_min_excursion_deg,
-                    ),
-                };
-                fit.filter(|f| f.identified).map(|f| (x, f.rms_mm))
+                    )
+                    .as_ref()
+                    .and_then(identified),
+                }
             })
             .min_by(|a, b| a.1.total_cmp(&b.1).then(a.0.cmp(&b.0)));
         poses[s] = new;

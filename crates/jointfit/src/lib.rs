@@ -397,11 +397,11 @@ fn fit_all(
             }
             let next_best = match anchor.next_best {
                 Some((x, rms)) if anchor.posed_by_anchor && !anchor.seed => {
-                    fit.next_best_anchor = Some((x, rms / anchor.fit.rms_mm));
+                    let ratio = rms / anchor.fit.rms_mm;
+                    fit.next_best_anchor = Some((x, ratio));
                     format!(
-                        "; next best, segment {x}'s: radial residual {rms:.2} mm, {:.2} times \
-                         this",
-                        rms / anchor.fit.rms_mm
+                        "; next best, segment {x}'s: radial residual {rms:.2} mm, {ratio:.2} \
+                         times this"
                     )
                 }
                 _ => String::new(),
