@@ -50,11 +50,15 @@
 //! the tree whose centre fits clearly better, since their own tree edges came from
 //! spin-blind poses; `Params::loose_off_tree_ratio`), anchors are sought among tree
 //! neighbours first, and a two-marker segment is posed from both its joints' centres
-//! (`Params::anchor_two_centres`). Topo reads its pairs' costs, relative
-//! rotations and kinds (`Params::tree_from_second_pass`; off, the pairs keep the first
-//! pass's for it, `PairFit::first_pass_kind`, and the tree is the one the segments' own
-//! poses support). Where it would leave a pair the first pass fitted without a centre,
-//! the first pass's fits stand.
+//! (`Params::anchor_two_centres`). Where that pass posed a segment through a tree
+//! neighbour's joint although another neighbour's centre holds its markers clearly better
+//! (`Params::anchor_swap_ratio`), a third pass runs along the tree with that neighbour's
+//! edge instead: the tentative tree came from greedy anchors, cheap by construction. Topo
+//! reads the last pass's pairs' costs, relative rotations and kinds
+//! (`Params::tree_from_second_pass`; off, the pairs keep the first pass's for it,
+//! `PairFit::first_pass_kind`, and the tree is the one the segments' own poses support).
+//! Where a pass would leave a pair the first pass fitted without a centre, the pass before
+//! it stands.
 //!
 //! It does not choose which pairs are joints (topo does, from the costs); hinge centres
 //! are placed on their axes from the tree by [`place_hinges_across_bones`] (or the older
@@ -195,23 +199,39 @@ fn fit_passes(
         // Every anchor is a tree neighbour already: a second pass would repeat the first.
         return Ok(own.fits);
     }
-    let mut along = fit_all(traj, segments, params, own_poses, Some((&tree, &loose))).fits;
     // A segment posed through a joint is posed only where its neighbour is: a pair the
     // first pass could fit may have too few frames left. Topo would take its first-pass
-    // cost and bonefit find no centre, so the second pass is all or nothing.
+    // cost and bonefit find no centre, so a later pass is all or nothing.
     let fitted = |p: &PairFit| {
         p.centre_in_a
             .iter()
             .chain(&p.centre_in_b)
             .all(|x| x.is_finite())
     };
-    if along
-        .pairs
-        .iter()
-        .zip(&own.fits.pairs)
-        .any(|(x, first)| fitted(first) && !fitted(x))
-    {
+    let keeps_every_fit = |fits: &PairFits| {
+        fits.pairs
+            .iter()
+            .zip(&own.fits.pairs)
+            .all(|(x, first)| !fitted(first) || fitted(x))
+    };
+    let mut along = fit_all(
+        traj,
+        segments,
+        params,
+        own_poses.clone(),
+        Some((&tree, &loose)),
+    )
+    .fits;
+    if !keeps_every_fit(&along) {
         return Ok(own.fits);
+    }
+    // A third pass where the second posed a segment through a tree neighbour whose joint
+    // holds its markers clearly worse than another neighbour's (`Params::anchor_swap_ratio`).
+    if let Some(swapped) = tree_with_better_anchors(&tree, &along.pairs, params.anchor_swap_ratio) {
+        let third = fit_all(traj, segments, params, own_poses, Some((&swapped, &loose))).fits;
+        if keeps_every_fit(&third) {
+            along = third;
+        }
     }
     if params.tree_from_second_pass {
         // The tree from the better poses: a loose segment posed through its tentative
@@ -236,6 +256,64 @@ fn fit_passes(
         }
     }
     Ok(along)
+}
+
+/// `tree` with each anchor the second pass took clearly worse than the next best
+/// (`PairFit::next_best_anchor` below `ratio`) swapped for that neighbour's edge, the most
+/// decisive first, where the swap keeps a tree; `None` when nothing is swapped.
+fn tree_with_better_anchors(
+    tree: &[Vec<bool>],
+    pairs: &[PairFit],
+    ratio: f64,
+) -> Option<Vec<Vec<bool>>> {
+    let mut swaps: Vec<(f64, usize, usize, usize)> = pairs
+        .iter()
+        .filter_map(|p| {
+            let s = p.posed_through?;
+            let (better, r) = p.next_best_anchor?;
+            let anchor = if p.a == s { p.b } else { p.a };
+            (r < ratio).then_some((r, s, anchor, better))
+        })
+        .collect();
+    swaps.sort_by(|x, y| {
+        x.0.total_cmp(&y.0)
+            .then((x.1, x.2, x.3).cmp(&(y.1, y.2, y.3)))
+    });
+    let mut tree = tree.to_vec();
+    let mut swapped = false;
+    for (_, s, anchor, better) in swaps {
+        if !tree[s][anchor] || tree[s][better] {
+            continue;
+        }
+        tree[s][anchor] = false;
+        tree[anchor][s] = false;
+        // Without the anchor's edge, `better` must lie across the cut it made.
+        if reachable(&tree, s)[better] {
+            tree[s][anchor] = true;
+            tree[anchor][s] = true;
+            continue;
+        }
+        tree[s][better] = true;
+        tree[better][s] = true;
+        swapped = true;
+    }
+    swapped.then_some(tree)
+}
+
+/// Which segments `tree` (symmetric adjacency) connects to `from`.
+fn reachable(tree: &[Vec<bool>], from: usize) -> Vec<bool> {
+    let mut seen = vec![false; tree.len()];
+    seen[from] = true;
+    let mut stack = vec![from];
+    while let Some(u) = stack.pop() {
+        for (v, &edge) in tree[u].iter().enumerate() {
+            if edge && !seen[v] {
+                seen[v] = true;
+                stack.push(v);
+            }
+        }
+    }
+    seen
 }
 
 /// Pair fits, and the anchors that decide whether a second pass along the tree changes

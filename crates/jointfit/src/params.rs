@@ -109,6 +109,12 @@ pub struct Params {
     /// centre fits its markers with a residual below this fraction of the best tree
     /// neighbour's (default 0.85; 0 = tree neighbours only).
     pub loose_off_tree_ratio: f64,
+    /// Along the tree (second pass), a segment posed through a tree neighbour's joint
+    /// although another posed neighbour's centre holds its markers with a radial residual
+    /// below this fraction of that joint's (`PairFit::next_best_anchor`) is posed again,
+    /// along the tree with that neighbour's edge in place of the first (a third pass;
+    /// default 0.6; 0 = off).
+    pub anchor_swap_ratio: f64,
     /// Anchoring: largest RMS radial residual (mm) of an acceptable common centre.
     pub anchor_max_rms_mm: f64,
     /// Anchoring: a common centre turned about less than the excursion bounds above still
@@ -173,6 +179,7 @@ impl Default for Params {
             anchor_min_excursion_deg: 10.0,
             anchor_steadier_ratio: 0.7,
             loose_off_tree_ratio: 0.85,
+            anchor_swap_ratio: 0.6,
             anchor_max_rms_mm: 25.0,
             anchor_exact_centre_mm: 10.0,
             anchor_line_prior: true,
@@ -519,6 +526,19 @@ pub const PARAM_DOCS: &[(&str, &str)] = &[
          thorax's 5.69 mm); 0 = tree neighbours only; default 0.85",
     ),
     (
+        "anchor_swap_ratio",
+        "along the tree (second pass), a segment posed through a tree neighbour's joint \
+         although another posed neighbour's centre holds its markers with a radial residual \
+         below this fraction of that joint's (PairFit::next_best_anchor) is posed again, \
+         along the tree with that neighbour's edge in place of the first (a third pass): the \
+         first pass's tree came from greedy anchors, whose pairs are cheap by construction. \
+         With the true segments at --markers 2:3 (seeds 20001..20050,30001..30050, hard) no \
+         right tree edge had a ratio below 0.6 and 13 wrong ones did; cargo xtask eval \
+         --presets hard --markers 2:3 [--true-segments] on those seeds: 294 -> 296 exact \
+         trees (+2 -0) and 452 -> 456 (+4 -0) at 0.6, 458 (+10 -4) at 0.8; the default \
+         markers identical trial for trial; 0 = off; default 0.6",
+    ),
+    (
         "anchor_max_rms_mm",
         concat!(
             "anchoring: a neighbour qualifies only if the markers' distances to the common \
@@ -677,6 +697,7 @@ impl Params {
             ("anchor_exact_centre_mm", self.anchor_exact_centre_mm),
             ("anchor_steadier_ratio", self.anchor_steadier_ratio),
             ("loose_off_tree_ratio", self.loose_off_tree_ratio),
+            ("anchor_swap_ratio", self.anchor_swap_ratio),
             ("hinge_slide_max_rise", self.hinge_slide_max_rise),
             ("centre_prior", self.centre_prior),
         ] {

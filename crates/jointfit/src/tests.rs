@@ -481,6 +481,55 @@ fn an_anchor_names_the_next_best_neighbour() {
     assert!(!first.contains("next best"), "{first}");
 }
 
+/// A chain 0 – 1 – 2 – 3 whose segment 3 was posed through segment 2's joint although
+/// segment 0's centre holds its markers at `ratio` times that joint's residual: the tree
+/// of the third pass takes 0 – 3 instead of 2 – 3 below `anchor_swap_ratio`, and nothing
+/// at or above it; a neighbour on the anchor's own side of the cut is no swap (the tree
+/// would break).
+#[test]
+fn an_anchor_clearly_worse_than_the_next_best_is_swapped_for_it() {
+    let edge = |t: &mut Vec<Vec<bool>>, a: usize, b: usize, on: bool| {
+        t[a][b] = on;
+        t[b][a] = on;
+    };
+    let mut chain = vec![vec![false; 4]; 4];
+    for (a, b) in [(0, 1), (1, 2), (2, 3)] {
+        edge(&mut chain, a, b, true);
+    }
+    let pairs = |better: usize, ratio: f64| {
+        let mut anchored = crate::testkit::point_fit(2, 3, [[0.0; 3]; 2], 1.0);
+        anchored.posed_through = Some(3);
+        anchored.next_best_anchor = Some((better, ratio));
+        vec![
+            crate::testkit::point_fit(0, 1, [[0.0; 3]; 2], 1.0),
+            anchored,
+        ]
+    };
+    let limit = Params::default().anchor_swap_ratio;
+    let swapped = crate::tree_with_better_anchors(&chain, &pairs(0, 0.9 * limit), limit);
+    let mut expected = chain.clone();
+    edge(&mut expected, 2, 3, false);
+    edge(&mut expected, 0, 3, true);
+    assert_eq!(swapped, Some(expected));
+    assert_eq!(
+        crate::tree_with_better_anchors(&chain, &pairs(0, limit), limit),
+        None
+    );
+    assert_eq!(
+        crate::tree_with_better_anchors(&chain, &pairs(0, 0.3), 0.0),
+        None
+    );
+    // Segment 3 carries 4, which carries 5: 5 is on 3's side of the cut 2 – 3 makes.
+    let mut longer = vec![vec![false; 6]; 6];
+    for (a, b) in [(0, 1), (1, 2), (2, 3), (3, 4), (4, 5)] {
+        edge(&mut longer, a, b, true);
+    }
+    assert_eq!(
+        crate::tree_with_better_anchors(&longer, &pairs(5, 0.3), limit),
+        None
+    );
+}
+
 /// Root with 4 markers, then a ball-jointed 2-marker segment, then a ball-jointed
 /// 1-marker segment, 400 frames.
 fn two_and_one_marker_chain() -> Trial {
