@@ -9,6 +9,7 @@ fuzz_target!(|data: &[u8]| {
         let options = ReadOptions {
             keep_invalid_residuals,
             keep_model_outputs: keep_invalid_residuals,
+            ..ReadOptions::default()
         };
         if let Ok(capture) = c3d::parse(data, &options) {
             let t = &capture.trajectories;

@@ -265,3 +265,46 @@ fn a_batch_refuses_two_captures_that_would_write_one_folder() {
     assert!(!result.status.success());
     assert!(String::from_utf8_lossy(&result.stderr).contains("no C3D, TRC or CSV file"));
 }
+
+/// `mocap-io.frames` and `mocap-io.exclude_markers` from the command line: the skeleton
+/// covers the chosen frames under their own numbers and names no left-out marker; a range
+/// the capture does not hold fails, naming the capture and the option, and writes nothing.
+#[test]
+fn a_frame_range_and_left_out_markers_reach_the_skeleton() {
+    let tmp = Scratch::new("select");
+    let capture = root().join("fixtures/robotarm-clean.c3d");
+    let mut args = tmp.run_args(&capture);
+    let first_label = {
+        let json: serde_json::Value =
+            serde_json::from_str(&xtask_ok(&["inspect", capture.to_str().unwrap(), "--json"]))
+                .unwrap();
+        json["labels"][0].as_str().unwrap().to_string()
+    };
+    args.extend([
+        "--set".into(),
+        "mocap-io.frames=[41,240]".into(),
+        "--set".into(),
+        format!("mocap-io.exclude_markers=[\"{first_label}\"]"),
+    ]);
+    xtask_ok(&args.iter().map(String::as_str).collect::<Vec<_>>());
+    let skeleton = read_json(&tmp.path("out/skeleton.json"));
+    assert_eq!(skeleton["first_frame"], 41);
+    assert_eq!(skeleton["frame_count"], 200);
+    let text = skeleton.to_string();
+    assert!(
+        !text.contains(&format!("\"{first_label}\"")),
+        "{first_label} still named"
+    );
+
+    let bad = Scratch::new("select-bad");
+    let mut args = bad.run_args(&capture);
+    args.extend(["--set".into(), "mocap-io.frames=[0,100000]".into()]);
+    let result = xtask(&args.iter().map(String::as_str).collect::<Vec<_>>());
+    assert!(!result.status.success());
+    let stderr = String::from_utf8_lossy(&result.stderr);
+    assert!(
+        stderr.contains("robotarm-clean.c3d") && stderr.contains("mocap-io.frames"),
+        "{stderr}"
+    );
+    assert!(!bad.path("out").join("skeleton.json").exists());
+}

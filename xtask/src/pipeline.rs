@@ -51,6 +51,18 @@ pub const READ_PARAM_DOCS: &[(&str, &str)] = &[
          whose other points cameras did see (bone-model and virtual points); default false: \
          they are not read, with a warning",
     ),
+    (
+        "frames",
+        "[first, last]: read only these frames, by the file's own frame numbers (what \
+         `cargo xtask inspect` shows), both included; outputs keep those numbers; a range the \
+         file does not hold is an error; default null: every frame",
+    ),
+    (
+        "exclude_markers",
+        "[\"LABEL\", ...]: markers to leave out, by label as the capture names them (a \
+         repeated label's later markers LABEL#2, ...): a loose marker, a prop or floor marker, \
+         a virtual point; a label the file does not have is an error; default []",
+    ),
 ];
 
 /// One stage of the pipeline, in pipeline order.

@@ -97,6 +97,14 @@ pub struct ReadOptions {
     /// points a program computed, not marker positions, and are dropped with a warning
     /// naming them.
     pub keep_model_outputs: bool,
+    /// The frames to read, first and last inclusive, by the file's own frame numbers
+    /// (what `cargo xtask inspect` shows); `None` (default): every frame. A range the
+    /// file does not hold is an error, not clipped.
+    pub frames: Option<[i64; 2]>,
+    /// Markers to leave out, by label (as the capture names them, a repeated label's later
+    /// markers `LABEL#2`…): a loose marker, a prop or floor marker, a virtual point.
+    /// Default none; a label the file does not have is an error.
+    pub exclude_markers: Vec<String>,
 }
 
 /// Reads a capture file, choosing the format by content (C3D) or extension (TRC, CSV).
@@ -113,10 +121,112 @@ pub fn read_capture(path: &Path, options: &ReadOptions) -> Result<Capture, IoErr
         Format::Trc => trc::parse(&bytes, options),
         Format::Csv => csv::parse(&bytes, options),
     };
-    parsed.map_err(|error| IoError::Format {
-        path: path.to_path_buf(),
-        error,
-    })
+    parsed
+        .and_then(|capture| select(capture, options))
+        .map_err(|error| IoError::Format {
+            path: path.to_path_buf(),
+            error,
+        })
+}
+
+/// A capture as read, cut to `options.frames` and without `options.exclude_markers`.
+fn select(mut capture: Capture, options: &ReadOptions) -> Result<Capture, FormatError> {
+    if options.frames.is_none() && options.exclude_markers.is_empty() {
+        return Ok(capture);
+    }
+    let t = &capture.trajectories;
+    let last = t.first_frame().saturating_add(t.frames() as i64 - 1);
+    let held = || {
+        if t.frames() == 0 {
+            "it holds no frames".to_string()
+        } else {
+            format!("it holds frames {} to {last}", t.first_frame())
+        }
+    };
+    let frames = match options.frames {
+        None => 0..t.frames(),
+        Some([from, to]) if from > to => {
+            return Err(FormatError::new(
+                "mocap-io.frames",
+                format!("the first frame {from} comes after the last, {to}"),
+            ));
+        }
+        Some([from, to]) if from < t.first_frame() || to > last => {
+            return Err(FormatError::new(
+                "mocap-io.frames",
+                format!(
+                    "frames {from} to {to} are not all in the capture: {}",
+                    held()
+                ),
+            ));
+        }
+        Some([from, to]) => {
+            let start = (from - t.first_frame()) as usize;
+            start..start + (to - from) as usize + 1
+        }
+    };
+    let labels = t.labels();
+    if let Some(unknown) = options.exclude_markers.iter().find(|x| !labels.contains(x)) {
+        // Vicon prefixes labels with the subject's name ("Subject:LTOE").
+        let like = labels.iter().find(|l| {
+            l.eq_ignore_ascii_case(unknown)
+                || l.rsplit_once(':')
+                    .is_some_and(|(_, bare)| bare.eq_ignore_ascii_case(unknown))
+        });
+        let hint = match like {
+            Some(label) => format!("; did you mean {label:?}?"),
+            None => {
+                let shown = labels
+                    .iter()
+                    .take(12)
+                    .map(String::as_str)
+                    .collect::<Vec<_>>();
+                let more = if labels.len() > shown.len() {
+                    ", …"
+                } else {
+                    ""
+                };
+                format!(
+                    " (its {} markers: {}{more})",
+                    labels.len(),
+                    shown.join(", ")
+                )
+            }
+        };
+        return Err(FormatError::new(
+            "mocap-io.exclude_markers",
+            format!("the capture has no marker labelled {unknown:?}{hint}"),
+        ));
+    }
+    let keep: Vec<usize> = (0..labels.len())
+        .filter(|&m| !options.exclude_markers.contains(&labels[m]))
+        .collect();
+    if keep.is_empty() {
+        return Err(FormatError::new(
+            "mocap-io.exclude_markers",
+            "it leaves out every marker of the capture",
+        ));
+    }
+    let mut notes = Vec::new();
+    if options.frames.is_some() {
+        let from = t.first_frame() + frames.start as i64;
+        notes.push(format!(
+            "read frames {from} to {} of {} to {last} (mocap-io.frames)",
+            from + frames.len() as i64 - 1,
+            t.first_frame()
+        ));
+    }
+    if !options.exclude_markers.is_empty() {
+        notes.push(format!(
+            "left out {} of {} markers (mocap-io.exclude_markers): {}",
+            labels.len() - keep.len(),
+            labels.len(),
+            options.exclude_markers.join(", ")
+        ));
+    }
+    capture.trajectories = t.select(frames, &keep);
+    capture.info.warnings.extend(notes);
+    Ok(capture)
 }
 
 /// The format of a file: by extension, else C3D when byte 2 holds its 0x50 key.

@@ -155,6 +155,27 @@ impl Trajectories {
         (!per_marker.is_empty()).then(|| median(&mut per_marker))
     }
 
+    /// These trajectories over the frame indices `frames` only, with the markers `keep`
+    /// (indices, in the order given); the first frame kept keeps its number.
+    ///
+    /// Panics when `frames` reaches past the last frame or a marker index is out of range
+    /// (callers check both against what the file holds: [`crate::read_capture`]).
+    pub fn select(&self, frames: std::ops::Range<usize>, keep: &[usize]) -> Trajectories {
+        let m = self.labels.len();
+        let mut positions = Vec::with_capacity(frames.len() * keep.len());
+        for f in frames.clone() {
+            let row = &self.positions[f * m..(f + 1) * m];
+            positions.extend(keep.iter().map(|&k| row[k]));
+        }
+        Trajectories {
+            labels: keep.iter().map(|&k| self.labels[k].clone()).collect(),
+            frame_rate: self.frame_rate,
+            first_frame: self.first_frame.saturating_add(frames.start as i64),
+            frames: frames.len(),
+            positions,
+        }
+    }
+
     /// The factor (≤ 1) by which the stages shrink their millimetre floors and bounds for
     /// this capture: [`marker_spacing_mm`](Self::marker_spacing_mm) over
     /// [`FLOOR_SPACING_MM`], capped at 1 (and at least 1e-3): the floors were set for

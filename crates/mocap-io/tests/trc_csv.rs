@@ -423,3 +423,95 @@ fn random_and_flipped_bytes_never_panic() {
         }
     }
 }
+
+/// `frames` and `exclude_markers` cut a capture as it is read: the kept frames keep their
+/// numbers and samples, the left-out markers are gone, and both say so in the warnings.
+#[test]
+fn a_frame_range_and_left_out_markers_are_read_as_asked() {
+    let dir = std::env::temp_dir().join(format!("ossify-select-{}", std::process::id()));
+    std::fs::create_dir_all(&dir).unwrap();
+    // Frames 37..=46, labels M0, "left knee 1", L_ANK_2_x, M3.
+    let t = sample_trajectories(5, 4, 10);
+    let path = dir.join("walk.trc");
+    mocap_io::write_trc(&path, &t).unwrap();
+    let options = ReadOptions {
+        frames: Some([40, 44]),
+        exclude_markers: vec!["left knee 1".into()],
+        ..ReadOptions::default()
+    };
+    let c = mocap_io::read_capture(&path, &options).unwrap();
+    let cut = &c.trajectories;
+    assert_eq!((cut.first_frame(), cut.frames()), (40, 5));
+    assert_eq!(cut.labels(), ["M0", "L_ANK_2_x", "M3"]);
+    let whole = mocap_io::read_capture(&path, &opts()).unwrap().trajectories;
+    for f in 0..5 {
+        for (k, m) in [0, 2, 3].into_iter().enumerate() {
+            let (a, b) = (cut.get(f, k), whole.get(f + 3, m));
+            assert_eq!(a.is_some(), b.is_some(), "frame {f} marker {m}");
+            if let (Some(a), Some(b)) = (a, b) {
+                assert_eq!(a, b);
+            }
+        }
+    }
+    let said = c.info.warnings.join("\n");
+    assert!(said.contains("read frames 40 to 44 of 37 to 46"), "{said}");
+    assert!(said.contains("left out 1 of 4 markers"), "{said}");
+    let _ = std::fs::remove_dir_all(&dir);
+}
+
+/// A range the capture does not hold, a backwards one, an unknown label and leaving out
+/// every marker are errors naming the file and the option, never a silent clip.
+#[test]
+fn a_selection_the_capture_cannot_give_is_an_error() {
+    let dir = std::env::temp_dir().join(format!("ossify-select-bad-{}", std::process::id()));
+    std::fs::create_dir_all(&dir).unwrap();
+    let t = sample_trajectories(6, 3, 10);
+    let path = dir.join("walk.trc");
+    mocap_io::write_trc(&path, &t).unwrap();
+    let all: Vec<String> = t.labels().to_vec();
+    let cases: [(ReadOptions, &str); 5] = [
+        (
+            ReadOptions {
+                frames: Some([30, 40]),
+                ..ReadOptions::default()
+            },
+            "mocap-io.frames: frames 30 to 40 are not all in the capture: it holds frames 37 to 46",
+        ),
+        (
+            ReadOptions {
+                frames: Some([44, 40]),
+                ..ReadOptions::default()
+            },
+            "the first frame 44 comes after the last, 40",
+        ),
+        (
+            ReadOptions {
+                exclude_markers: vec!["M9".into()],
+                ..ReadOptions::default()
+            },
+            "mocap-io.exclude_markers: the capture has no marker labelled \"M9\" (its 3 markers",
+        ),
+        (
+            ReadOptions {
+                exclude_markers: vec!["m0".into()],
+                ..ReadOptions::default()
+            },
+            "did you mean \"M0\"?",
+        ),
+        (
+            ReadOptions {
+                exclude_markers: all,
+                ..ReadOptions::default()
+            },
+            "it leaves out every marker",
+        ),
+    ];
+    for (options, expected) in cases {
+        let error = mocap_io::read_capture(&path, &options)
+            .unwrap_err()
+            .to_string();
+        assert!(error.contains(expected), "{error}");
+        assert!(error.contains("walk.trc"), "{error}");
+    }
+    let _ = std::fs::remove_dir_all(&dir);
+}
