@@ -52,6 +52,13 @@ pub const READ_PARAM_DOCS: &[(&str, &str)] = &[
          they are not read, with a warning",
     ),
     (
+        "units",
+        "mm, cm, m or in: the unit of the file's coordinates, over what the file declares \
+         (even a unit the reader does not know) or what is guessed where it declares none; \
+         a warning says when it differs; default null: the file's word, else millimetres \
+         (metres for a C3D whose coordinates are all under 10)",
+    ),
+    (
         "frames",
         "[first, last]: read only these frames, by the file's own frame numbers (what \
          `cargo xtask inspect` shows), both included; outputs keep those numbers; a range the \

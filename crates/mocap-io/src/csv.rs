@@ -40,7 +40,7 @@ use crate::trc::{
 use crate::{Capture, CaptureInfo, Format, FormatError, ReadOptions, Trajectories};
 
 /// Parses CSV bytes in ossify's layout (see the module docs) into a capture in millimetres.
-pub fn parse(bytes: &[u8], _options: &ReadOptions) -> Result<Capture, FormatError> {
+pub fn parse(bytes: &[u8], options: &ReadOptions) -> Result<Capture, FormatError> {
     let mut lines = Lines::new(bytes);
     let mut warnings = Vec::new();
     let mut frame_rate: Option<f64> = None;
@@ -88,6 +88,12 @@ pub fn parse(bytes: &[u8], _options: &ReadOptions) -> Result<Capture, FormatErro
             frame_rate = Some(rate);
         } else if key.eq_ignore_ascii_case(b"units") {
             let text = String::from_utf8_lossy(value).into_owned();
+            if let Some(unit) = options.units {
+                let declared = Some((text.as_str(), units_to_mm(&text)));
+                warnings.extend(unit.overriding(declared).map(|w| format!("line {no}: {w}")));
+                units = Some((text, unit.mm()));
+                continue;
+            }
             let scale = units_to_mm(&text).ok_or_else(|| {
                 FormatError::new(
                     format!("line {no}"),
@@ -103,7 +109,13 @@ pub fn parse(bytes: &[u8], _options: &ReadOptions) -> Result<Capture, FormatErro
             "no `# frame_rate: <Hz>` comment before the header row; add one, e.g. `# frame_rate: 120`",
         ));
     };
-    let scale = units.as_ref().map_or(1.0, |u| u.1);
+    let scale = match (options.units, &units) {
+        (Some(unit), None) => {
+            warnings.extend(unit.overriding(None));
+            unit.mm()
+        }
+        _ => units.as_ref().map_or(1.0, |u| u.1),
+    };
 
     // Header row.
     let cells: Vec<&[u8]> = header_line.split(|&b| b == b',').map(unquote).collect();

@@ -82,6 +82,59 @@ pub struct Capture {
     pub info: CaptureInfo,
 }
 
+/// A length unit of a capture's coordinates ([`ReadOptions::units`]).
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(rename_all = "lowercase")]
+pub enum LengthUnit {
+    /// Millimetres.
+    Mm,
+    /// Centimetres.
+    Cm,
+    /// Metres.
+    M,
+    /// Inches.
+    In,
+}
+
+impl LengthUnit {
+    /// Millimetres per unit.
+    pub fn mm(self) -> f64 {
+        match self {
+            LengthUnit::Mm => 1.0,
+            LengthUnit::Cm => 10.0,
+            LengthUnit::M => 1000.0,
+            LengthUnit::In => 25.4,
+        }
+    }
+
+    /// The unit as `--set mocap-io.units=` takes it.
+    pub fn name(self) -> &'static str {
+        match self {
+            LengthUnit::Mm => "mm",
+            LengthUnit::Cm => "cm",
+            LengthUnit::M => "m",
+            LengthUnit::In => "in",
+        }
+    }
+
+    /// The warning for coordinates read in this unit against the file's `declared` one
+    /// (millimetres per unit, `None` when the file declares none or one we do not know);
+    /// `None` when the two agree.
+    pub(crate) fn overriding(self, declared: Option<(&str, Option<f64>)>) -> Option<String> {
+        match declared {
+            Some((_, Some(mm))) if mm == self.mm() => None,
+            Some((text, _)) => Some(format!(
+                "coordinates read as {} (mocap-io.units), not as the file's {text:?}",
+                self.name()
+            )),
+            None => Some(format!(
+                "coordinates read as {} (mocap-io.units); the file declares no units",
+                self.name()
+            )),
+        }
+    }
+}
+
 /// Options for reading captures; defaults suit every file we know of.
 #[derive(Clone, Debug, Default, PartialEq, Serialize, Deserialize)]
 #[serde(default, deny_unknown_fields)]
@@ -97,6 +150,10 @@ pub struct ReadOptions {
     /// points a program computed, not marker positions, and are dropped with a warning
     /// naming them.
     pub keep_model_outputs: bool,
+    /// The unit of the file's coordinates, over what it declares or what is guessed
+    /// where it declares none; `None` (default): the file's word, else millimetres
+    /// (metres for a C3D whose coordinates are all under 10).
+    pub units: Option<LengthUnit>,
     /// The frames to read, first and last inclusive, by the file's own frame numbers
     /// (what `cargo xtask inspect` shows); `None` (default): every frame. A range the
     /// file does not hold is an error, not clipped.

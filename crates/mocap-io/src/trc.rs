@@ -50,7 +50,7 @@ const POSITION_DECIMALS: usize = 5;
 const TIME_DECIMALS: usize = 6;
 
 /// Parses TRC bytes into a capture in millimetres (see the module docs for the rules).
-pub fn parse(bytes: &[u8], _options: &ReadOptions) -> Result<Capture, FormatError> {
+pub fn parse(bytes: &[u8], options: &ReadOptions) -> Result<Capture, FormatError> {
     let mut lines = Lines::new(bytes);
     let mut warnings = Vec::new();
 
@@ -115,8 +115,17 @@ pub fn parse(bytes: &[u8], _options: &ReadOptions) -> Result<Capture, FormatErro
     let camera_rate = header.number("CameraRate")?;
     let declared_frames = header.number("NumFrames")?;
     let declared_markers = header.number("NumMarkers")?;
-    let (declared_units, scale) = match header.get("Units") {
-        Some((field, text)) => {
+    let (declared_units, scale) = match (options.units, header.get("Units")) {
+        (Some(unit), declared) => {
+            let text = declared.map(|(_, text)| String::from_utf8_lossy(text).into_owned());
+            let declared = text.as_deref().map(|t| (t, units_to_mm(t)));
+            warnings.extend(
+                unit.overriding(declared)
+                    .map(|w| format!("line {values_no}: {w}")),
+            );
+            (text, unit.mm())
+        }
+        (None, Some((field, text))) => {
             let units = String::from_utf8_lossy(text).into_owned();
             let scale = units_to_mm(&units).ok_or_else(|| {
                 FormatError::new(
@@ -126,7 +135,7 @@ pub fn parse(bytes: &[u8], _options: &ReadOptions) -> Result<Capture, FormatErro
             })?;
             (Some(units), scale)
         }
-        None => {
+        (None, None) => {
             warnings.push(format!(
                 "line {keys_no}: no `Units` key; assuming millimetres"
             ));

@@ -515,3 +515,61 @@ fn a_selection_the_capture_cannot_give_is_an_error() {
     }
     let _ = std::fs::remove_dir_all(&dir);
 }
+
+/// `mocap-io.units` overrides a TRC's or CSV's declared units (even one we do not know),
+/// or the millimetres assumed where none is declared, and says so; the declared unit
+/// itself gives no warning.
+#[test]
+fn a_unit_option_overrides_what_the_file_declares() {
+    let dir = std::env::temp_dir().join(format!("ossify-units-{}", std::process::id()));
+    std::fs::create_dir_all(&dir).unwrap();
+    let t = sample_trajectories(8, 3, 6);
+    let trc_path = dir.join("walk.trc");
+    let csv_path = dir.join("walk.csv");
+    mocap_io::write_trc(&trc_path, &t).unwrap();
+    mocap_io::write_csv(&csv_path, &t).unwrap();
+    let with = |units| ReadOptions {
+        units: Some(units),
+        ..ReadOptions::default()
+    };
+    let metres = with(mocap_io::LengthUnit::M);
+    for path in [&trc_path, &csv_path] {
+        let read = mocap_io::read_capture(path, &metres).unwrap();
+        for (a, b) in read.trajectories.positions().iter().zip(t.positions()) {
+            for k in 0..3 {
+                assert!(
+                    a[k].is_nan() && b[k].is_nan() || (a[k] - 1000.0 * b[k]).abs() < 1e-2,
+                    "{a:?} {b:?}"
+                );
+            }
+        }
+        let said = read.info.warnings.join("\n");
+        assert!(
+            said.contains("read as m (mocap-io.units), not as the file's \"mm\""),
+            "{said}"
+        );
+        let declared = mocap_io::read_capture(path, &with(mocap_io::LengthUnit::Mm)).unwrap();
+        assert!(
+            !declared
+                .info
+                .warnings
+                .iter()
+                .any(|w| w.contains("mocap-io.units"))
+        );
+    }
+    // A unit the reader does not know is an error without the option, read with it.
+    let text = std::fs::read_to_string(&csv_path)
+        .unwrap()
+        .replace("# units: mm", "# units: furlong");
+    let odd = dir.join("odd.csv");
+    std::fs::write(&odd, text).unwrap();
+    assert!(mocap_io::read_capture(&odd, &opts()).is_err());
+    let read = mocap_io::read_capture(&odd, &with(mocap_io::LengthUnit::Cm)).unwrap();
+    assert!(
+        read.info
+            .warnings
+            .iter()
+            .any(|w| w.contains("not as the file's \"furlong\""))
+    );
+    let _ = std::fs::remove_dir_all(&dir);
+}

@@ -90,14 +90,19 @@ pub fn parse(bytes: &[u8], options: &ReadOptions) -> Result<Capture, FormatError
         .strings("POINT:UNITS")
         .and_then(|u| u.into_iter().next())
         .filter(|u| !u.is_empty());
-    let unit_factor = match &declared_units {
-        Some(u) => unit_factor(u).unwrap_or_else(|| {
+    let unit_factor = match (options.units, &declared_units) {
+        (Some(unit), declared) => {
+            let declared = declared.as_deref().map(|u| (u, unit_factor(u)));
+            warnings.extend(unit.overriding(declared));
+            unit.mm()
+        }
+        (None, Some(u)) => unit_factor(u).unwrap_or_else(|| {
             warnings.push(format!(
                 "POINT:UNITS is {u:?}, a unit we do not know: read as millimetres"
             ));
             1.0
         }),
-        None => 1.0,
+        (None, None) => 1.0,
     };
     let storage_factor = if layout.float {
         1.0
@@ -147,7 +152,7 @@ pub fn parse(bytes: &[u8], options: &ReadOptions) -> Result<Capture, FormatError
             "{unflagged_out_of_range} samples hold coordinates of ±1e9 or non-finite values (a gap fill): read as missing"
         ));
     }
-    if declared_units.is_none() {
+    if declared_units.is_none() && options.units.is_none() {
         let sample_source = flagged_positions.as_deref().unwrap_or(&positions);
         let typical = typical_coordinate(sample_source);
         if typical > 0.0 && typical < 10.0 {
@@ -889,6 +894,46 @@ mod tests {
             ..ReadOptions::default()
         };
         assert_eq!(parse(&bytes, &keep).unwrap().trajectories.markers(), 4);
+    }
+
+    /// `mocap-io.units` overrides POINT:UNITS (the writer's "mm"), and says so.
+    #[test]
+    fn a_unit_option_overrides_the_declared_one() {
+        let t = make(3, 4, 1);
+        let bytes = write(&t).unwrap();
+        let as_cm = ReadOptions {
+            units: Some(crate::LengthUnit::Cm),
+            ..ReadOptions::default()
+        };
+        let read = parse(&bytes, &as_cm).unwrap();
+        for (a, b) in read.trajectories.positions().iter().zip(t.positions()) {
+            for k in 0..3 {
+                let close = (a[k] - 10.0 * b[k]).abs() <= 1e-6 * b[k].abs().max(1.0);
+                assert!(close || a[k].is_nan() && b[k].is_nan(), "{a:?} {b:?}");
+            }
+        }
+        let said = read.info.warnings.join("\n");
+        assert!(
+            said.contains("read as cm (mocap-io.units), not as the file's \"mm\""),
+            "{said}"
+        );
+        let as_mm = ReadOptions {
+            units: Some(crate::LengthUnit::Mm),
+            ..ReadOptions::default()
+        };
+        let same = parse(&bytes, &as_mm).unwrap();
+        let bits = |t: &Trajectories| -> Vec<[u64; 3]> {
+            t.positions().iter().map(|p| p.map(f64::to_bits)).collect()
+        };
+        let default = parse(&bytes, &ReadOptions::default()).unwrap();
+        assert_eq!(bits(&same.trajectories), bits(&default.trajectories));
+        assert!(
+            !same
+                .info
+                .warnings
+                .iter()
+                .any(|w| w.contains("mocap-io.units"))
+        );
     }
 
     #[test]
