@@ -67,8 +67,9 @@ pub const READ_PARAM_DOCS: &[(&str, &str)] = &[
     (
         "exclude_markers",
         "[\"LABEL\", ...]: markers to leave out, by label as the capture names them (a \
-         repeated label's later markers LABEL#2, ...): a loose marker, a prop or floor marker, \
-         a virtual point; a label the file does not have is an error; default []",
+         repeated label's later markers LABEL#2, ...; * stands for any run of characters): a \
+         loose marker, a prop or floor marker, virtual points; a label or pattern that \
+         matches no marker is an error; default []",
     ),
 ];
 

@@ -4,6 +4,8 @@
 //! gives [`Trajectories`]: labels, frame rate, first frame, positions in millimetres with
 //! gaps as missing samples (one representation, documented on the type), plus a
 //! [`CaptureInfo`] saying what the file declared and what was guessed (warnings).
+//! [`ReadOptions`] can override the file's units and, in [`read_capture`], keep a range
+//! of frames and leave markers out by label.
 //! Writes C3D, TRC and CSV for the synthetic generator and the exporters.
 //!
 //! It also owns the CBOR artifact envelope ([`artifact`]) every stage's output is stored
@@ -159,8 +161,9 @@ pub struct ReadOptions {
     /// file does not hold is an error, not clipped.
     pub frames: Option<[i64; 2]>,
     /// Markers to leave out, by label (as the capture names them, a repeated label's later
-    /// markers `LABEL#2`…): a loose marker, a prop or floor marker, a virtual point.
-    /// Default none; a label the file does not have is an error.
+    /// markers `LABEL#2`…; `*` stands for any run of characters, so `V*` is every label
+    /// starting with V): a loose marker, a prop or floor marker, virtual points. Default
+    /// none; a label or pattern that matches no marker is an error.
     pub exclude_markers: Vec<String>,
 }
 
@@ -223,7 +226,12 @@ fn select(mut capture: Capture, options: &ReadOptions) -> Result<Capture, Format
         }
     };
     let labels = t.labels();
-    if let Some(unknown) = options.exclude_markers.iter().find(|x| !labels.contains(x)) {
+    let excluded = |label: &str| options.exclude_markers.iter().any(|p| glob(p, label));
+    if let Some(unknown) = options
+        .exclude_markers
+        .iter()
+        .find(|p| !labels.iter().any(|l| glob(p, l)))
+    {
         // Vicon prefixes labels with the subject's name ("Subject:LTOE").
         let like = labels.iter().find(|l| {
             l.eq_ignore_ascii_case(unknown)
@@ -250,13 +258,18 @@ fn select(mut capture: Capture, options: &ReadOptions) -> Result<Capture, Format
                 )
             }
         };
+        let what = if unknown.contains('*') {
+            format!("no marker of the capture matches {unknown:?}")
+        } else {
+            format!("the capture has no marker labelled {unknown:?}")
+        };
         return Err(FormatError::new(
             "mocap-io.exclude_markers",
-            format!("the capture has no marker labelled {unknown:?}{hint}"),
+            format!("{what}{hint}"),
         ));
     }
     let keep: Vec<usize> = (0..labels.len())
-        .filter(|&m| !options.exclude_markers.contains(&labels[m]))
+        .filter(|&m| !excluded(&labels[m]))
         .collect();
     if keep.is_empty() {
         return Err(FormatError::new(
@@ -278,12 +291,38 @@ fn select(mut capture: Capture, options: &ReadOptions) -> Result<Capture, Format
             "left out {} of {} markers (mocap-io.exclude_markers): {}",
             labels.len() - keep.len(),
             labels.len(),
-            options.exclude_markers.join(", ")
+            labels
+                .iter()
+                .filter(|l| excluded(l))
+                .map(String::as_str)
+                .collect::<Vec<_>>()
+                .join(", ")
         ));
     }
     capture.trajectories = t.select(frames, &keep);
     capture.info.warnings.extend(notes);
     Ok(capture)
+}
+
+/// Whether `label` matches `pattern`, where `*` stands for any run of characters
+/// (none included) and everything else for itself.
+fn glob(pattern: &str, label: &str) -> bool {
+    let mut parts = pattern.split('*');
+    let first = parts.next().unwrap_or("");
+    let Some(mut rest) = label.strip_prefix(first) else {
+        return false;
+    };
+    let parts: Vec<&str> = parts.collect();
+    let Some((last, middle)) = parts.split_last() else {
+        return rest.is_empty();
+    };
+    for part in middle {
+        match rest.find(part) {
+            Some(at) => rest = &rest[at + part.len()..],
+            None => return false,
+        }
+    }
+    rest.len() >= last.len() && rest.ends_with(last)
 }
 
 /// The format of a file: by extension, else C3D when byte 2 holds its 0x50 key.
@@ -314,4 +353,32 @@ pub fn write_trc(path: &Path, trajectories: &Trajectories) -> Result<(), IoError
 /// Writes trajectories in ossify's CSV layout, atomically.
 pub fn write_csv(path: &Path, trajectories: &Trajectories) -> Result<(), IoError> {
     artifact::write_atomic(path, csv::write(trajectories).as_bytes())
+}
+
+#[cfg(test)]
+mod tests {
+    use super::glob;
+
+    #[test]
+    fn a_star_stands_for_any_run_of_characters() {
+        for (pattern, label) in [
+            ("V*", "VMID#2"),
+            ("*", ""),
+            ("*TOE", "Subject:LTOE"),
+            ("L*#*", "LKNE#2"),
+            ("a*b*c", "abbc"),
+            ("LTOE", "LTOE"),
+        ] {
+            assert!(glob(pattern, label), "{pattern} {label}");
+        }
+        for (pattern, label) in [
+            ("V*", "RVAN"),
+            ("LTOE", "LTOE#2"),
+            ("a*a", "a"),
+            ("a*b*c", "acb"),
+            ("*TOE", "LTOE2"),
+        ] {
+            assert!(!glob(pattern, label), "{pattern} {label}");
+        }
+    }
 }

@@ -456,6 +456,18 @@ fn a_frame_range_and_left_out_markers_are_read_as_asked() {
     let said = c.info.warnings.join("\n");
     assert!(said.contains("read frames 40 to 44 of 37 to 46"), "{said}");
     assert!(said.contains("left out 1 of 4 markers"), "{said}");
+    // `*` stands for any run of characters.
+    let pattern = ReadOptions {
+        exclude_markers: vec!["M*".into()],
+        ..ReadOptions::default()
+    };
+    let c = mocap_io::read_capture(&path, &pattern).unwrap();
+    assert_eq!(c.trajectories.labels(), ["left knee 1", "L_ANK_2_x"]);
+    let said = c.info.warnings.join("\n");
+    assert!(
+        said.contains("left out 2 of 4 markers (mocap-io.exclude_markers): M0, M3"),
+        "{said}"
+    );
     let _ = std::fs::remove_dir_all(&dir);
 }
 
@@ -469,7 +481,7 @@ fn a_selection_the_capture_cannot_give_is_an_error() {
     let path = dir.join("walk.trc");
     mocap_io::write_trc(&path, &t).unwrap();
     let all: Vec<String> = t.labels().to_vec();
-    let cases: [(ReadOptions, &str); 5] = [
+    let cases: [(ReadOptions, &str); 6] = [
         (
             ReadOptions {
                 frames: Some([30, 40]),
@@ -490,6 +502,13 @@ fn a_selection_the_capture_cannot_give_is_an_error() {
                 ..ReadOptions::default()
             },
             "mocap-io.exclude_markers: the capture has no marker labelled \"M9\" (its 3 markers",
+        ),
+        (
+            ReadOptions {
+                exclude_markers: vec!["Q*".into()],
+                ..ReadOptions::default()
+            },
+            "no marker of the capture matches \"Q*\"",
         ),
         (
             ReadOptions {
