@@ -45,6 +45,9 @@
 //!   the parent is the scale. A leaf hung on one of two twins that fits the other twin and
 //!   their parent about as well (`twin_leaf_cost_ratio`) moves to the parent: it sits
 //!   where the twins meet it, as a head between the clavicles, not on one twin's far side.
+//!   A leaf posed through its joint with the twin (two markers: that pair is cheap by
+//!   construction) moves when the parent's centre holds its markers next best, nearly as
+//!   well (`twin_leaf_anchor_ratio`).
 //! - Root: the tree's centre (minimum eccentricity in hops), ties by the smaller sum of
 //!   hops to every segment, then most markers, then the smaller mean distance to the
 //!   other segments over the capture, then lowest id; it lands on the pelvis or torso of
@@ -115,6 +118,10 @@ pub struct Params {
     /// parent and with the other twin each cost at most this many times its edge
     /// (default 3; 0 = off).
     pub twin_leaf_cost_ratio: f64,
+    /// ... or, where the leaf is posed through its joint with that twin (its pair there
+    /// cheap by construction), when the parent's centre holds its markers next best,
+    /// within this many times that joint's radial residual (default 1.5; 0 = off).
+    pub twin_leaf_anchor_ratio: f64,
 }
 
 impl Default for Params {
@@ -133,6 +140,7 @@ impl Default for Params {
             twin_cost_ratio: 2.0,
             twin_length_tolerance: 0.4,
             twin_leaf_cost_ratio: 3.0,
+            twin_leaf_anchor_ratio: 1.5,
         }
     }
 }
@@ -309,6 +317,17 @@ pub const PARAM_DOCS: &[(&str, &str)] = &[
          0.2:0.4 the same trees (the sweep's mean 3.6793 -> 3.6808 %), clean on \
          20001..20050,30001..30050 700/700 and 0.0581 % as before; every real capture's \
          skeleton.json unchanged; 0 = off; default 3",
+    ),
+    (
+        "twin_leaf_anchor_ratio",
+        "see twin_leaf_cost_ratio: a leaf posed through its joint with the twin it hangs on \
+         (two markers, say: jointfit's pair there is cheap by construction, so no other pair \
+         of the leaf's costs as little) moves to the twins' parent when the parent's centre \
+         holds its markers next best (PairFit::next_best_anchor), within this many times \
+         the chosen joint's radial residual. human-hard-s30020 at --markers 2:3 with the \
+         true segments: the head posed through the right clavicle at 3.81 mm, the thorax \
+         next best at 1.27 times; its pairs with the thorax and the left clavicle cost 3.20 \
+         and 5.27 times the head's edge, beyond twin_leaf_cost_ratio. 0 = off; default 1.5",
     ),
     (
         "twin_length_tolerance",

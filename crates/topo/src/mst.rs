@@ -1092,6 +1092,39 @@ mod tests {
         assert!(stays(&seg, &f, &Params::default()));
     }
 
+    /// A head posed through its joint with clavicle 1 (two markers): that edge costs 4 by
+    /// construction, its pairs with the thorax (14) and clavicle 2 (30) far more, beyond
+    /// `twin_leaf_cost_ratio`. But the thorax's centre held its markers next best, 1.2
+    /// times the joint's radial residual: it moves to the thorax, and the clavicles'
+    /// twinship shows. Not at 1.6 times, nor where the next best is another segment, nor
+    /// with the rule off.
+    #[test]
+    fn a_leaf_posed_through_a_twin_that_its_parent_holds_nearly_as_well_moves_to_it() {
+        let placed = |next_best: Option<(usize, f64)>, params: &Params| {
+            let (seg, mut f) = twin_arms_and_head(30.0);
+            fit_mut(&mut f, 0, 7).cost = 14.0;
+            fit_mut(&mut f, 1, 7).posed_through = Some(7);
+            fit_mut(&mut f, 1, 7).next_best_anchor = next_best;
+            let t = run(&seg, &f, params).unwrap_or_else(|e| panic!("{e}"));
+            let note = t.notes.iter().any(|n| {
+                n.contains("segment 7 hung on segment 0, not on 1")
+                    && n.contains("1.20 × that joint's radial residual")
+            });
+            let e = edge_set(&t);
+            (e.contains(&(0, 7)) && e.contains(&(0, 2)), note)
+        };
+        let defaults = Params::default();
+        assert_eq!(placed(Some((0, 1.2)), &defaults), (true, true));
+        assert!(!placed(Some((0, 1.6)), &defaults).0);
+        assert!(!placed(Some((2, 1.2)), &defaults).0);
+        assert!(!placed(None, &defaults).0);
+        let off = Params {
+            twin_leaf_anchor_ratio: 0.0,
+            ..Params::default()
+        };
+        assert!(!placed(Some((0, 1.2)), &off).0);
+    }
+
     /// Each joint's runner-up is the cheapest other pair joining the two sides of its cut:
     /// for a clavicle, the sibling pair, cheaper than the joint itself (the composite rule
     /// took the joints against the costs); for the upper arm, whose subtree holds the

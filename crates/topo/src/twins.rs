@@ -19,8 +19,12 @@
 //! A leaf hung on one twin that fits a centre with the other twin and with their parent
 //! about as well (`twin_leaf_cost_ratio`) sits where the twins meet the parent, not on
 //! one twin's far side (where a hand or a paw hangs, away from the mirror limb): it moves
-//! to the parent (a head the tree hung on a clavicle). Such leaves are set aside when
-//! twins are compared, since one twin carries them and the other does not.
+//! to the parent (a head the tree hung on a clavicle). A leaf posed through its joint with
+//! the twin (two markers and that joint's centre) has that pair cheap by construction, so
+//! its other pairs cannot be weighed against it: it moves when the parent's centre held its
+//! markers next best, nearly as well (`twin_leaf_anchor_ratio`,
+//! `PairFit::next_best_anchor`). Such leaves are set aside when twins are compared, since
+//! one twin carries them and the other does not.
 
 use jointfit::{JointKind, PairFits};
 
@@ -79,6 +83,23 @@ fn branch(
 }
 
 /// The pair (a, b)'s index and its cost over `cost` when that is finite and at most `bound`.
+/// Where `leaf` is posed through the joint `pair` (its edge to a twin) and the twins'
+/// parent `p` held its markers next best, within `twin_leaf_anchor_ratio` × that joint's
+/// radial residual: the ratio. Such an edge is cheap by construction, so the leaf's other
+/// pairs cannot be weighed against its cost.
+fn parent_holds_leaf(
+    fits: &PairFits,
+    pair: usize,
+    leaf: usize,
+    p: usize,
+    params: &Params,
+) -> Option<f64> {
+    let fit = &fits.pairs[pair];
+    let (next, ratio) = fit.next_best_anchor?;
+    (fit.posed_through == Some(leaf) && next == p && ratio < params.twin_leaf_anchor_ratio)
+        .then_some(ratio)
+}
+
 fn fair_pair(fits: &PairFits, a: usize, b: usize, cost: f64, bound: f64) -> Option<(usize, f64)> {
     let i = fits.pair_index(a, b)?;
     let ratio = fits.pairs[i].cost / cost;
@@ -195,7 +216,8 @@ pub(crate) fn hang_twins_on_one_parent(
 }
 
 /// The leaves hung on `x` (nothing below them) that fit a centre with `p` and with `y`
-/// too, each pair within `twin_leaf_cost_ratio` × the leaf's edge to `x`.
+/// too, each pair within `twin_leaf_cost_ratio` × the leaf's edge to `x`, or that are
+/// posed through their edge to `x` with `p` next best ([`parent_holds_leaf`]).
 fn shared_leaves(
     x: usize,
     p: usize,
@@ -217,8 +239,8 @@ fn shared_leaves(
             l != p
                 && l != y
                 && neighbours[l].len() == 1
-                && fair(l, p, edges[e].3)
-                && fair(l, y, edges[e].3)
+                && ((fair(l, p, edges[e].3) && fair(l, y, edges[e].3))
+                    || parent_holds_leaf(fits, edges[e].2, l, p, params).is_some())
         })
         .map(|&(l, _)| l)
         .collect()
@@ -245,8 +267,9 @@ pub(crate) fn hang_shared_leaves_on_the_twins_parent(
     let mut moved = vec![false; n];
     loop {
         let neighbours = tree_neighbours(edges, n);
-        // (new cost over the replaced edge's, edge, leaf, P, the new pair's index, Y)
-        let mut best: Option<(f64, usize, usize, usize, usize, usize)> = None;
+        // (new cost over the replaced edge's, or the anchor ratio, edge, leaf, P, the new
+        // pair's index, Y, whether the anchor ratio moved it)
+        let mut best: Option<(f64, usize, usize, usize, usize, usize, bool)> = None;
         for (e, &(a, b, _, cost)) in edges.iter().enumerate() {
             if rigid(edges, e) {
                 continue;
@@ -260,14 +283,18 @@ pub(crate) fn hang_shared_leaves_on_the_twins_parent(
                         continue;
                     }
                     let bound = params.twin_leaf_cost_ratio;
-                    let Some((pi, ratio)) = fair_pair(fits, p, l, cost, bound) else {
+                    let held = parent_holds_leaf(fits, edges[e].2, l, p, params);
+                    let Some((pi, ratio, by_anchor)) = fair_pair(fits, p, l, cost, bound)
+                        .map(|(pi, ratio)| (pi, ratio, false))
+                        .or_else(|| Some((fits.pair_index(p, l)?, held?, true)))
+                    else {
                         continue;
                     };
                     for &(y, ye) in &neighbours[p] {
                         if y == x || rigid(edges, ye) {
                             continue;
                         }
-                        if fair_pair(fits, y, l, cost, bound).is_none() {
+                        if held.is_none() && fair_pair(fits, y, l, cost, bound).is_none() {
                             continue;
                         }
                         let below = |s: usize, t: usize, se: usize| {
@@ -291,7 +318,7 @@ pub(crate) fn hang_shared_leaves_on_the_twins_parent(
                         ) {
                             continue;
                         }
-                        let key = (ratio, e, l, p, pi, y);
+                        let key = (ratio, e, l, p, pi, y, by_anchor);
                         if best.is_none_or(|b| (key.0, key.1, key.2, key.3) < (b.0, b.1, b.2, b.3))
                         {
                             best = Some(key);
@@ -300,7 +327,7 @@ pub(crate) fn hang_shared_leaves_on_the_twins_parent(
                 }
             }
         }
-        let Some((ratio, e, l, p, pi, y)) = best else {
+        let Some((ratio, e, l, p, pi, y, by_anchor)) = best else {
             break;
         };
         let x = if edges[e].0 == l {
@@ -308,11 +335,20 @@ pub(crate) fn hang_shared_leaves_on_the_twins_parent(
         } else {
             edges[e].0
         };
-        notes.push(format!(
-            "segment {l} hung on segment {p}, not on {x}: it fits a centre with {x}'s twin {y} \
-             and with {p} about as well (its pair with {p} costs {ratio:.2} × its pair with \
-             {x}; topo.twin_leaf_cost_ratio), so it sits where the twins meet {p}"
-        ));
+        notes.push(if by_anchor {
+            format!(
+                "segment {l} hung on segment {p}, not on {x}: it is posed through its joint \
+                 with {x} ({y}'s twin), and {p}'s centre holds its markers next best, \
+                 {ratio:.2} × that joint's radial residual (topo.twin_leaf_anchor_ratio), so \
+                 it sits where the twins meet {p}"
+            )
+        } else {
+            format!(
+                "segment {l} hung on segment {p}, not on {x}: it fits a centre with {x}'s twin \
+                 {y} and with {p} about as well (its pair with {p} costs {ratio:.2} × its pair \
+                 with {x}; topo.twin_leaf_cost_ratio), so it sits where the twins meet {p}"
+            )
+        });
         edges[e] = (p.min(l), p.max(l), pi, fits.pairs[pi].cost);
         moved[l] = true;
     }
