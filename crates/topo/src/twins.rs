@@ -82,7 +82,6 @@ fn branch(
     Branch { shape, lengths }
 }
 
-/// The pair (a, b)'s index and its cost over `cost` when that is finite and at most `bound`.
 /// Where `leaf` is posed through the joint `pair` (its edge to a twin) and the twins'
 /// parent `p` held its markers next best, within `twin_leaf_anchor_ratio` × that joint's
 /// radial residual: the ratio. Such an edge is cheap by construction, so the leaf's other
@@ -100,6 +99,7 @@ fn parent_holds_leaf(
         .then_some(ratio)
 }
 
+/// The pair (a, b)'s index and its cost over `cost` when that is finite and at most `bound`.
 fn fair_pair(fits: &PairFits, a: usize, b: usize, cost: f64, bound: f64) -> Option<(usize, f64)> {
     let i = fits.pair_index(a, b)?;
     let ratio = fits.pairs[i].cost / cost;
