@@ -325,8 +325,8 @@ pub const PARAM_DOCS: &[(&str, &str)] = &[
          of the leaf's costs as little) moves to the twins' parent when the parent's centre \
          holds its markers next best (PairFit::next_best_anchor), within this many times \
          the chosen joint's radial residual. human-hard-s30020 at --markers 2:3 with the \
-         true segments: the head posed through the right clavicle at 3.81 mm, the thorax \
-         next best at 1.27 times; its pairs with the thorax and the left clavicle cost 3.20 \
+         true segments: the head posed through the right clavicle at a radial residual of \
+         5.41 mm, the thorax next best at 6.88 (1.27 times); its pairs with the thorax and the left clavicle cost 3.20 \
          and 5.27 times the head's edge, beyond twin_leaf_cost_ratio. 0 = off; default 1.5",
     ),
     (
