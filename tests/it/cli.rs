@@ -296,6 +296,25 @@ fn a_frame_range_and_left_out_markers_reach_the_skeleton() {
         "{first_label} still named"
     );
 
+    // `inspect` reads the capture as `run` would with the same options, and no others.
+    let inspected: serde_json::Value = serde_json::from_str(&xtask_ok(&[
+        "inspect",
+        capture.to_str().unwrap(),
+        "--json",
+        "--set",
+        "mocap-io.frames=[41,240]",
+    ]))
+    .unwrap();
+    assert_eq!(inspected["frames"], 200);
+    let refused = xtask(&[
+        "inspect",
+        capture.to_str().unwrap(),
+        "--set",
+        "jointfit.alpha=1",
+    ]);
+    assert!(!refused.status.success());
+    assert!(String::from_utf8_lossy(&refused.stderr).contains("only mocap-io"));
+
     let bad = Scratch::new("select-bad");
     let mut args = bad.run_args(&capture);
     args.extend(["--set".into(), "mocap-io.frames=[0,100000]".into()]);

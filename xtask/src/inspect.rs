@@ -19,11 +19,23 @@ pub struct Args {
     /// Print one JSON object on stdout instead of a readable summary.
     #[arg(long)]
     pub json: bool,
+    /// Read the capture with a mocap-io option, as `run` would (`mocap-io.frames=[1,100]`,
+    /// `mocap-io.exclude_markers=["V*"]`, `mocap-io.units=m`). Repeatable.
+    #[arg(long = "set", value_name = "mocap-io.PARAM=VALUE")]
+    pub sets: Vec<String>,
 }
 
 /// Runs `inspect`.
 pub fn main(args: &Args) -> Result<()> {
-    let report = inspect(&args.file)?;
+    if let Some(other) = args
+        .sets
+        .iter()
+        .find(|s| !s.trim_start().starts_with("mocap-io."))
+    {
+        anyhow::bail!("--set {other}: inspect reads captures, so only mocap-io.* options apply");
+    }
+    let params = pipeline::Params::from_assignments(&args.sets)?;
+    let report = inspect(&args.file, &params.mocap_io)?;
     if args.json {
         println!("{}", serde_json::to_string_pretty(&report.json)?);
     } else {
@@ -40,12 +52,12 @@ pub struct Report {
     pub text: String,
 }
 
-/// Inspects a capture or an artifact.
-pub fn inspect(path: &Path) -> Result<Report> {
+/// Inspects a capture, read with `options`, or an artifact.
+pub fn inspect(path: &Path, options: &ReadOptions) -> Result<Report> {
     if is_artifact(path)? {
         inspect_artifact(path)
     } else {
-        let capture = mocap_io::read_capture(path, &ReadOptions::default())?;
+        let capture = mocap_io::read_capture(path, options)?;
         Ok(capture_report(&capture))
     }
 }
