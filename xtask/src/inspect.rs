@@ -1,4 +1,5 @@
-//! `cargo xtask inspect FILE [--json]`: what a capture or an artifact holds.
+//! `cargo xtask inspect FILE [--json] [--set mocap-io.PARAM=V]...`: what a capture (read with
+//! the capture options `run` takes) or an artifact holds.
 
 use std::fmt::Write as _;
 use std::path::{Path, PathBuf};
