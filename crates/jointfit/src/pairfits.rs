@@ -3,7 +3,7 @@
 use serde::{Deserialize, Serialize};
 
 /// Schema version of [`PairFits`]; bump when its fields or the algorithm's output change.
-pub const SCHEMA_VERSION: u32 = 32;
+pub const SCHEMA_VERSION: u32 = 33;
 
 /// Per-frame rigid poses of every segment and the joint fitted to every segment pair.
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]

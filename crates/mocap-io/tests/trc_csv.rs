@@ -32,6 +32,13 @@ impl Rng {
     }
 }
 
+/// A fresh folder for one test's files, named for it and this process (remove it at the end).
+fn scratch(name: &str) -> PathBuf {
+    let dir = std::env::temp_dir().join(format!("{name}-{}", std::process::id()));
+    std::fs::create_dir_all(&dir).unwrap();
+    dir
+}
+
 /// A small capture with gaps, negative coordinates and a label with spaces and `_x`.
 fn sample_trajectories(seed: u64, markers: usize, frames: usize) -> Trajectories {
     let mut rng = Rng(seed);
@@ -288,8 +295,7 @@ fn csv_round_trips_with_gaps_and_crlf() {
 
 #[test]
 fn files_round_trip_through_read_capture() {
-    let dir = std::env::temp_dir().join(format!("ossify-trc-csv-{}", std::process::id()));
-    std::fs::create_dir_all(&dir).unwrap();
+    let dir = scratch("ossify-trc-csv");
     let t = sample_trajectories(3, 4, 10);
     let trc_path: PathBuf = dir.join("walk.trc");
     let csv_path: PathBuf = dir.join("walk.csv");
@@ -428,8 +434,7 @@ fn random_and_flipped_bytes_never_panic() {
 /// numbers and samples, the left-out markers are gone, and both say so in the warnings.
 #[test]
 fn a_frame_range_and_left_out_markers_are_read_as_asked() {
-    let dir = std::env::temp_dir().join(format!("ossify-select-{}", std::process::id()));
-    std::fs::create_dir_all(&dir).unwrap();
+    let dir = scratch("ossify-select");
     // Frames 37..=46, labels M0, "left knee 1", L_ANK_2_x, M3.
     let t = sample_trajectories(5, 4, 10);
     let path = dir.join("walk.trc");
@@ -475,55 +480,38 @@ fn a_frame_range_and_left_out_markers_are_read_as_asked() {
 /// every marker are errors naming the file and the option, never a silent clip.
 #[test]
 fn a_selection_the_capture_cannot_give_is_an_error() {
-    let dir = std::env::temp_dir().join(format!("ossify-select-bad-{}", std::process::id()));
-    std::fs::create_dir_all(&dir).unwrap();
+    let dir = scratch("ossify-select-bad");
     let t = sample_trajectories(6, 3, 10);
     let path = dir.join("walk.trc");
     mocap_io::write_trc(&path, &t).unwrap();
-    let all: Vec<String> = t.labels().to_vec();
+    let frames = |first, last| ReadOptions {
+        frames: Some([first, last]),
+        ..ReadOptions::default()
+    };
+    let excluding = |labels: &[&str]| ReadOptions {
+        exclude_markers: labels.iter().map(|l| l.to_string()).collect(),
+        ..ReadOptions::default()
+    };
+    let all: Vec<&str> = t.labels().iter().map(String::as_str).collect();
     let cases: [(ReadOptions, &str); 6] = [
         (
-            ReadOptions {
-                frames: Some([30, 40]),
-                ..ReadOptions::default()
-            },
+            frames(30, 40),
             "mocap-io.frames: frames 30 to 40 are not all in the capture: it holds frames 37 to 46",
         ),
         (
-            ReadOptions {
-                frames: Some([44, 40]),
-                ..ReadOptions::default()
-            },
+            frames(44, 40),
             "the first frame 44 comes after the last, 40",
         ),
         (
-            ReadOptions {
-                exclude_markers: vec!["M9".into()],
-                ..ReadOptions::default()
-            },
+            excluding(&["M9"]),
             "mocap-io.exclude_markers: the capture has no marker labelled \"M9\" (its 3 markers",
         ),
         (
-            ReadOptions {
-                exclude_markers: vec!["Q*".into()],
-                ..ReadOptions::default()
-            },
+            excluding(&["Q*"]),
             "no marker of the capture matches \"Q*\"",
         ),
-        (
-            ReadOptions {
-                exclude_markers: vec!["m0".into()],
-                ..ReadOptions::default()
-            },
-            "did you mean \"M0\"?",
-        ),
-        (
-            ReadOptions {
-                exclude_markers: all,
-                ..ReadOptions::default()
-            },
-            "it leaves out every marker",
-        ),
+        (excluding(&["m0"]), "did you mean \"M0\"?"),
+        (excluding(&all), "it leaves out every marker"),
     ];
     for (options, expected) in cases {
         let error = mocap_io::read_capture(&path, &options)
@@ -540,8 +528,7 @@ fn a_selection_the_capture_cannot_give_is_an_error() {
 /// itself gives no warning.
 #[test]
 fn a_unit_option_overrides_what_the_file_declares() {
-    let dir = std::env::temp_dir().join(format!("ossify-units-{}", std::process::id()));
-    std::fs::create_dir_all(&dir).unwrap();
+    let dir = scratch("ossify-units");
     let t = sample_trajectories(8, 3, 6);
     let trc_path = dir.join("walk.trc");
     let csv_path = dir.join("walk.csv");
@@ -576,12 +563,15 @@ fn a_unit_option_overrides_what_the_file_declares() {
                 .any(|w| w.contains("mocap-io.units"))
         );
     }
+    // The CSV with its units line replaced.
+    let variant = |name: &str, units_line: &str| {
+        let text = std::fs::read_to_string(&csv_path).unwrap();
+        let path = dir.join(name);
+        std::fs::write(&path, text.replace("# units: mm\n", units_line)).unwrap();
+        path
+    };
     // A unit the reader does not know is an error without the option, read with it.
-    let text = std::fs::read_to_string(&csv_path)
-        .unwrap()
-        .replace("# units: mm", "# units: furlong");
-    let odd = dir.join("odd.csv");
-    std::fs::write(&odd, text).unwrap();
+    let odd = variant("odd.csv", "# units: furlong\n");
     assert!(mocap_io::read_capture(&odd, &opts()).is_err());
     let read = mocap_io::read_capture(&odd, &with(mocap_io::LengthUnit::Cm)).unwrap();
     assert!(
@@ -589,6 +579,25 @@ fn a_unit_option_overrides_what_the_file_declares() {
             .warnings
             .iter()
             .any(|w| w.contains("not as the file's \"furlong\""))
+    );
+    // Where the file declares no units (millimetres assumed), the option says so.
+    let bare = variant("bare.csv", "");
+    let plain = mocap_io::read_capture(&bare, &opts()).unwrap();
+    let read = mocap_io::read_capture(&bare, &metres).unwrap();
+    assert_eq!(plain.info.declared_units, None);
+    let (a, b) = (
+        read.trajectories.positions(),
+        plain.trajectories.positions(),
+    );
+    let k = (0..a.len()).find(|&k| !b[k][0].is_nan()).unwrap();
+    assert!((a[k][0] - 1000.0 * b[k][0]).abs() < 1e-6 * b[k][0].abs().max(1.0));
+    assert!(
+        read.info
+            .warnings
+            .iter()
+            .any(|w| w.contains("read as m (mocap-io.units); the file declares no units")),
+        "{:?}",
+        read.info.warnings
     );
     let _ = std::fs::remove_dir_all(&dir);
 }
