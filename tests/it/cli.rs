@@ -327,3 +327,70 @@ fn a_frame_range_and_left_out_markers_reach_the_skeleton() {
     );
     assert!(!bad.path("out").join("skeleton.json").exists());
 }
+
+/// `segment.groups` from the command line: two segments named as one group are one
+/// segment of exactly those markers in skeleton.json, the others as found; a label the
+/// capture lacks fails, naming the capture, the option and the label, and writes nothing.
+#[test]
+fn named_groups_reach_the_skeleton() {
+    let capture = root().join("fixtures/robotarm-clean.c3d");
+    let found = Scratch::new("groups-found");
+    let args = found.run_args(&capture);
+    xtask_ok(&args.iter().map(String::as_str).collect::<Vec<_>>());
+    let labels_of = |segment: &serde_json::Value| {
+        let mut labels: Vec<String> = segment["markers"]
+            .as_array()
+            .unwrap()
+            .iter()
+            .map(|l| l.as_str().unwrap().to_string())
+            .collect();
+        labels.sort();
+        labels
+    };
+    let automatic: Vec<Vec<String>> = read_json(&found.path("out/skeleton.json"))["segments"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .map(labels_of)
+        .collect();
+    assert!(automatic.len() >= 3, "{automatic:?}");
+    let mut group = automatic[0].clone();
+    group.extend(automatic[1].iter().cloned());
+    group.sort();
+
+    let named = Scratch::new("groups-named");
+    let mut args = named.run_args(&capture);
+    args.extend([
+        "--set".into(),
+        format!("segment.groups=[{}]", serde_json::json!(group)),
+    ]);
+    xtask_ok(&args.iter().map(String::as_str).collect::<Vec<_>>());
+    let mut segments: Vec<Vec<String>> = read_json(&named.path("out/skeleton.json"))["segments"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .map(labels_of)
+        .collect();
+    segments.sort();
+    let mut expected = automatic[2..].to_vec();
+    expected.push(group);
+    expected.sort();
+    assert_eq!(segments, expected);
+
+    let bad = Scratch::new("groups-bad");
+    let mut args = bad.run_args(&capture);
+    args.extend([
+        "--set".into(),
+        format!("segment.groups=[[\"{}\", \"NOSUCH\"]]", automatic[0][0]),
+    ]);
+    let result = xtask(&args.iter().map(String::as_str).collect::<Vec<_>>());
+    assert!(!result.status.success());
+    let stderr = String::from_utf8_lossy(&result.stderr);
+    assert!(
+        stderr.contains("robotarm-clean.c3d")
+            && stderr.contains("segment.groups, group 1")
+            && stderr.contains("\"NOSUCH\""),
+        "{stderr}"
+    );
+    assert!(!bad.path("out").join("skeleton.json").exists());
+}

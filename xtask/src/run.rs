@@ -392,7 +392,8 @@ pub fn findings(document: &export::SkeletonJson, spin_limit_deg: f64) -> Vec<Str
     if !near.is_empty() {
         out.push(format!(
             "segments that may be two turning little about a joint (the joint test came near \
-             cutting them where shown; skin can hide such a joint): {}",
+             cutting them where shown; skin can hide such a joint; where it is two, \
+             --set 'segment.groups=[[\"LABEL\", ...]]' makes a part a segment): {}",
             near.join("; ")
         ));
     }
@@ -622,8 +623,9 @@ mod tests {
         )));
         assert!(found.contains(&format!(
             "segments that may be two turning little about a joint (the joint test came near \
-             cutting them where shown; skin can hide such a joint): {} (rotation z 3.5, travel \
-             z 2.0: M000 | M001, M002)",
+             cutting them where shown; skin can hide such a joint; where it is two, \
+             --set 'segment.groups=[[\"LABEL\", ...]]' makes a part a segment): {} \
+             (rotation z 3.5, travel z 2.0: M000 | M001, M002)",
             doc.segments[0].id
         )));
         assert!(found.contains(&"segments not in the tree: [2]".to_owned()));

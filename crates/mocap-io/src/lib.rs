@@ -230,42 +230,11 @@ fn select(mut capture: Capture, options: &ReadOptions) -> Result<Capture, Format
     if let Some(unknown) = options
         .exclude_markers
         .iter()
-        .find(|p| !labels.iter().any(|l| glob(p, l)))
+        .find(|p| markers_named(labels, p).is_empty())
     {
-        // Vicon prefixes labels with the subject's name ("Subject:LTOE").
-        let like = labels.iter().find(|l| {
-            l.eq_ignore_ascii_case(unknown)
-                || l.rsplit_once(':')
-                    .is_some_and(|(_, bare)| bare.eq_ignore_ascii_case(unknown))
-        });
-        let hint = match like {
-            Some(label) => format!("; did you mean {label:?}?"),
-            None => {
-                let shown = labels
-                    .iter()
-                    .take(12)
-                    .map(String::as_str)
-                    .collect::<Vec<_>>();
-                let more = if labels.len() > shown.len() {
-                    ", …"
-                } else {
-                    ""
-                };
-                format!(
-                    " (its {} markers: {}{more})",
-                    labels.len(),
-                    shown.join(", ")
-                )
-            }
-        };
-        let what = if unknown.contains('*') {
-            format!("no marker of the capture matches {unknown:?}")
-        } else {
-            format!("the capture has no marker labelled {unknown:?}")
-        };
         return Err(FormatError::new(
             "mocap-io.exclude_markers",
-            format!("{what}{hint}"),
+            no_marker_named(labels, unknown),
         ));
     }
     let keep: Vec<usize> = (0..labels.len())
@@ -302,6 +271,50 @@ fn select(mut capture: Capture, options: &ReadOptions) -> Result<Capture, Format
     capture.trajectories = t.select(frames, &keep);
     capture.info.warnings.extend(notes);
     Ok(capture)
+}
+
+/// The markers whose label `pattern` names, in capture order: the label itself, or with
+/// `*` standing for any run of characters (`V*`: every label starting with V).
+pub fn markers_named(labels: &[String], pattern: &str) -> Vec<usize> {
+    (0..labels.len())
+        .filter(|&m| glob(pattern, &labels[m]))
+        .collect()
+}
+
+/// Why `pattern` names no marker of `labels`, for an error message: with the label it
+/// may mean (another case, or Vicon's "Subject:LABEL"), else the capture's first labels.
+pub fn no_marker_named(labels: &[String], pattern: &str) -> String {
+    let like = labels.iter().find(|l| {
+        l.eq_ignore_ascii_case(pattern)
+            || l.rsplit_once(':')
+                .is_some_and(|(_, bare)| bare.eq_ignore_ascii_case(pattern))
+    });
+    let hint = match like {
+        Some(label) => format!("; did you mean {label:?}?"),
+        None => {
+            let shown = labels
+                .iter()
+                .take(12)
+                .map(String::as_str)
+                .collect::<Vec<_>>();
+            let more = if labels.len() > shown.len() {
+                ", …"
+            } else {
+                ""
+            };
+            format!(
+                " (its {} markers: {}{more})",
+                labels.len(),
+                shown.join(", ")
+            )
+        }
+    };
+    let what = if pattern.contains('*') {
+        format!("no marker of the capture matches {pattern:?}")
+    } else {
+        format!("the capture has no marker labelled {pattern:?}")
+    };
+    format!("{what}{hint}")
 }
 
 /// Whether `label` matches `pattern`, where `*` stands for any run of characters

@@ -31,4 +31,15 @@ pub enum Error {
         /// What faer reported.
         detail: String,
     },
+    /// A group of `segment.groups` does not fit the capture (a label it has not, a marker
+    /// two groups name).
+    #[error("segment: parameter segment.groups, group {group} {labels:?}: {detail}")]
+    Group {
+        /// The group's place in the list, from 1.
+        group: usize,
+        /// The group as given.
+        labels: Vec<String>,
+        /// What is wrong.
+        detail: String,
+    },
 }

@@ -77,6 +77,7 @@ mod glitch;
 mod jointsplit;
 mod kmeans;
 mod linkage;
+mod named;
 mod pairsplit;
 mod pairstats;
 mod params;
@@ -118,16 +119,19 @@ pub const STAGE: &str = "segment";
 pub fn run(traj: &Trajectories, params: &Params) -> Result<Segmentation, Error> {
     params.validate()?;
     let params = &params.with_floors_scaled(traj.floor_scale());
-    segment_capture(traj, params, params.repair_swaps, None)
+    let named = named::resolve(traj.labels(), &params.groups)?;
+    segment_capture(traj, params, &named, params.repair_swaps, None)
 }
 
 /// [`run`] on parameters it has validated and scaled, looking for label swaps when
 /// `find_swaps`: when there are any, the capture is segmented again with them undone (and
 /// not looked for again). `spread_given`: the rigid spread a first pass read off its
-/// segments (`spread_second_pass`), used instead of the spectral clusters'.
+/// segments (`spread_second_pass`), used instead of the spectral clusters'. `named`: the
+/// user's groups (`Params::groups`, resolved), which stand over what the data say.
 fn segment_capture(
     traj: &Trajectories,
     params: &Params,
+    named: &[Vec<usize>],
     find_swaps: bool,
     spread_given: Option<f64>,
 ) -> Result<Segmentation, Error> {
@@ -450,7 +454,7 @@ fn segment_capture(
         if let Some(spread) = rigidity::rigid_spread(&stats, &clusters, min_overlap) {
             let bounded = bound_spread(spread);
             if bounded > noise_mm {
-                return segment_capture(raw, params, find_swaps, Some(bounded));
+                return segment_capture(raw, params, named, find_swaps, Some(bounded));
             }
         }
     }
@@ -460,7 +464,8 @@ fn segment_capture(
             * typical_sigma(traj, &clusters, &mut sigma_memo).max(params.tolerance_min_mm);
         let swaps = swaps::find_swaps(raw, &clusters, hold_mm, reassign::stride_of(raw));
         if !swaps.is_empty() {
-            let mut again = segment_capture(&untangle(raw, &swaps), params, false, spread_given)?;
+            let mut again =
+                segment_capture(&untangle(raw, &swaps), params, named, false, spread_given)?;
             again.swaps = swaps;
             return Ok(again);
         }
@@ -559,6 +564,13 @@ fn segment_capture(
             params.regroup_ratio,
         );
     }
+    named::apply(
+        &mut clusters,
+        &mut unassigned,
+        named,
+        params.min_segment_markers,
+        labels,
+    );
     let near_joints = if params.near_joint_fraction > 0.0 && params.joint_split_z > 0.0 {
         let test = joint_test(
             params,
@@ -573,6 +585,10 @@ fn segment_capture(
             test,
             params.near_joint_fraction,
         )
+        .into_iter()
+        // A group the user named is one segment whatever its best cut scores.
+        .filter(|n| !named.contains(&clusters[n.segment]))
+        .collect()
     } else {
         Vec::new()
     };

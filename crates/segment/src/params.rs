@@ -171,6 +171,8 @@ pub struct Params {
     /// A segment the joint test left whole is reported as maybe two (`Segmentation::near_joints`) when its best cut scores this fraction of joint_split_z or joint_travel_z; 0 = off.
     #[serde(default = "default_near_joint_fraction")]
     pub near_joint_fraction: f64,
+    /// Markers that are one segment, by label (`*` patterns as in `mocap-io.exclude_markers`): each group is a segment of exactly those markers, taken out of the segments found without it; default none.
+    pub groups: Vec<Vec<String>>,
 }
 
 /// `Params::joint_rotation_travel_z`'s default, for artifacts written before it existed.
@@ -267,6 +269,7 @@ impl Default for Params {
             repair_swaps: true,
             glitch_factor: 8.0,
             near_joint_fraction: default_near_joint_fraction(),
+            groups: Vec::new(),
         }
     }
 }
@@ -507,6 +510,10 @@ pub const PARAM_DOCS: &[(&str, &str)] = &[
         "near_joint_fraction",
         "a diagnostic, nothing is cut: a final segment of ≥ 6 markers whose best cut (the one the joint test weighs, smallest pooled σ) scores at least this fraction of joint_split_z on its rotation or of joint_travel_z on its centroid's travel is listed in Segmentation::near_joints, in skeleton.json (the segment's near_joint, with both parts) and among the run's findings, as possibly two segments that turn little about a joint: skin leaves such joints under the test (a hexapod's coxae merged into its body, a quadruped's carpus into its forearm). The parts are the test's best cut, which skin can put elsewhere than the joint. cargo xtask eval --presets hard (its 'listed as maybe two' figures: segments of ≥ 6 markers holding ≥ 3 markers of each of two true segments, and the rest): seeds 20001-20050,30001-30050 102 of 140 and 131 of 2013 (hexapod 84 of 113 and 30 of 356, quadruped 15 of 20 and 36 of 445); at 0.7 112 and 225, at 0.8 82 and 85; seeds 40001-40100 117 of 175 and 145 of 2035 (measured with joint_rotation_travel_z, which this listing does not read: a cut it refuses as pose error is listed when its rotation scores this fraction). Of the real captures' 16 segments of ≥ 6 markers, 3 are listed: btk Res16bits' head, shoulder and arm with the hand as the other part (rotation z 4.67, failing the test's centre condition) in its C3D and its TRC, and OpenSim subject01_walk1's right foot (z 3.10). Costs the segment stage about 0.01 s of 0.27 on cargo xtask bench's capture; 0 = off; default 0.75",
     ),
+    (
+        "groups",
+        "[[\"LABEL\", ...], ...]: markers that are one segment, by label as the capture names them (a repeated label's later markers LABEL#2, ...; * stands for any run of characters, as in mocap-io.exclude_markers): each group is a segment of exactly those markers, taken out of whatever segments the grouping put them in, and every other marker is grouped as without it (a segment left with fewer than min_segment_markers is unassigned). For what the data cannot decide: a segment the findings list as maybe two (a joint that turns no more than skin moves, as a hexapod's coxa on its body or a quadruped's carpus), two segments of one body, a marker put on the wrong side of a joint. A label or pattern that matches no marker, or a marker two groups name, is an error; default []",
+    ),
 ];
 
 impl Params {
@@ -621,6 +628,13 @@ impl Params {
         non_negative("pair_rejoin_ratio", self.pair_rejoin_ratio)?;
         non_negative("glitch_factor", self.glitch_factor)?;
         non_negative("near_joint_fraction", self.near_joint_fraction)?;
+        if self.groups.iter().any(Vec::is_empty) {
+            return Err(bad(
+                "groups",
+                format!("{:?}", self.groups),
+                "every group must name at least one marker",
+            ));
+        }
         Ok(())
     }
 }

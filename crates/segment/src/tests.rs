@@ -1425,3 +1425,76 @@ fn a_two_marker_link_merged_with_its_neighbour_is_cut_by_the_pair_route() {
         partition(&merged)
     );
 }
+
+/// Hexapod coxae skin hides (hard preset, eval's 480 frames: the grouping merges every
+/// coxa into the body or a femur), named by the person who put the markers on
+/// (`Params::groups`): each named coxa is a segment, and the body and femurs they were
+/// cut from stand as their true segments; naming nothing changes nothing.
+#[test]
+fn named_coxae_are_segments_and_the_rest_is_grouped_as_found() {
+    let trial = eval_trial(synth::Subject::Hexapod, synth::Preset::Hard, 20001);
+    let traj = &trial.trajectories;
+    let automatic = run(traj, &Params::default()).expect("segments");
+    assert!(
+        !is_true_partition(&trial, &automatic),
+        "{:?}",
+        partition(&automatic)
+    );
+    let coxae: Vec<Vec<String>> = trial
+        .truth
+        .segments
+        .iter()
+        .filter(|s| s.name.ends_with("_coxa"))
+        .map(|s| s.markers.clone())
+        .collect();
+    assert_eq!(coxae.len(), 6);
+    let named = Params {
+        groups: coxae,
+        ..Params::default()
+    };
+    let seg = run(traj, &named).expect("segments");
+    // One marker of a femur the grouping leaves out either way (it slides); every segment
+    // holds one true segment's markers, and there are as many as true segments.
+    let truth = true_partition(&trial);
+    let found = partition(&seg);
+    assert_eq!(found.len(), truth.len(), "{found:?}");
+    for part in &found {
+        assert!(
+            truth.iter().any(|t| part.iter().all(|m| t.contains(m))),
+            "{part:?} mixes true segments: {found:?}"
+        );
+    }
+    for coxa in named.groups.iter().map(|g| {
+        let mut markers: Vec<usize> = g
+            .iter()
+            .map(|l| traj.labels().iter().position(|x| x == l).expect("label"))
+            .collect();
+        markers.sort_unstable();
+        markers
+    }) {
+        assert!(
+            found.contains(&coxa),
+            "{coxa:?} is not a segment: {found:?}"
+        );
+    }
+    let none = Params {
+        groups: Vec::new(),
+        ..Params::default()
+    };
+    assert_eq!(run(traj, &none).expect("segments"), automatic);
+}
+
+/// A group naming a label the capture lacks stops the stage with the group and the label.
+#[test]
+fn a_group_naming_no_marker_is_an_error() {
+    let trial = synth_trial(synth::Subject::Snowman, synth::Preset::Clean, 1);
+    let params = Params {
+        groups: vec![vec!["M000".into(), "LKNE".into()]],
+        ..Params::default()
+    };
+    let error = run(&trial.trajectories, &params).unwrap_err().to_string();
+    assert!(
+        error.contains("segment.groups, group 1") && error.contains("\"LKNE\""),
+        "{error}"
+    );
+}
