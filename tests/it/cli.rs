@@ -394,3 +394,59 @@ fn named_groups_reach_the_skeleton() {
     );
     assert!(!bad.path("out").join("skeleton.json").exists());
 }
+
+/// `topo.joints` from the command line: a named pair is a joint of the tree, said in the
+/// notes; an id the segmentation has not fails, naming the option and the pair, and
+/// writes nothing.
+#[test]
+fn named_joints_reach_the_skeleton() {
+    let capture = root().join("fixtures/robotarm-clean.c3d");
+    let tmp = Scratch::new("joints-named");
+    let edges = |skeleton: &serde_json::Value| {
+        let mut edges: Vec<(u64, u64)> = skeleton["joints"]
+            .as_array()
+            .unwrap()
+            .iter()
+            .map(|j| {
+                let (p, c) = (
+                    j["parent_segment"].as_u64().unwrap(),
+                    j["child_segment"].as_u64().unwrap(),
+                );
+                (p.min(c), p.max(c))
+            })
+            .collect();
+        edges.sort();
+        edges
+    };
+    let args = tmp.run_args(&capture);
+    xtask_ok(&args.iter().map(String::as_str).collect::<Vec<_>>());
+    let found = edges(&read_json(&tmp.path("out/skeleton.json")));
+    let (a, b) = found[0];
+    let mut args = tmp.run_args(&capture);
+    args.extend(["--set".into(), format!("topo.joints=[[{b}, {a}]]")]);
+    xtask_ok(&args.iter().map(String::as_str).collect::<Vec<_>>());
+    let skeleton = read_json(&tmp.path("out/skeleton.json"));
+    assert_eq!(edges(&skeleton), found);
+    let note = format!("segments {a} and {b} joined as topo.joints names them");
+    assert!(
+        skeleton["notes"]
+            .as_array()
+            .unwrap()
+            .iter()
+            .any(|n| n == note.as_str()),
+        "{}",
+        skeleton["notes"]
+    );
+
+    let bad = Scratch::new("joints-bad");
+    let mut args = bad.run_args(&capture);
+    args.extend(["--set".into(), "topo.joints=[[0, 99]]".into()]);
+    let result = xtask(&args.iter().map(String::as_str).collect::<Vec<_>>());
+    assert!(!result.status.success());
+    let stderr = String::from_utf8_lossy(&result.stderr);
+    assert!(
+        stderr.contains("robotarm-clean.c3d") && stderr.contains("topo.joints pair [0, 99]"),
+        "{stderr}"
+    );
+    assert!(!bad.path("out").join("skeleton.json").exists());
+}

@@ -463,9 +463,12 @@ pub(crate) fn document(input: &Inputs<'_>) -> Result<SkeletonJson, Error> {
             .filter(|r| r.cost_ratio < RUNNER_UP_WARN_RATIO && runner_up_applies(pair))
         {
             warnings.push(format!(
-                "the tree could join segments {} and {} instead: that pair's fit costs {:.2} \
-                 times this joint's (below {RUNNER_UP_WARN_RATIO}), so the tree is uncertain here",
-                r.parent_side_segment, r.child_side_segment, r.cost_ratio
+                "the tree could join segments {a} and {b} instead: that pair's fit costs {:.2} \
+                 times this joint's (below {RUNNER_UP_WARN_RATIO}), so the tree is uncertain here \
+                 (--set 'topo.joints=[[{a}, {b}]]' joins them where you know it should)",
+                r.cost_ratio,
+                a = r.parent_side_segment,
+                b = r.child_side_segment,
             ));
         }
         if let (Some(s), Some((x, ratio))) = (pair.posed_through, pair.next_best_anchor)

@@ -53,4 +53,14 @@ pub enum Error {
         /// Segments of the tree that could be the root.
         tree: Vec<usize>,
     },
+    /// A pair `topo.joints` names cannot be a tree edge.
+    #[error("topo: topo.joints pair [{a}, {b}]: {reason}")]
+    BadJoint {
+        /// Its first segment id, as given.
+        a: usize,
+        /// Its second segment id, as given.
+        b: usize,
+        /// Why it cannot be used.
+        reason: String,
+    },
 }

@@ -54,6 +54,9 @@
 //!   a human and the body of an animal, and not on whichever of two like centres the
 //!   capture's marker order numbered first (the root shapes every chained pose below it).
 //!   `topo.root` forces a segment id (its component becomes the tree).
+//! - `topo.joints` names pairs of segments the tree joins first, before rigid pairs; the
+//!   rules above never move them. The data cannot always decide (a limb between like
+//!   twins, a two-marker segment), and whoever put the markers on knows the body.
 //! - Each joint names its runner-up ([`RunnerUp`]): the cheapest other pair across the cut
 //!   the joint makes, the edge that would replace it. Where that costs little more than
 //!   the joint, or less (a rule above chose the joint), the data hardly decide the tree
@@ -122,6 +125,9 @@ pub struct Params {
     /// cheap by construction), when the parent's centre holds its markers next best,
     /// within this many times that joint's radial residual (default 1.5; 0 = off).
     pub twin_leaf_anchor_ratio: f64,
+    /// Pairs of segment ids the tree joins before any other edge, as the user knows them
+    /// (default none).
+    pub joints: Vec<[usize; 2]>,
 }
 
 impl Default for Params {
@@ -141,12 +147,22 @@ impl Default for Params {
             twin_length_tolerance: 0.4,
             twin_leaf_cost_ratio: 3.0,
             twin_leaf_anchor_ratio: 1.5,
+            joints: Vec::new(),
         }
     }
 }
 
 /// Every parameter: (field name, "meaning, units, default").
 pub const PARAM_DOCS: &[(&str, &str)] = &[
+    (
+        "joints",
+        "[[a, b], ...]: pairs of segment ids (as the run's findings and skeleton.json number \
+         them) the tree joins before any other edge, where you know the body better than the \
+         data show (the findings say 'the tree could join segments a and b instead' where \
+         they hardly decide); the rules after the spanning tree (twin_*) leave these joints \
+         alone. An id the segmentation has not, a pair without a usable joint fit, or pairs \
+         that close a loop are errors; default []",
+    ),
     (
         "root",
         "segment id forced as the tree's root; default none: the tree's centre (fewest hops \

@@ -37,7 +37,8 @@ pub fn run(seg: &Segmentation, fits: &PairFits, params: &Params) -> Result<Topol
         notes.push(one_body_note(seg));
     }
 
-    // Candidate edges: (rank, cost, a, b, pair index); rank 0 = rigid pair taken first.
+    let named = named_pairs(fits, n, &params.joints)?;
+    // Candidate edges: (rank, cost, a, b, pair index), taken by rank, then cost.
     let mut edges: Vec<(u8, f64, usize, usize, usize)> = Vec::with_capacity(fits.pairs.len());
     for (i, p) in fits.pairs.iter().enumerate() {
         if p.a >= p.b || p.b >= n {
@@ -51,7 +52,13 @@ pub fn run(seg: &Segmentation, fits: &PairFits, params: &Params) -> Result<Topol
         if !p.cost.is_finite() {
             continue;
         }
-        let rank = u8::from(!(params.rigid_first && p.tree_kind() == JointKind::Rigid));
+        let rank = if named.contains(&i) {
+            NAMED
+        } else if params.rigid_first && p.tree_kind() == JointKind::Rigid {
+            RIGID
+        } else {
+            ORDINARY
+        };
         edges.push((rank, p.cost, p.a, p.b, i));
     }
     if params.composite_rotation_ratio > 0.0
@@ -75,21 +82,37 @@ pub fn run(seg: &Segmentation, fits: &PairFits, params: &Params) -> Result<Topol
         if sets.union(a, b) {
             if rank == 0 {
                 notes.push(format!(
+                    "segments {a} and {b} joined as topo.joints names them"
+                ));
+            } else if rank == 1 {
+                notes.push(format!(
                     "segments {a} and {b} do not move relative to each other (pair kind rigid \
                      on their own poses); joined first: they are probably one body split in two"
                 ));
             }
             accepted.push((a, b, pair, cost));
+        } else if rank == NAMED {
+            return Err(Error::BadJoint {
+                a,
+                b,
+                reason: "with the other pairs topo.joints names it closes a loop; a tree has \
+                         none"
+                    .into(),
+            });
         }
     }
+    // The rules below move edges the data hardly decide; never the user's.
+    let fixed: Vec<bool> = accepted.iter().map(|e| named.contains(&e.2)).collect();
     notes.extend(crate::twins::hang_twins_on_one_parent(
         &mut accepted,
+        &fixed,
         fits,
         n,
         params,
     ));
     notes.extend(crate::twins::hang_shared_leaves_on_the_twins_parent(
         &mut accepted,
+        &fixed,
         fits,
         n,
         params,
@@ -336,7 +359,7 @@ fn take_composites_after_their_joints(
     // such costs too), a finite set, so the rounds end.
     loop {
         let mut raised = false;
-        for e in edges.iter_mut().filter(|e| e.0 == 1) {
+        for e in edges.iter_mut().filter(|e| e.0 == ORDINARY) {
             let Some(after) =
                 composite_of(fits, n, e.2, e.3, params, &taken_at, &mut hub_correlations)
             else {
@@ -548,6 +571,42 @@ impl DisjointSets {
         self.size[ra] += self.size[rb];
         true
     }
+}
+
+/// Edge ranks, taken in this order: pairs `topo.joints` names, rigid pairs
+/// (`rigid_first`), the rest by cost.
+const NAMED: u8 = 0;
+/// See [`NAMED`].
+const RIGID: u8 = 1;
+/// See [`NAMED`].
+const ORDINARY: u8 = 2;
+
+/// The pair fits `joints` (`topo.joints`) names, by index into `fits.pairs`: an error names
+/// a pair whose ids the segmentation has not, or that has no usable fit to place it.
+fn named_pairs(fits: &PairFits, n: usize, joints: &[[usize; 2]]) -> Result<Vec<usize>, Error> {
+    joints
+        .iter()
+        .map(|&[a, b]| {
+            let bad = |reason: String| Error::BadJoint { a, b, reason };
+            if a == b {
+                return Err(bad("a segment cannot be joined to itself".into()));
+            }
+            if a.max(b) >= n {
+                return Err(bad(format!(
+                    "the segmentation has segments 0 to {} (skeleton.json's segment ids)",
+                    n - 1
+                )));
+            }
+            match fits.pair_index(a, b) {
+                Some(i) if fits.pairs[i].cost.is_finite() => Ok(i),
+                _ => Err(bad(
+                    "the two segments have no usable joint fit (fewer than jointfit.min_frames \
+                     frames with both posed, or no centre fits them)"
+                        .into(),
+                )),
+            }
+        })
+        .collect()
 }
 
 #[cfg(test)]
@@ -1017,6 +1076,42 @@ mod tests {
         assert!(stays(&seg, &f, &Params::default()));
         let (seg, f) = twin_arms(2, 300.0);
         assert!(stays(&seg, &f, &Params::default()));
+    }
+
+    #[test]
+    fn pairs_the_user_names_are_joined_first_and_no_rule_moves_them() {
+        // The twins rule would move clavicle 2 from clavicle 1 to the thorax (above); named,
+        // the edge stays. A dear pair named is taken over the cheap one across its cut.
+        let (seg, f) = twin_arms(1, 300.0);
+        let named = |joints: Vec<[usize; 2]>| Params {
+            joints,
+            ..Params::default()
+        };
+        let t = run(&seg, &f, &named(vec![[2, 1]])).unwrap_or_else(|e| panic!("{e}"));
+        assert!(edge_set(&t).contains(&(1, 2)), "{:?}", edge_set(&t));
+        assert!(
+            t.notes
+                .iter()
+                .any(|n| n == "segments 1 and 2 joined as topo.joints names them"),
+            "{:?}",
+            t.notes
+        );
+        let t = run(&seg, &f, &named(vec![[0, 3]])).unwrap_or_else(|e| panic!("{e}"));
+        assert!(edge_set(&t).contains(&(0, 3)), "{:?}", edge_set(&t));
+        assert!(!edge_set(&t).contains(&(1, 3)), "{:?}", edge_set(&t));
+        // Pairs the tree cannot take are errors naming the pair and why.
+        let refused = |joints: Vec<[usize; 2]>, f: &PairFits| {
+            run(&seg, f, &named(joints))
+                .map(|_| ())
+                .unwrap_err()
+                .to_string()
+        };
+        assert!(refused(vec![[1, 1]], &f).contains("[1, 1]: a segment cannot be joined to itself"));
+        assert!(refused(vec![[0, 9]], &f).contains("segments 0 to 6"));
+        assert!(refused(vec![[0, 1], [1, 2], [2, 0]], &f).contains("[0, 2]: with the other pairs"));
+        let mut unfit = f.clone();
+        fit_mut(&mut unfit, 0, 4).cost = f64::INFINITY;
+        assert!(refused(vec![[4, 0]], &unfit).contains("no usable joint fit"));
     }
 
     #[test]

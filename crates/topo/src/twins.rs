@@ -139,9 +139,11 @@ fn alike(x: &Branch, y: &Branch, tolerance: f64) -> bool {
 
 /// Moves each segment Y that the tree hangs on a twin X to X's parent P (see the module
 /// docs), best first (the move whose new pair costs least against the edge it replaces),
-/// each segment at most once. Gives a note per move.
+/// each segment at most once; an edge `fixed` marks (`topo.joints`) stays. Gives a note per
+/// move.
 pub(crate) fn hang_twins_on_one_parent(
     edges: &mut [Edge],
+    fixed: &[bool],
     fits: &PairFits,
     n: usize,
     params: &Params,
@@ -156,8 +158,9 @@ pub(crate) fn hang_twins_on_one_parent(
         // (new cost over the replaced edge's, edge, Y, P, the new pair's index)
         let mut best: Option<(f64, usize, usize, usize, usize)> = None;
         for (e, &(a, b, pair, cost)) in edges.iter().enumerate() {
-            // A rigid pair is one body split in two, not a limb on its twin.
-            if fits.pairs[pair].tree_kind() == JointKind::Rigid {
+            // A rigid pair is one body split in two, not a limb on its twin; a fixed edge
+            // is the user's (`topo.joints`).
+            if fixed[e] || fits.pairs[pair].tree_kind() == JointKind::Rigid {
                 continue;
             }
             for (x, y) in [(a, b), (b, a)] {
@@ -251,10 +254,11 @@ fn shared_leaves(
 /// (`twin_leaf_cost_ratio`): a segment hung on a limb sits at the limb's far side, away
 /// from its mirror twin; one that fits both twins alike sits where they meet their
 /// parent (a head between the clavicles). No edge among X, Y, P and L may be rigid (a
-/// rigid pair is one body split in two, not a limb). Best first, each leaf at most once.
-/// Gives a note per move.
+/// rigid pair is one body split in two, not a limb), and an edge `fixed` marks
+/// (`topo.joints`) stays. Best first, each leaf at most once. Gives a note per move.
 pub(crate) fn hang_shared_leaves_on_the_twins_parent(
     edges: &mut [Edge],
+    fixed: &[bool],
     fits: &PairFits,
     n: usize,
     params: &Params,
@@ -271,7 +275,7 @@ pub(crate) fn hang_shared_leaves_on_the_twins_parent(
         // pair's index, Y, whether the anchor ratio moved it)
         let mut best: Option<(f64, usize, usize, usize, usize, usize, bool)> = None;
         for (e, &(a, b, _, cost)) in edges.iter().enumerate() {
-            if rigid(edges, e) {
+            if fixed[e] || rigid(edges, e) {
                 continue;
             }
             for (x, l) in [(a, b), (b, a)] {
