@@ -183,6 +183,7 @@ pub fn scene(frames: usize, rate: f64) -> Scene {
                 parent_joint: (p != 0).then_some(0),
                 cost: 1.0 + e as f64,
                 runner_up: None,
+                named: false,
             })
             .collect(),
         detached_segments: Vec::new(),

@@ -445,22 +445,20 @@ pub(crate) fn document(input: &Inputs<'_>) -> Result<SkeletonJson, Error> {
                  place it (too little turn, or a segment posed only through this joint)"
             ));
         }
-        let runner_up = input
-            .topology
-            .joints
-            .iter()
-            .find(|t| t.pair == j.pair)
-            .and_then(|t| {
-                let r = t.runner_up.as_ref()?;
-                Some(RunnerUpJson {
-                    parent_side_segment: r.parent_side,
-                    child_side_segment: r.child_side,
-                    cost_ratio: round(r.cost / t.cost, 3)?,
-                })
-            });
+        let tree_joint = input.topology.joints.iter().find(|t| t.pair == j.pair);
+        // A joint the user named (topo.joints) is theirs: the data's doubts are not warned.
+        let named = tree_joint.is_some_and(|t| t.named);
+        let runner_up = tree_joint.and_then(|t| {
+            let r = t.runner_up.as_ref()?;
+            Some(RunnerUpJson {
+                parent_side_segment: r.parent_side,
+                child_side_segment: r.child_side,
+                cost_ratio: round(r.cost / t.cost, 3)?,
+            })
+        });
         if let Some(r) = runner_up
             .as_ref()
-            .filter(|r| r.cost_ratio < RUNNER_UP_WARN_RATIO && runner_up_applies(pair))
+            .filter(|r| !named && r.cost_ratio < RUNNER_UP_WARN_RATIO && runner_up_applies(pair))
         {
             warnings.push(format!(
                 "the tree could join segments {a} and {b} instead: that pair's fit costs {:.2} \
@@ -473,6 +471,7 @@ pub(crate) fn document(input: &Inputs<'_>) -> Result<SkeletonJson, Error> {
         }
         if let (Some(s), Some((x, ratio))) = (pair.posed_through, pair.next_best_anchor)
             && ratio < 1.0
+            && !named
         {
             warnings.push(format!(
                 "segment {s} is posed through this joint although segment {x}'s centre holds its \

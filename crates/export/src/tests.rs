@@ -558,7 +558,8 @@ fn a_joint_kept_on_a_worse_anchor_warns() {
 }
 
 /// Each joint carries its runner-up pair (topo's) as a cost ratio; one below 1.2 warns,
-/// naming the pair, unless the joint is a rigid pair (taken before every cost).
+/// naming the pair and how to join it, unless the joint is a rigid pair (taken before
+/// every cost) or one the user named.
 #[test]
 fn a_joint_with_a_close_runner_up_warns() {
     let mut s = scene(60, 60.0);
@@ -597,7 +598,31 @@ fn a_joint_with_a_close_runner_up_warns() {
             "could join segments {parent_side} and {child_side} instead"
         ));
         assert_eq!(warned, child == 1, "{joint}");
+        assert!(
+            joint["warnings"].to_string().contains(&format!(
+                "--set 'topo.joints=[[{parent_side}, {child_side}]]'"
+            )) == warned,
+            "{joint}"
+        );
     }
+    // A joint the user named (topo.joints) is theirs: no doubt is warned.
+    for j in s
+        .topology
+        .joints
+        .iter_mut()
+        .filter(|j| j.child_segment == 1)
+    {
+        j.named = true;
+    }
+    let doc = json(&files(&s, &Params::default()));
+    let joints = doc["joints"].as_array().into_iter().flatten();
+    let joint = joints.clone().find(|j| j["child_segment"] == 1);
+    let joint = joint.expect("the joint in skeleton.json");
+    assert!(
+        !joint["warnings"].to_string().contains("could join"),
+        "{joint}"
+    );
+    assert_eq!(joint["runner_up"]["parent_side_segment"], 3, "{joint}");
 }
 
 #[test]

@@ -216,6 +216,7 @@ pub fn run(seg: &Segmentation, fits: &PairFits, params: &Params) -> Result<Topol
                 parent_joint: joint_of_segment[parent],
                 cost,
                 runner_up: None,
+                named: named.contains(&pair),
             });
             queue.push_back(child);
         }
@@ -1089,6 +1090,13 @@ mod tests {
         };
         let t = run(&seg, &f, &named(vec![[2, 1]])).unwrap_or_else(|e| panic!("{e}"));
         assert!(edge_set(&t).contains(&(1, 2)), "{:?}", edge_set(&t));
+        let named_joints: Vec<(usize, usize)> = t
+            .joints
+            .iter()
+            .filter(|j| j.named)
+            .map(|j| (j.parent_segment, j.child_segment))
+            .collect();
+        assert_eq!(named_joints, [(1, 2)]);
         assert!(
             t.notes
                 .iter()

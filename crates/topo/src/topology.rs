@@ -3,7 +3,7 @@
 use serde::{Deserialize, Serialize};
 
 /// Schema version of [`Topology`]; bump when its fields or the algorithm's output change.
-pub const SCHEMA_VERSION: u32 = 6;
+pub const SCHEMA_VERSION: u32 = 7;
 
 /// A tree over the segments: a root and one joint per edge, parent to child.
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
@@ -41,6 +41,10 @@ pub struct TreeJoint {
     /// `None` when no pair with a finite cost crosses.
     #[serde(default)]
     pub runner_up: Option<RunnerUp>,
+    /// Whether `topo.joints` named this pair: the user's choice, which the data's doubts
+    /// (its runner-up, a better anchor) do not question.
+    #[serde(default)]
+    pub named: bool,
 }
 
 /// The cheapest pair across a tree edge's cut other than the edge itself: where its cost
