@@ -412,7 +412,9 @@ pub(crate) fn document(input: &Inputs<'_>) -> Result<SkeletonJson, Error> {
             warnings.push(format!(
                 "the two segments disagree about their common centre by {m:.1}° of their \
                  markers' distance to it (above {CENTRE_MISFIT_WARN_DEG}°): they may not turn \
-                 about one point (a segment between them without markers, or a wrong pair)"
+                 about one point (a segment between them without markers, a wrong pair, or \
+                 two bodies that share no joint: two subjects, or a subject and a prop, in one \
+                 capture)"
             ));
         }
         let gain = jointfit::centre_gain(fits, j.pair).filter(|g| g.is_finite());
