@@ -315,17 +315,11 @@ fn a_frame_range_and_left_out_markers_reach_the_skeleton() {
     assert!(!refused.status.success());
     assert!(String::from_utf8_lossy(&refused.stderr).contains("only mocap-io"));
 
-    let bad = Scratch::new("select-bad");
-    let mut args = bad.run_args(&capture);
-    args.extend(["--set".into(), "mocap-io.frames=[0,100000]".into()]);
-    let result = xtask(&args.iter().map(String::as_str).collect::<Vec<_>>());
-    assert!(!result.status.success());
-    let stderr = String::from_utf8_lossy(&result.stderr);
-    assert!(
-        stderr.contains("robotarm-clean.c3d") && stderr.contains("mocap-io.frames"),
-        "{stderr}"
+    Scratch::new("select-bad").run_refused(
+        &capture,
+        "mocap-io.frames=[0,100000]",
+        &["robotarm-clean.c3d", "mocap-io.frames"],
     );
-    assert!(!bad.path("out").join("skeleton.json").exists());
 }
 
 /// `segment.groups` from the command line: two segments named as one group are one
@@ -335,8 +329,7 @@ fn a_frame_range_and_left_out_markers_reach_the_skeleton() {
 fn named_groups_reach_the_skeleton() {
     let capture = root().join("fixtures/robotarm-clean.c3d");
     let found = Scratch::new("groups-found");
-    let args = found.run_args(&capture);
-    xtask_ok(&args.iter().map(String::as_str).collect::<Vec<_>>());
+    found.run(&capture);
     let labels_of = |segment: &serde_json::Value| {
         let mut labels: Vec<String> = segment["markers"]
             .as_array()
@@ -377,22 +370,15 @@ fn named_groups_reach_the_skeleton() {
     expected.sort();
     assert_eq!(segments, expected);
 
-    let bad = Scratch::new("groups-bad");
-    let mut args = bad.run_args(&capture);
-    args.extend([
-        "--set".into(),
-        format!("segment.groups=[[\"{}\", \"NOSUCH\"]]", automatic[0][0]),
-    ]);
-    let result = xtask(&args.iter().map(String::as_str).collect::<Vec<_>>());
-    assert!(!result.status.success());
-    let stderr = String::from_utf8_lossy(&result.stderr);
-    assert!(
-        stderr.contains("robotarm-clean.c3d")
-            && stderr.contains("segment.groups, group 1")
-            && stderr.contains("\"NOSUCH\""),
-        "{stderr}"
+    Scratch::new("groups-bad").run_refused(
+        &capture,
+        &format!("segment.groups=[[\"{}\", \"NOSUCH\"]]", automatic[0][0]),
+        &[
+            "robotarm-clean.c3d",
+            "segment.groups, group 1",
+            "\"NOSUCH\"",
+        ],
     );
-    assert!(!bad.path("out").join("skeleton.json").exists());
 }
 
 /// `topo.joints` from the command line: a named pair is a joint of the tree, said in the
@@ -418,9 +404,7 @@ fn named_joints_reach_the_skeleton() {
         edges.sort();
         edges
     };
-    let args = tmp.run_args(&capture);
-    xtask_ok(&args.iter().map(String::as_str).collect::<Vec<_>>());
-    let found = edges(&read_json(&tmp.path("out/skeleton.json")));
+    let found = edges(&read_json(&tmp.run(&capture).join("skeleton.json")));
     let (a, b) = found[0];
     let mut args = tmp.run_args(&capture);
     args.extend(["--set".into(), format!("topo.joints=[[{b}, {a}]]")]);
@@ -438,15 +422,9 @@ fn named_joints_reach_the_skeleton() {
         skeleton["notes"]
     );
 
-    let bad = Scratch::new("joints-bad");
-    let mut args = bad.run_args(&capture);
-    args.extend(["--set".into(), "topo.joints=[[0, 99]]".into()]);
-    let result = xtask(&args.iter().map(String::as_str).collect::<Vec<_>>());
-    assert!(!result.status.success());
-    let stderr = String::from_utf8_lossy(&result.stderr);
-    assert!(
-        stderr.contains("robotarm-clean.c3d") && stderr.contains("topo.joints pair [0, 99]"),
-        "{stderr}"
+    Scratch::new("joints-bad").run_refused(
+        &capture,
+        "topo.joints=[[0, 99]]",
+        &["robotarm-clean.c3d", "topo.joints pair [0, 99]"],
     );
-    assert!(!bad.path("out").join("skeleton.json").exists());
 }

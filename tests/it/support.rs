@@ -30,6 +30,20 @@ impl Scratch {
         ]
     }
 
+    /// Runs the pipeline on `input` into this folder with `--set SET`, asserting that it
+    /// fails with each of `says` on stderr and writes no skeleton.
+    pub fn run_refused(&self, input: &Path, set: &str, says: &[&str]) {
+        let mut args = self.run_args(input);
+        args.extend(["--set".into(), set.into()]);
+        let result = xtask(&args.iter().map(String::as_str).collect::<Vec<_>>());
+        assert!(!result.status.success(), "--set {set} ran");
+        let stderr = String::from_utf8_lossy(&result.stderr);
+        for part in says {
+            assert!(stderr.contains(part), "{part:?} not in: {stderr}");
+        }
+        assert!(!self.path("out").join("skeleton.json").exists());
+    }
+
     /// Runs the pipeline on `input` into this folder, asserting success; the output folder.
     pub fn run(&self, input: &Path) -> PathBuf {
         let args = self.run_args(input);
