@@ -61,8 +61,11 @@
 //! cluster of ≤ 4 markers (skin's piece at a joint, some markers from each side, or a piece
 //! of one segment) shared out between two of its nearest clusters, where the two bodies pass
 //! the joint test and fit almost as well as the three did (`regroup_ratio`; see `regroup`).
-//! A segment of ≥ 6 markers whose best cut came near the joint test's bounds is listed
-//! as maybe two (`near_joint_fraction`; nothing is cut).
+//! Last, each group the user names (`groups`, by label) becomes a segment of exactly its
+//! markers, taken out of the segments found: what the data cannot decide, the person who
+//! put the markers on can. A segment of ≥ 6 markers whose best cut came near the joint
+//! test's bounds, and that no group names, is listed as maybe two (`near_joint_fraction`;
+//! nothing is cut).
 //! Or agglomeration alone (`method = "linkage"`) or rigid cliques (`method = "cliques"`).
 //!
 //! It does not estimate poses, joints or topology (jointfit, topo) and does no I/O.

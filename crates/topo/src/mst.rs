@@ -80,11 +80,11 @@ pub fn run(seg: &Segmentation, fits: &PairFits, params: &Params) -> Result<Topol
     for &(rank, _, a, b, pair) in &edges {
         let cost = fits.pairs[pair].cost;
         if sets.union(a, b) {
-            if rank == 0 {
+            if rank == NAMED {
                 notes.push(format!(
                     "segments {a} and {b} joined as topo.joints names them"
                 ));
-            } else if rank == 1 {
+            } else if rank == RIGID {
                 notes.push(format!(
                     "segments {a} and {b} do not move relative to each other (pair kind rigid \
                      on their own poses); joined first: they are probably one body split in two"
