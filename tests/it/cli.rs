@@ -381,8 +381,8 @@ fn named_groups_reach_the_skeleton() {
     );
 }
 
-/// `topo.joints` from the command line: a named pair is a joint of the tree, said in the
-/// notes; an id the segmentation has not fails, naming the option and the pair, and
+/// `topo.joints` from the command line: a pair named by ids or by marker labels is a joint
+/// of the tree, said in the notes; an id the segmentation has not fails, naming the option and the pair, and
 /// writes nothing.
 #[test]
 fn named_joints_reach_the_skeleton() {
@@ -404,23 +404,31 @@ fn named_joints_reach_the_skeleton() {
         edges.sort();
         edges
     };
-    let found = edges(&read_json(&tmp.run(&capture).join("skeleton.json")));
+    let automatic = read_json(&tmp.run(&capture).join("skeleton.json"));
+    let found = edges(&automatic);
     let (a, b) = found[0];
-    let mut args = tmp.run_args(&capture);
-    args.extend(["--set".into(), format!("topo.joints=[[{b}, {a}]]")]);
-    xtask_ok(&args.iter().map(String::as_str).collect::<Vec<_>>());
-    let skeleton = read_json(&tmp.path("out/skeleton.json"));
-    assert_eq!(edges(&skeleton), found);
-    let note = format!("segments {a} and {b} joined as topo.joints names them");
-    assert!(
-        skeleton["notes"]
-            .as_array()
-            .unwrap()
-            .iter()
-            .any(|n| n == note.as_str()),
-        "{}",
-        skeleton["notes"]
-    );
+    let label_on = |s: u64| automatic["segments"][s as usize]["markers"][0].clone();
+    // By id, and by the label of a marker on each segment: the same joint, said in the notes.
+    for set in [
+        format!("topo.joints=[[{b}, {a}]]"),
+        format!("topo.joints=[[{}, {}]]", label_on(b), label_on(a)),
+    ] {
+        let mut args = tmp.run_args(&capture);
+        args.extend(["--set".into(), set.clone()]);
+        xtask_ok(&args.iter().map(String::as_str).collect::<Vec<_>>());
+        let skeleton = read_json(&tmp.path("out/skeleton.json"));
+        assert_eq!(edges(&skeleton), found, "{set}");
+        let note = format!("segments {a} and {b} joined as topo.joints names them");
+        assert!(
+            skeleton["notes"]
+                .as_array()
+                .unwrap()
+                .iter()
+                .any(|n| n == note.as_str()),
+            "{set}: {}",
+            skeleton["notes"]
+        );
+    }
 
     Scratch::new("joints-bad").run_refused(
         &capture,

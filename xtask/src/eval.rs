@@ -1372,6 +1372,7 @@ mod tests {
             swaps: Vec::new(),
             glitches: Vec::new(),
             near_joints: Vec::new(),
+            labels: Vec::new(),
         };
         // The truth: {3, 4} and {2, 0}; marker 1 on none; an empty segment.
         seg.regroup(&[vec![3, 4], vec![2, 0], vec![]], super::TRUTH_LEFT_OUT);

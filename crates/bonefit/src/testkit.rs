@@ -168,6 +168,7 @@ pub fn scene(frames: usize, rate: f64) -> Scene {
         swaps: Vec::new(),
         glitches: Vec::new(),
         near_joints: Vec::new(),
+        labels: Vec::new(),
     };
 
     let topology = Topology {

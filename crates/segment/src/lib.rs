@@ -623,6 +623,7 @@ fn segment_capture(
         swaps: Vec::new(),
         glitches,
         near_joints,
+        labels: labels.to_vec(),
     })
 }
 

@@ -6,7 +6,7 @@ use mocap_io::{MISSING, Trajectories};
 use serde::{Deserialize, Serialize};
 
 /// Schema version of [`Segmentation`]; bump when its fields or the algorithm's output change.
-pub const SCHEMA_VERSION: u32 = 38;
+pub const SCHEMA_VERSION: u32 = 39;
 
 /// The rigid segments found in a capture.
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
@@ -43,6 +43,10 @@ pub struct Segmentation {
     /// (`Params::near_joint_fraction`): maybe two segments that turn little about a joint.
     #[serde(default)]
     pub near_joints: Vec<NearJoint>,
+    /// The capture's marker labels, indexed like `markers`: so later stages can name a
+    /// marker (`topo.joints` by label) without the capture.
+    #[serde(default)]
+    pub labels: Vec<String>,
 }
 
 /// A segment the joint test left whole although its best cut came near the test's bounds:

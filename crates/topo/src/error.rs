@@ -46,8 +46,8 @@ pub enum Error {
         "topo: topo.root = {root} is not usable: {reason}; pick one of the tree's segments {tree:?}"
     )]
     BadRoot {
-        /// The requested root segment id.
-        root: usize,
+        /// The requested root, as given.
+        root: String,
         /// Why it cannot be used.
         reason: String,
         /// Segments of the tree that could be the root.
@@ -56,10 +56,10 @@ pub enum Error {
     /// A pair `topo.joints` names cannot be a tree edge.
     #[error("topo: topo.joints pair [{a}, {b}]: {reason}")]
     BadJoint {
-        /// Its first segment id, as given.
-        a: usize,
-        /// Its second segment id, as given.
-        b: usize,
+        /// Its first segment, as given.
+        a: String,
+        /// Its second segment, as given.
+        b: String,
         /// Why it cannot be used.
         reason: String,
     },

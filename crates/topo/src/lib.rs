@@ -53,7 +53,8 @@
 //!   other segments over the capture, then lowest id; it lands on the pelvis or torso of
 //!   a human and the body of an animal, and not on whichever of two like centres the
 //!   capture's marker order numbered first (the root shapes every chained pose below it).
-//!   `topo.root` forces a segment id (its component becomes the tree).
+//!   `topo.root` forces a segment, by id or by a marker's label (its component becomes the
+//!   tree).
 //! - `topo.joints` names pairs of segments the tree joins first, before rigid pairs; the
 //!   rules above never move them. The data cannot always decide (a limb between like
 //!   twins, a two-marker segment), and whoever put the markers on knows the body.
@@ -83,8 +84,8 @@ pub const STAGE: &str = "topo";
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 #[serde(default, deny_unknown_fields)]
 pub struct Params {
-    /// Segment id to force as the root; `None` (default) picks the tree's centre.
-    pub root: Option<usize>,
+    /// Segment to force as the root; `None` (default) picks the tree's centre.
+    pub root: Option<SegmentRef>,
     /// Take `rigid` pairs before all other edges (default true); false uses their cost as is.
     pub rigid_first: bool,
     /// Costs within this much (cost units, mm for `score`) of a run's cheapest cost are
@@ -125,9 +126,30 @@ pub struct Params {
     /// cheap by construction), when the parent's centre holds its markers next best,
     /// within this many times that joint's radial residual (default 1.5; 0 = off).
     pub twin_leaf_anchor_ratio: f64,
-    /// Pairs of segment ids the tree joins before any other edge, as the user knows them
+    /// Pairs of segments the tree joins before any other edge, as the user knows them
     /// (default none).
-    pub joints: Vec<[usize; 2]>,
+    pub joints: Vec<[SegmentRef; 2]>,
+}
+
+/// A segment as the user names it: by id, or by the label of a marker it holds (ids follow
+/// the segmentation; a label names the same segment in every trial of a marker set).
+#[derive(Clone, Debug, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(untagged)]
+pub enum SegmentRef {
+    /// The segment's id, as skeleton.json and the findings give it.
+    Id(usize),
+    /// The label of a marker of the segment (`*` patterns allowed where every marker they
+    /// match is on that one segment).
+    Marker(String),
+}
+
+impl std::fmt::Display for SegmentRef {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        match self {
+            SegmentRef::Id(id) => write!(f, "{id}"),
+            SegmentRef::Marker(label) => write!(f, "{label:?}"),
+        }
+    }
 }
 
 impl Default for Params {
@@ -156,8 +178,10 @@ impl Default for Params {
 pub const PARAM_DOCS: &[(&str, &str)] = &[
     (
         "joints",
-        "[[a, b], ...]: pairs of segment ids (as the run's findings and skeleton.json number \
-         them) the tree joins before any other edge, where you know the body better than the \
+        "[[a, b], ...]: pairs of segments, each by id (as the run's findings and skeleton.json \
+         number them) or by the label of a marker on it (\"LKNE\": the same segment in every \
+         trial of a marker set, where ids follow the segmentation), the tree joins before any \
+         other edge, where you know the body better than the \
          data show (the findings say 'the tree could join segments a and b instead' where \
          they hardly decide); the rules after the spanning tree (twin_*) leave these joints \
          alone. An id the segmentation has not, a pair without a usable joint fit, or pairs \
@@ -165,7 +189,8 @@ pub const PARAM_DOCS: &[(&str, &str)] = &[
     ),
     (
         "root",
-        "segment id forced as the tree's root; default none: the tree's centre (fewest hops \
+        "segment forced as the tree's root, by id or by the label of a marker on it; default \
+         none: the tree's centre (fewest hops \
          to the farthest segment, ties by most markers, then lowest id)",
     ),
     (

@@ -7,7 +7,7 @@ use jointfit::{JointKind, PairFits};
 use segment::Segmentation;
 
 use crate::independence::HubCorrelations;
-use crate::{Error, Params, RunnerUp, Topology, TreeJoint};
+use crate::{Error, Params, RunnerUp, SegmentRef, Topology, TreeJoint};
 
 /// Builds the segment tree: Kruskal on the pair costs, a root, joints in BFS order.
 ///
@@ -37,7 +37,18 @@ pub fn run(seg: &Segmentation, fits: &PairFits, params: &Params) -> Result<Topol
         notes.push(one_body_note(seg));
     }
 
-    let named = named_pairs(fits, n, &params.joints)?;
+    let named = named_pairs(seg, fits, &params.joints)?;
+    let forced_root = params
+        .root
+        .as_ref()
+        .map(|r| {
+            segment_of(seg, r).map_err(|reason| Error::BadRoot {
+                root: r.to_string(),
+                reason,
+                tree: (0..n).collect(),
+            })
+        })
+        .transpose()?;
     // Candidate edges: (rank, cost, a, b, pair index), taken by rank, then cost.
     let mut edges: Vec<(u8, f64, usize, usize, usize)> = Vec::with_capacity(fits.pairs.len());
     for (i, p) in fits.pairs.iter().enumerate() {
@@ -93,8 +104,8 @@ pub fn run(seg: &Segmentation, fits: &PairFits, params: &Params) -> Result<Topol
             accepted.push((a, b, pair, cost));
         } else if rank == NAMED {
             return Err(Error::BadJoint {
-                a,
-                b,
+                a: a.to_string(),
+                b: b.to_string(),
                 reason: "with the other pairs topo.joints names it closes a loop; a tree has \
                          none"
                     .into(),
@@ -125,15 +136,8 @@ pub fn run(seg: &Segmentation, fits: &PairFits, params: &Params) -> Result<Topol
         members[r].push(s);
     }
     let components: Vec<&Vec<usize>> = members.iter().filter(|m| !m.is_empty()).collect();
-    let tree_set: Vec<usize> = match params.root {
+    let tree_set: Vec<usize> = match forced_root {
         Some(root) => {
-            if root >= n {
-                return Err(Error::BadRoot {
-                    root,
-                    reason: format!("there are only {n} segments"),
-                    tree: (0..n).collect(),
-                });
-            }
             notes.push(format!("root forced to segment {root} (topo.root)"));
             members[sets.find(root)].clone()
         }
@@ -188,7 +192,7 @@ pub fn run(seg: &Segmentation, fits: &PairFits, params: &Params) -> Result<Topol
         adj.sort_by_key(|e| e.0);
     }
 
-    let root_segment = match params.root {
+    let root_segment = match forced_root {
         Some(root) => root,
         None => centre(&tree_set, &adjacency, &marker_count, |s| {
             spatial_spread(fits, &tree_set, s)
@@ -582,29 +586,78 @@ const RIGID: u8 = 1;
 /// See [`NAMED`].
 const ORDINARY: u8 = 2;
 
+/// The segment `r` names: an id the segmentation has, or the one segment holding the
+/// markers a label (or `*` pattern) names; else why not.
+fn segment_of(seg: &Segmentation, r: &SegmentRef) -> Result<usize, String> {
+    let n = seg.segments.len();
+    match r {
+        SegmentRef::Id(id) if *id < n => Ok(*id),
+        SegmentRef::Id(_) => Err(format!(
+            "the segmentation has segments 0 to {} (skeleton.json's segment ids)",
+            n.saturating_sub(1)
+        )),
+        SegmentRef::Marker(label) => {
+            if seg.labels.is_empty() {
+                return Err(
+                    "the segmentation names no markers (an artifact written before \
+                            labels were kept: run the segment stage again)"
+                        .into(),
+                );
+            }
+            let markers = mocap_io::markers_named(&seg.labels, label);
+            if markers.is_empty() {
+                return Err(mocap_io::no_marker_named(&seg.labels, label));
+            }
+            let segment_of = |m: usize| seg.segments.iter().position(|s| s.markers.contains(&m));
+            let mut held: Vec<usize> = Vec::new();
+            for &m in &markers {
+                let Some(s) = segment_of(m) else {
+                    return Err(format!("marker {:?} is in no segment", seg.labels[m]));
+                };
+                if !held.contains(&s) {
+                    held.push(s);
+                }
+            }
+            match held[..] {
+                [s] => Ok(s),
+                _ => Err(format!(
+                    "{label:?} names markers of segments {held:?}, not of one segment"
+                )),
+            }
+        }
+    }
+}
+
 /// The pair fits `joints` (`topo.joints`) names, by index into `fits.pairs`: an error names
-/// a pair whose ids the segmentation has not, or that has no usable fit to place it.
-fn named_pairs(fits: &PairFits, n: usize, joints: &[[usize; 2]]) -> Result<Vec<usize>, Error> {
+/// a pair whose segments the segmentation has not, or that has no usable fit to place it.
+fn named_pairs(
+    seg: &Segmentation,
+    fits: &PairFits,
+    joints: &[[SegmentRef; 2]],
+) -> Result<Vec<usize>, Error> {
     joints
         .iter()
-        .map(|&[a, b]| {
-            let bad = |reason: String| Error::BadJoint { a, b, reason };
+        .map(|[ra, rb]| {
+            let bad = |reason: String| Error::BadJoint {
+                a: ra.to_string(),
+                b: rb.to_string(),
+                reason,
+            };
+            let (a, b) = (
+                segment_of(seg, ra).map_err(bad)?,
+                segment_of(seg, rb).map_err(bad)?,
+            );
             if a == b {
-                return Err(bad("a segment cannot be joined to itself".into()));
-            }
-            if a.max(b) >= n {
                 return Err(bad(format!(
-                    "the segmentation has segments 0 to {} (skeleton.json's segment ids)",
-                    n - 1
+                    "both name segment {a}; a segment cannot be joined to itself"
                 )));
             }
             match fits.pair_index(a, b) {
                 Some(i) if fits.pairs[i].cost.is_finite() => Ok(i),
-                _ => Err(bad(
-                    "the two segments have no usable joint fit (fewer than jointfit.min_frames \
-                     frames with both posed, or no centre fits them)"
-                        .into(),
-                )),
+                _ => Err(bad(format!(
+                    "segments {a} and {b} have no usable joint fit (fewer than \
+                     jointfit.min_frames frames with both posed, or no centre fits them)"
+                ))),
             }
         })
         .collect()
@@ -643,6 +696,7 @@ mod tests {
             swaps: Vec::new(),
             glitches: Vec::new(),
             near_joints: Vec::new(),
+            labels: (0..next).map(|m| format!("M{m}")).collect(),
         }
     }
 
@@ -886,7 +940,7 @@ mod tests {
         assert_eq!(t.joints.len(), 2);
         // Forcing a root in the other component makes that one the tree.
         let p = Params {
-            root: Some(4),
+            root: Some(SegmentRef::Id(4)),
             ..Params::default()
         };
         let t = run(&segmentation(&[3; 5]), &f, &p).unwrap();
@@ -1085,7 +1139,10 @@ mod tests {
         // the edge stays. A dear pair named is taken over the cheap one across its cut.
         let (seg, f) = twin_arms(1, 300.0);
         let named = |joints: Vec<[usize; 2]>| Params {
-            joints,
+            joints: joints
+                .into_iter()
+                .map(|[a, b]| [SegmentRef::Id(a), SegmentRef::Id(b)])
+                .collect(),
             ..Params::default()
         };
         let t = run(&seg, &f, &named(vec![[2, 1]])).unwrap_or_else(|e| panic!("{e}"));
@@ -1114,12 +1171,40 @@ mod tests {
                 .unwrap_err()
                 .to_string()
         };
-        assert!(refused(vec![[1, 1]], &f).contains("[1, 1]: a segment cannot be joined to itself"));
+        assert!(refused(vec![[1, 1]], &f).contains("[1, 1]: both name segment 1"));
         assert!(refused(vec![[0, 9]], &f).contains("segments 0 to 6"));
         assert!(refused(vec![[0, 1], [1, 2], [2, 0]], &f).contains("[0, 2]: with the other pairs"));
         let mut unfit = f.clone();
         fit_mut(&mut unfit, 0, 4).cost = f64::INFINITY;
         assert!(refused(vec![[4, 0]], &unfit).contains("no usable joint fit"));
+
+        // By a marker's label: the same segment in every trial of a marker set (the test
+        // segments hold markers M0–M5, M6–M8, M9–M11, ...).
+        let by_label = |pairs: &[[&str; 2]], root: Option<&str>| Params {
+            joints: pairs
+                .iter()
+                .map(|p| p.map(|l| SegmentRef::Marker(l.into())))
+                .collect(),
+            root: root.map(|l| SegmentRef::Marker(l.into())),
+            ..Params::default()
+        };
+        let t =
+            run(&seg, &f, &by_label(&[["M9", "M7"]], Some("M6"))).unwrap_or_else(|e| panic!("{e}"));
+        assert!(edge_set(&t).contains(&(1, 2)), "{:?}", edge_set(&t));
+        assert_eq!(t.root_segment, 1);
+        let refused = |p: Params| run(&seg, &f, &p).map(|_| ()).unwrap_err().to_string();
+        let e = refused(by_label(&[["LKNE", "M0"]], None));
+        assert!(
+            e.contains("[\"LKNE\", \"M0\"]: the capture has no marker labelled \"LKNE\""),
+            "{e}"
+        );
+        let e = refused(by_label(&[["M1*", "M0"]], None));
+        assert!(
+            e.contains("\"M1*\" names markers of segments [0, 2, 3, 4, 5]"),
+            "{e}"
+        );
+        let e = refused(by_label(&[], Some("M99")));
+        assert!(e.contains("topo.root = \"M99\""), "{e}");
     }
 
     #[test]
@@ -1348,19 +1433,19 @@ mod tests {
         let f = fits(3, tree_costs(&edges));
         let seg = segmentation(&[3, 3, 3]);
         let p = Params {
-            root: Some(0),
+            root: Some(SegmentRef::Id(0)),
             ..Params::default()
         };
         let t = run(&seg, &f, &p).unwrap();
         assert_eq!(t.root_segment, 0);
         assert_eq!(t.joints[1].parent_joint, Some(0));
         let bad = Params {
-            root: Some(7),
+            root: Some(SegmentRef::Id(7)),
             ..Params::default()
         };
         assert!(matches!(
             run(&seg, &f, &bad),
-            Err(Error::BadRoot { root: 7, .. })
+            Err(Error::BadRoot { root, .. }) if root == "7"
         ));
         assert!(matches!(
             run(&segmentation(&[3, 3]), &f, &Params::default()),
@@ -1387,7 +1472,14 @@ mod tests {
     #[test]
     fn params_round_trip_and_docs_cover_every_field() {
         let p: Params = serde_json::from_str(r#"{"root": 3}"#).unwrap();
-        assert_eq!(p.root, Some(3));
+        assert_eq!(p.root, Some(SegmentRef::Id(3)));
+        let p: Params =
+            serde_json::from_str(r#"{"root": "LASI", "joints": [[2, "RKNE"]]}"#).unwrap();
+        assert_eq!(p.root, Some(SegmentRef::Marker("LASI".into())));
+        assert_eq!(
+            p.joints,
+            [[SegmentRef::Id(2), SegmentRef::Marker("RKNE".into())]]
+        );
         assert!(p.rigid_first);
         assert!(serde_json::from_str::<Params>(r#"{"rooot": 3}"#).is_err());
         let v = serde_json::to_value(Params::default()).unwrap();
