@@ -358,7 +358,13 @@ fn named_groups_reach_the_skeleton() {
         format!("segment.groups=[{}]", serde_json::json!(group)),
     ]);
     xtask_ok(&args.iter().map(String::as_str).collect::<Vec<_>>());
-    let mut segments: Vec<Vec<String>> = read_json(&named.path("out/skeleton.json"))["segments"]
+    let skeleton = read_json(&named.path("out/skeleton.json"));
+    // The file says how it was made.
+    assert_eq!(
+        skeleton["settings"],
+        serde_json::json!({ "segment.groups": [group.clone()] })
+    );
+    let mut segments: Vec<Vec<String>> = skeleton["segments"]
         .as_array()
         .unwrap()
         .iter()

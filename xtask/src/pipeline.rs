@@ -12,6 +12,7 @@
 //! blake3 of the upstream artifact's bytes; mocap-io's one input is the capture file
 //! (role "capture", the blake3 of the file's bytes).
 
+use std::collections::BTreeMap;
 use std::path::Path;
 use std::time::Instant;
 
@@ -222,6 +223,25 @@ impl Params {
             StageId::Bonefit => cache::canonical_value(&self.bonefit),
             StageId::Export => cache::canonical_value(&self.export),
         }
+    }
+
+    /// The parameters set away from their defaults, as `stage.param` → value, every stage
+    /// in pipeline order (what skeleton.json's `settings` records).
+    pub fn changed(&self) -> Result<BTreeMap<String, Json>> {
+        let defaults = Params::default();
+        let mut out = BTreeMap::new();
+        for stage in StageId::ALL {
+            let (now, default) = (self.json(stage)?, defaults.json(stage)?);
+            let (Some(now), Some(default)) = (now.as_object(), default.as_object()) else {
+                continue;
+            };
+            for (name, value) in now {
+                if default.get(name) != Some(value) {
+                    out.insert(format!("{}.{name}", stage.name()), value.clone());
+                }
+            }
+        }
+        Ok(out)
     }
 
     /// A stage's parameters as JSON (for `params` and messages).
@@ -437,6 +457,7 @@ impl Products {
                     fits: fits()?,
                     topology: topology()?,
                     skeleton: need(&self.skeleton, StageId::Bonefit)?,
+                    settings: &params.changed()?,
                 };
                 Payload::Outputs(export::run(&inputs, &params.export)?)
             }
@@ -699,6 +720,24 @@ mod tests {
             .map(|n| (n.to_string(), format!("{tag} {n}").into_bytes()))
             .collect();
         export::Outputs { files }
+    }
+
+    #[test]
+    fn settings_are_the_parameters_set_away_from_their_defaults() {
+        assert!(Params::default().changed().unwrap().is_empty());
+        let set = Params::from_assignments(&[
+            r#"segment.groups=[["A", "B"]]"#.into(),
+            "topo.root=LASI".into(),
+            "jointfit.min_frames=30".into(), // its default: not a setting
+        ])
+        .unwrap();
+        let changed = set.changed().unwrap();
+        assert_eq!(
+            changed.keys().collect::<Vec<_>>(),
+            ["segment.groups", "topo.root"]
+        );
+        assert_eq!(changed["segment.groups"], serde_json::json!([["A", "B"]]));
+        assert_eq!(changed["topo.root"], serde_json::json!("LASI"));
     }
 
     #[test]

@@ -79,6 +79,7 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
                         fits: &fits,
                         topology: &topology,
                         skeleton: &skeleton,
+                        settings: &Default::default(),
                     },
                     &export::Params::default(),
                 )?;

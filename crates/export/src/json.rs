@@ -1,5 +1,7 @@
 //! skeleton.json: the output contract's fields first, quality fields beside them.
 
+use std::collections::BTreeMap;
+
 use serde::{Deserialize, Serialize};
 
 use crate::{Error, Inputs};
@@ -93,6 +95,10 @@ pub struct SkeletonJson {
     /// tracker confusing markers that pass close); every stage used them swapped back.
     #[serde(default)]
     pub label_swaps: Vec<LabelSwapJson>,
+    /// The parameters the run set away from their defaults (`--set`), as `stage.param` →
+    /// value; empty where every parameter had its default.
+    #[serde(default)]
+    pub settings: BTreeMap<String, serde_json::Value>,
 }
 
 /// Two markers whose trajectories were exchanged, and when.
@@ -575,6 +581,7 @@ pub(crate) fn document(input: &Inputs<'_>) -> Result<SkeletonJson, Error> {
         detached_segments: input.topology.detached_segments.clone(),
         notes: input.topology.notes.clone(),
         label_swaps,
+        settings: input.settings.clone(),
     })
 }
 

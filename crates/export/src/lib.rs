@@ -61,7 +61,7 @@ use serde::{Deserialize, Serialize};
 pub const STAGE: &str = "export";
 
 /// Schema version of [`Outputs`] and of skeleton.json's layout; bump when either changes.
-pub const SCHEMA_VERSION: u32 = 17;
+pub const SCHEMA_VERSION: u32 = 18;
 
 /// Everything the files are made from.
 #[derive(Clone, Copy, Debug)]
@@ -76,6 +76,9 @@ pub struct Inputs<'a> {
     pub topology: &'a topo::Topology,
     /// The skeleton and its motion.
     pub skeleton: &'a bonefit::Skeleton,
+    /// The parameters the run set away from their defaults, as `stage.param` → value
+    /// (written to skeleton.json and the report, so a file says how it was made).
+    pub settings: &'a BTreeMap<String, serde_json::Value>,
 }
 
 /// The files, by name; the runner writes them.

@@ -32,6 +32,7 @@ pub(crate) fn write(doc: &SkeletonJson) -> Vec<u8> {
     segments(&mut out, doc);
     markers(&mut out, doc);
     notes(&mut out, doc);
+    settings(&mut out, doc);
     let _ = writeln!(
         out,
         "<p><small>{} {}, skeleton.json schema {}.</small></p>\n</body>\n</html>",
@@ -331,6 +332,23 @@ fn markers(out: &mut String, doc: &SkeletonJson) {
             spans.join(", ")
         );
     }
+}
+
+/// The parameters set away from their defaults, so a report says how it was made.
+fn settings(out: &mut String, doc: &SkeletonJson) {
+    if doc.settings.is_empty() {
+        return;
+    }
+    out.push_str("<h2>Settings (--set)</h2>\n<ul>\n");
+    for (name, value) in &doc.settings {
+        let _ = writeln!(
+            out,
+            "<li><code>{}={}</code></li>",
+            escape(name),
+            escape(&value.to_string())
+        );
+    }
+    out.push_str("</ul>\n");
 }
 
 fn notes(out: &mut String, doc: &SkeletonJson) {

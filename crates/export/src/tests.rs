@@ -6,6 +6,9 @@ use glam::{DQuat, DVec3};
 use serde_json::Value;
 
 use crate::{Inputs, Params, run};
+
+/// A run at every parameter's default: nothing set.
+static NO_SETTINGS: std::collections::BTreeMap<String, Value> = std::collections::BTreeMap::new();
 use bonefit::testkit::{Scene, scene};
 
 /// A node of a parsed BVH hierarchy.
@@ -165,6 +168,7 @@ pub(crate) fn inputs<'a>(
         fits: &s.fits,
         topology: &s.topology,
         skeleton,
+        settings: &NO_SETTINGS,
     }
 }
 
@@ -557,6 +561,36 @@ fn a_joint_kept_on_a_worse_anchor_warns() {
     }
 }
 
+/// The parameters a run set away from their defaults are in skeleton.json and the report;
+/// at the defaults, `settings` is empty and the report has no such section.
+#[test]
+fn settings_are_written_where_the_run_set_any() {
+    let s = scene(20, 60.0);
+    let skeleton = skeleton(&s);
+    let at_defaults = run(&inputs(&s, &s.segmentation, &skeleton), &Params::default())
+        .unwrap_or_else(|e| panic!("{e}"));
+    assert_eq!(json(&at_defaults)["settings"], serde_json::json!({}));
+    assert!(!text(&at_defaults, "report.html").contains("Settings"));
+    let settings = std::collections::BTreeMap::from([(
+        "topo.joints".to_string(),
+        serde_json::json!([[1, "M<0>"]]),
+    )]);
+    let input = Inputs {
+        settings: &settings,
+        ..inputs(&s, &s.segmentation, &skeleton)
+    };
+    let out = run(&input, &Params::default()).unwrap_or_else(|e| panic!("{e}"));
+    assert_eq!(
+        json(&out)["settings"],
+        serde_json::json!({"topo.joints": [[1, "M<0>"]]})
+    );
+    let report = text(&out, "report.html");
+    assert!(
+        report.contains("<code>topo.joints=[[1,&quot;M&lt;0&gt;&quot;]]</code>"),
+        "{report}"
+    );
+}
+
 /// Each joint carries its runner-up pair (topo's) as a cost ratio; one below 1.2 warns,
 /// naming the pair and how to join it, unless the joint is a rigid pair (taken before
 /// every cost) or one the user named.
@@ -938,6 +972,7 @@ fn end_to_end_synthetic_robot_arm_bvh_reproduces_json() {
         fits: &fits,
         topology: &topology,
         skeleton: &skeleton,
+        settings: &NO_SETTINGS,
     };
     let out = run(&input, &Params::default()).unwrap_or_else(|e| panic!("{e}"));
     let checked = check_round_trip(&out, |p| p);
