@@ -287,9 +287,18 @@ fn a_frame_range_and_left_out_markers_reach_the_skeleton() {
         format!("mocap-io.exclude_markers=[\"{first_label}\"]"),
     ]);
     xtask_ok(&args.iter().map(String::as_str).collect::<Vec<_>>());
-    let skeleton = read_json(&tmp.path("out/skeleton.json"));
+    let mut skeleton = read_json(&tmp.path("out/skeleton.json"));
     assert_eq!(skeleton["first_frame"], 41);
     assert_eq!(skeleton["frame_count"], 200);
+    // The settings say what was left out; nothing else names it.
+    let settings = skeleton["settings"].take();
+    assert_eq!(
+        settings,
+        serde_json::json!({
+            "mocap-io.frames": [41, 240],
+            "mocap-io.exclude_markers": [first_label],
+        })
+    );
     let text = skeleton.to_string();
     assert!(
         !text.contains(&format!("\"{first_label}\"")),
