@@ -374,6 +374,14 @@ pub fn findings(document: &export::SkeletonJson, spin_limit_deg: f64) -> Vec<Str
             loose.join("; ")
         ));
     }
+    let loose_groups = named_groups_not_rigid(document);
+    if !loose_groups.is_empty() {
+        out.push(format!(
+            "segments segment.groups named whose markers do not keep their distances as one \
+             body's do (check each group: markers across a joint, or a wrong label?): {}",
+            loose_groups.join("; ")
+        ));
+    }
     let near: Vec<String> = document
         .segments
         .iter()
@@ -405,6 +413,52 @@ pub fn findings(document: &export::SkeletonJson, spin_limit_deg: f64) -> Vec<Str
     }
     out.extend(document.notes.iter().map(|n| format!("topology: {n}")));
     out
+}
+
+/// A named segment is worth a look when its markers' median rigidity residual is at least
+/// this many times the median segment's: a correctly named segment sits among the others
+/// (hexapod-hard-s20001's six named coxae: at most 1.84 times), one spanning a joint does
+/// not (human-hard-s5's left thigh and shank named as one, 480 frames: 6.49 times).
+const NAMED_LOOSE_RATIO: f64 = 3.0;
+
+/// The segments `segment.groups` named that fit as one body clearly worse than the
+/// capture's segments do, as "id (median rigidity residual, times the median segment's)".
+fn named_groups_not_rigid(document: &export::SkeletonJson) -> Vec<String> {
+    let residual = |label: &String| {
+        document
+            .markers
+            .iter()
+            .find(|m| &m.label == label)
+            .and_then(|m| m.rigidity_residual_mm)
+            .filter(|r| r.is_finite())
+    };
+    let median = |mut v: Vec<f64>| {
+        v.sort_by(f64::total_cmp);
+        v.get(v.len() / 2).copied()
+    };
+    let per_segment: Vec<(usize, bool, f64)> = document
+        .segments
+        .iter()
+        .filter_map(|s| {
+            let r = median(s.markers.iter().filter_map(residual).collect())?;
+            Some((s.id, s.named, r))
+        })
+        .collect();
+    let Some(typical) = median(per_segment.iter().map(|s| s.2).collect()).filter(|&t| t > 0.0)
+    else {
+        return Vec::new();
+    };
+    per_segment
+        .iter()
+        .filter(|&&(_, named, r)| named && r >= NAMED_LOOSE_RATIO * typical)
+        .map(|&(id, _, r)| {
+            format!(
+                "{id} ({r:.1} mm median rigidity residual, {:.1} times the median segment's \
+                 {typical:.1} mm)",
+                r / typical
+            )
+        })
+        .collect()
 }
 
 /// The end-of-run summary for stderr.
@@ -637,6 +691,42 @@ mod tests {
             })
             .contains("worth a look")
         );
+    }
+
+    #[test]
+    fn a_named_group_that_is_not_one_body_is_worth_a_look() {
+        let dir = TempDir::new("run-named-loose").unwrap();
+        let input = capture(dir.path());
+        execute(&args(&input, dir.path(), &[]), &Progress::hidden()).unwrap();
+        let bytes = std::fs::read(dir.path().join("out/skeleton.json")).unwrap();
+        let mut doc: export::SkeletonJson = serde_json::from_slice(&bytes).unwrap();
+        let flagged = |doc: &export::SkeletonJson| {
+            findings(doc, 10.0)
+                .into_iter()
+                .find(|f| f.starts_with("segments segment.groups named"))
+        };
+        // Named and as rigid as the rest (2 mm, skin's): nothing to say.
+        for m in &mut doc.markers {
+            m.rigidity_residual_mm = Some(2.0);
+        }
+        doc.segments[1].named = true;
+        assert_eq!(flagged(&doc), None);
+        // Its markers ten times as loose as the rest's (a group across a joint).
+        let loose = doc.segments[1].markers.clone();
+        for m in doc.markers.iter_mut().filter(|m| loose.contains(&m.label)) {
+            m.rigidity_residual_mm = Some(20.0);
+        }
+        let said = flagged(&doc).unwrap_or_else(|| panic!("{:?}", findings(&doc, 10.0)));
+        assert!(
+            said.ends_with(&format!(
+                ": {} (20.0 mm median rigidity residual, 10.0 times the median segment's 2.0 mm)",
+                doc.segments[1].id
+            )),
+            "{said}"
+        );
+        // The same looseness on a segment the data made is not the user's to check.
+        doc.segments[1].named = false;
+        assert_eq!(flagged(&doc), None);
     }
 
     #[test]

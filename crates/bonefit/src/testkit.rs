@@ -169,6 +169,7 @@ pub fn scene(frames: usize, rate: f64) -> Scene {
         glitches: Vec::new(),
         near_joints: Vec::new(),
         labels: Vec::new(),
+        named_segments: Vec::new(),
     };
 
     let topology = Topology {

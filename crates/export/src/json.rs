@@ -131,6 +131,10 @@ pub struct SegmentJson {
     /// not made. Absent otherwise.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub near_joint: Option<NearJointJson>,
+    /// True where `segment.groups` named this segment (the user's grouping, not the
+    /// data's). Absent otherwise.
+    #[serde(default, skip_serializing_if = "std::ops::Not::not")]
+    pub named: bool,
 }
 
 /// A cut of a segment that came near the joint test's bounds.
@@ -338,6 +342,7 @@ pub(crate) fn document(input: &Inputs<'_>) -> Result<SkeletonJson, Error> {
             frames_with_pose,
             spin_deg,
             near_joint,
+            named: seg.named_segments.contains(&s.id),
         });
     }
     let unassigned_markers = seg

@@ -595,6 +595,9 @@ fn segment_capture(
     } else {
         Vec::new()
     };
+    let named_segments: Vec<usize> = (0..clusters.len())
+        .filter(|&id| named.contains(&clusters[id]))
+        .collect();
     let segments: Vec<Segment> = clusters
         .into_iter()
         .enumerate()
@@ -624,6 +627,7 @@ fn segment_capture(
         glitches,
         near_joints,
         labels: labels.to_vec(),
+        named_segments,
     })
 }
 

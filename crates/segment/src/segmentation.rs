@@ -6,7 +6,7 @@ use mocap_io::{MISSING, Trajectories};
 use serde::{Deserialize, Serialize};
 
 /// Schema version of [`Segmentation`]; bump when its fields or the algorithm's output change.
-pub const SCHEMA_VERSION: u32 = 39;
+pub const SCHEMA_VERSION: u32 = 40;
 
 /// The rigid segments found in a capture.
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
@@ -47,6 +47,9 @@ pub struct Segmentation {
     /// marker (`topo.joints` by label) without the capture.
     #[serde(default)]
     pub labels: Vec<String>,
+    /// Ids of the segments `Params::groups` named (the user's, not the data's), ascending.
+    #[serde(default)]
+    pub named_segments: Vec<usize>,
 }
 
 /// A segment the joint test left whole although its best cut came near the test's bounds:
@@ -107,8 +110,9 @@ impl Segmentation {
             .enumerate()
             .map(|(id, markers)| Segment { id, markers })
             .collect();
-        // The stage's near joints name its own segments.
+        // The stage's near joints and named groups name its own segments.
         self.near_joints.clear();
+        self.named_segments.clear();
         for d in &mut self.markers {
             d.segment = None;
         }

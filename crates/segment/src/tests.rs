@@ -1010,6 +1010,7 @@ fn untangle_exchanges_the_swapped_frames_back() {
         ],
         near_joints: Vec::new(),
         labels: Vec::new(),
+        named_segments: Vec::new(),
     };
     let repaired = beyond.repaired(&traj);
     for f in 0..4 {

@@ -697,6 +697,7 @@ mod tests {
             glitches: Vec::new(),
             near_joints: Vec::new(),
             labels: (0..next).map(|m| format!("M{m}")).collect(),
+            named_segments: Vec::new(),
         }
     }
 
