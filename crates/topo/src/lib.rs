@@ -133,7 +133,7 @@ pub struct Params {
 
 /// A segment as the user names it: by id, or by the label of a marker it holds (ids follow
 /// the segmentation; a label names the same segment in every trial of a marker set).
-#[derive(Clone, Debug, PartialEq, Eq, Serialize, Deserialize)]
+#[derive(Clone, Debug, PartialEq, Eq, Serialize)]
 #[serde(untagged)]
 pub enum SegmentRef {
     /// The segment's id, as skeleton.json and the findings give it.
@@ -141,6 +141,28 @@ pub enum SegmentRef {
     /// The label of a marker of the segment (`*` patterns allowed where every marker they
     /// match is on that one segment).
     Marker(String),
+}
+
+impl<'de> Deserialize<'de> for SegmentRef {
+    fn deserialize<D: serde::Deserializer<'de>>(d: D) -> Result<Self, D::Error> {
+        /// Reads an id or a label, saying which two forms a wrong value could have had.
+        struct Either;
+        impl serde::de::Visitor<'_> for Either {
+            type Value = SegmentRef;
+            fn expecting(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+                f.write_str("a segment id (0, 1, …) or the label of a marker on it (\"LKNE\")")
+            }
+            fn visit_u64<E: serde::de::Error>(self, v: u64) -> Result<SegmentRef, E> {
+                usize::try_from(v)
+                    .map(SegmentRef::Id)
+                    .map_err(|_| E::invalid_value(serde::de::Unexpected::Unsigned(v), &self))
+            }
+            fn visit_str<E: serde::de::Error>(self, v: &str) -> Result<SegmentRef, E> {
+                Ok(SegmentRef::Marker(v.to_owned()))
+            }
+        }
+        d.deserialize_any(Either)
+    }
 }
 
 impl std::fmt::Display for SegmentRef {

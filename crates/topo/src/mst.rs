@@ -1477,6 +1477,19 @@ mod tests {
         let p: Params =
             serde_json::from_str(r#"{"root": "LASI", "joints": [[2, "RKNE"]]}"#).unwrap();
         assert_eq!(p.root, Some(SegmentRef::Marker("LASI".into())));
+        for wrong in [
+            r#"{"root": -1}"#,
+            r#"{"root": 1.5}"#,
+            r#"{"joints": [[true, 2]]}"#,
+        ] {
+            let e = serde_json::from_str::<Params>(wrong)
+                .unwrap_err()
+                .to_string();
+            assert!(
+                e.contains("a segment id (0, 1, …) or the label of a marker"),
+                "{e}"
+            );
+        }
         assert_eq!(
             p.joints,
             [[SegmentRef::Id(2), SegmentRef::Marker("RKNE".into())]]
