@@ -35,6 +35,10 @@ pub struct Args {
     /// (VALUE is JSON if it parses, else a string). Repeatable.
     #[arg(long = "set", value_name = "STAGE.PARAM=VALUE")]
     pub set: Vec<String>,
+    /// Take the parameters a file records: a JSON object of "STAGE.PARAM": value, or a
+    /// skeleton.json (its settings, to rerun as it was made); --set applies after it.
+    #[arg(long, value_name = "FILE")]
+    pub settings: Option<PathBuf>,
     /// Recompute this stage and everything downstream, even when cached.
     #[arg(long, value_name = "STAGE")]
     pub from: Option<String>,
@@ -95,7 +99,7 @@ pub fn main(args: &Args) -> Result<()> {
         return Ok(());
     };
     // A bad --set would fail every capture alike: say so once, before any runs.
-    Params::from_assignments(&args.set)?;
+    run_params(args)?;
     let mut failed: Vec<String> = Vec::new();
     let mut reports: Vec<serde_json::Value> = Vec::new();
     for (input, out) in &batch {
@@ -203,6 +207,44 @@ pub fn input_path(input: Option<&Path>) -> PathBuf {
     )
 }
 
+/// The run's parameters: the defaults, then `--settings`' file, then each `--set`.
+fn run_params(args: &Args) -> Result<Params> {
+    let mut params = match &args.settings {
+        Some(path) => Params::from_assignments(&settings_file(path)?)
+            .with_context(|| format!("--settings {}", path.display()))?,
+        None => Params::default(),
+    };
+    for text in &args.set {
+        params.set(&crate::set_param::parse_assignment(text)?)?;
+    }
+    Ok(params)
+}
+
+/// The assignments a settings file records, as `STAGE.PARAM=VALUE` (VALUE as JSON): the
+/// file is a JSON object of `"STAGE.PARAM": value`, or a skeleton.json, whose `settings`
+/// are that object.
+fn settings_file(path: &Path) -> Result<Vec<String>> {
+    let text = std::fs::read_to_string(path)
+        .with_context(|| format!("--settings {}: cannot read it", path.display()))?;
+    let json: serde_json::Value = serde_json::from_str(&text)
+        .with_context(|| format!("--settings {}: not JSON", path.display()))?;
+    let object = match json.get("settings") {
+        Some(settings) if json.get("joints").is_some() => settings,
+        _ => &json,
+    };
+    let Some(object) = object.as_object() else {
+        bail!(
+            "--settings {}: expected a JSON object of \"STAGE.PARAM\": value, or a \
+             skeleton.json",
+            path.display()
+        );
+    };
+    Ok(object
+        .iter()
+        .map(|(name, value)| format!("{name}={value}"))
+        .collect())
+}
+
 /// Runs the pipeline on one capture (the first input, or the bundled fixture) and writes
 /// the outputs, without printing the summary.
 pub fn execute(args: &Args, progress: &Progress) -> Result<Report> {
@@ -210,7 +252,7 @@ pub fn execute(args: &Args, progress: &Progress) -> Result<Report> {
     if !input.is_file() {
         bail!("{}: no such capture file", input.display());
     }
-    let params = Params::from_assignments(&args.set)?;
+    let params = run_params(args)?;
     let mut force_from = args.from.as_deref().map(StageId::from_name).transpose()?;
     if args.force {
         force_from = Some(StageId::MocapIo);
@@ -496,6 +538,8 @@ pub fn summary(report: &Report) -> String {
 
 #[cfg(test)]
 mod tests {
+    use std::collections::BTreeMap;
+
     use super::*;
     use crate::tempdir::TempDir;
 
@@ -518,6 +562,7 @@ mod tests {
             input: vec![input.to_path_buf()],
             out: Some(dir.join("out")),
             set: set.iter().map(|s| s.to_string()).collect(),
+            settings: None,
             from: None,
             force: false,
             json: false,
@@ -691,6 +736,53 @@ mod tests {
             })
             .contains("worth a look")
         );
+    }
+
+    #[test]
+    fn a_skeleton_json_or_a_settings_object_gives_the_run_its_parameters() {
+        let dir = TempDir::new("run-settings").unwrap();
+        let input = capture(dir.path());
+        let first = args(
+            &input,
+            dir.path(),
+            &["topo.root=0", "jointfit.min_frames=40"],
+        );
+        execute(&first, &Progress::hidden()).unwrap();
+        let made = dir.path().join("out/skeleton.json");
+        let doc: serde_json::Value =
+            serde_json::from_slice(&std::fs::read(&made).unwrap()).unwrap();
+        assert_eq!(
+            doc["settings"],
+            json!({"topo.root": 0, "jointfit.min_frames": 40})
+        );
+        // Rerun as that file was made, a --set on top; or from a plain settings object.
+        let again_dir = dir.path().join("again");
+        let mut again = args(&input, &again_dir, &["bonefit.method=paper"]);
+        again.settings = Some(made.clone());
+        assert_eq!(
+            run_params(&again).unwrap().changed().unwrap(),
+            BTreeMap::from([
+                ("bonefit.method".to_string(), json!("paper")),
+                ("jointfit.min_frames".to_string(), json!(40)),
+                ("topo.root".to_string(), json!(0)),
+            ])
+        );
+        let object = dir.path().join("settings.json");
+        std::fs::write(&object, r#"{"segment.groups": [["M000", "M001"]]}"#).unwrap();
+        again.settings = Some(object.clone());
+        again.set.clear();
+        let changed = run_params(&again).unwrap().changed().unwrap();
+        assert_eq!(changed["segment.groups"], json!([["M000", "M001"]]));
+        // What cannot be read says which file and why.
+        for (text, says) in [
+            ("not json", "not JSON"),
+            ("[1, 2]", "expected a JSON object"),
+            (r#"{"segment.no_such": 1}"#, "segment.no_such"),
+        ] {
+            std::fs::write(&object, text).unwrap();
+            let e = format!("{:#}", run_params(&again).unwrap_err());
+            assert!(e.contains("settings.json") && e.contains(says), "{e}");
+        }
     }
 
     #[test]
