@@ -31,9 +31,10 @@
 //! - `report.html`: the same document for a person, one self-contained page (no script):
 //!   a summary, the skeleton drawn at its best-known frame in three projections, tables
 //!   of joints (kind with its evidence, residuals, range of motion, warnings), segments
-//!   and markers, label swaps and notes.
+//!   and markers, label swaps, notes and the run's settings.
 //!
-//! It does not fit anything; every number comes from the inputs.
+//! It does not fit anything; every number comes from the inputs, and the parameters the
+//! run set (`Inputs::settings`) are recorded as given.
 mod bvh;
 mod csv;
 mod error;
