@@ -225,6 +225,26 @@ impl Params {
         }
     }
 
+    /// Takes `stage`'s parameters as an artifact's header recorded them (what `stage` runs
+    /// read from their inputs, so an export records the settings `run` would).
+    pub fn take_recorded(&mut self, stage: StageId, recorded: &ciborium::Value) -> Result<()> {
+        let unread = |e: ciborium::value::Error| {
+            anyhow!(
+                "the {} artifact's recorded parameters do not read: {e}",
+                stage.name()
+            )
+        };
+        match stage {
+            StageId::MocapIo => self.mocap_io = recorded.deserialized().map_err(unread)?,
+            StageId::Segment => self.segment = recorded.deserialized().map_err(unread)?,
+            StageId::Jointfit => self.jointfit = recorded.deserialized().map_err(unread)?,
+            StageId::Topo => self.topo = recorded.deserialized().map_err(unread)?,
+            StageId::Bonefit => self.bonefit = recorded.deserialized().map_err(unread)?,
+            StageId::Export => self.export = recorded.deserialized().map_err(unread)?,
+        }
+        Ok(())
+    }
+
     /// The parameters set away from their defaults, as `stage.param` → value, every stage
     /// in pipeline order (what skeleton.json's `settings` records).
     pub fn changed(&self) -> Result<BTreeMap<String, Json>> {

@@ -848,7 +848,9 @@ mod tests {
     fn stage_command_writes_the_same_artifacts_as_run() {
         let dir = TempDir::new("stage").unwrap();
         let input = capture(dir.path());
-        let report = execute(&args(&input, dir.path(), &[]), &Progress::hidden()).unwrap();
+        // An upstream setting, which export records in skeleton.json as run does.
+        let set = "topo.root=0";
+        let report = execute(&args(&input, dir.path(), &[set]), &Progress::hidden()).unwrap();
         let cache = Cache::open(&dir.path().join("cache")).unwrap();
         let mut previous: Vec<PathBuf> = Vec::new();
         for (stage, run) in StageId::ALL.iter().zip(&report.stages) {
@@ -866,7 +868,11 @@ mod tests {
                 name: stage.name().into(),
                 inputs,
                 out: out.clone(),
-                set: Vec::new(),
+                set: if *stage == StageId::Topo {
+                    vec![set.into()]
+                } else {
+                    Vec::new()
+                },
             })
             .unwrap();
             let cached = cache.entry_path(stage.name(), stage.schema_version(), &run.key);

@@ -118,6 +118,13 @@ pub fn execute(args: &Args) -> Result<Vec<PathBuf>> {
             headers.insert(from, (path.as_path(), header));
         }
         check_consistent(&headers, &hashes)?;
+        // The upstream stages' parameters as their artifacts recorded them: export writes
+        // them into skeleton.json's settings, as `run` does.
+        for (&from, (path, header)) in &headers {
+            params
+                .take_recorded(from, &header.params)
+                .with_context(|| path.display().to_string())?;
+        }
         let missing: Vec<StageId> = stage
             .inputs()
             .iter()
