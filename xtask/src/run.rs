@@ -466,14 +466,13 @@ const NAMED_LOOSE_RATIO: f64 = 3.0;
 /// The segments `segment.groups` named that fit as one body clearly worse than the
 /// capture's segments do, as "id (median rigidity residual, times the median segment's)".
 fn named_groups_not_rigid(document: &export::SkeletonJson) -> Vec<String> {
-    let residual = |label: &String| {
-        document
-            .markers
-            .iter()
-            .find(|m| &m.label == label)
-            .and_then(|m| m.rigidity_residual_mm)
-            .filter(|r| r.is_finite())
-    };
+    let by_label: std::collections::HashMap<&str, f64> = document
+        .markers
+        .iter()
+        .filter_map(|m| Some((m.label.as_str(), m.rigidity_residual_mm?)))
+        .filter(|(_, r)| r.is_finite())
+        .collect();
+    let residual = |label: &String| by_label.get(label.as_str()).copied();
     let median = |mut v: Vec<f64>| {
         v.sort_by(f64::total_cmp);
         v.get(v.len() / 2).copied()

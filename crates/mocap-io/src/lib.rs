@@ -226,20 +226,20 @@ fn select(mut capture: Capture, options: &ReadOptions) -> Result<Capture, Format
         }
     };
     let labels = t.labels();
-    let excluded = |label: &str| options.exclude_markers.iter().any(|p| glob(p, label));
-    if let Some(unknown) = options
-        .exclude_markers
-        .iter()
-        .find(|p| markers_named(labels, p).is_empty())
-    {
-        return Err(FormatError::new(
-            "mocap-io.exclude_markers",
-            no_marker_named(labels, unknown),
-        ));
+    let mut excluded = vec![false; labels.len()];
+    for pattern in &options.exclude_markers {
+        let named = markers_named(labels, pattern);
+        if named.is_empty() {
+            return Err(FormatError::new(
+                "mocap-io.exclude_markers",
+                no_marker_named(labels, pattern),
+            ));
+        }
+        for m in named {
+            excluded[m] = true;
+        }
     }
-    let keep: Vec<usize> = (0..labels.len())
-        .filter(|&m| !excluded(&labels[m]))
-        .collect();
+    let keep: Vec<usize> = (0..labels.len()).filter(|&m| !excluded[m]).collect();
     if keep.is_empty() {
         return Err(FormatError::new(
             "mocap-io.exclude_markers",
@@ -260,10 +260,9 @@ fn select(mut capture: Capture, options: &ReadOptions) -> Result<Capture, Format
             "left out {} of {} markers (mocap-io.exclude_markers): {}",
             labels.len() - keep.len(),
             labels.len(),
-            labels
-                .iter()
-                .filter(|l| excluded(l))
-                .map(String::as_str)
+            (0..labels.len())
+                .filter(|&m| excluded[m])
+                .map(|m| labels[m].as_str())
                 .collect::<Vec<_>>()
                 .join(", ")
         ));

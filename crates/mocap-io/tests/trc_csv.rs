@@ -39,6 +39,11 @@ fn scratch(name: &str) -> PathBuf {
     dir
 }
 
+/// Whether some warning of the capture says `text`.
+fn warned(c: &Capture, text: &str) -> bool {
+    c.info.warnings.iter().any(|w| w.contains(text))
+}
+
 /// A small capture with gaps, negative coordinates and a label with spaces and `_x`.
 fn sample_trajectories(seed: u64, markers: usize, frames: usize) -> Trajectories {
     let mut rng = Rng(seed);
@@ -549,19 +554,16 @@ fn a_unit_option_overrides_what_the_file_declares() {
                 );
             }
         }
-        let said = read.info.warnings.join("\n");
         assert!(
-            said.contains("read as m (mocap-io.units), not as the file's \"mm\""),
-            "{said}"
+            warned(
+                &read,
+                "read as m (mocap-io.units), not as the file's \"mm\""
+            ),
+            "{:?}",
+            read.info.warnings
         );
         let declared = mocap_io::read_capture(path, &with(mocap_io::LengthUnit::Mm)).unwrap();
-        assert!(
-            !declared
-                .info
-                .warnings
-                .iter()
-                .any(|w| w.contains("mocap-io.units"))
-        );
+        assert!(!warned(&declared, "mocap-io.units"));
     }
     // The CSV with its units line replaced.
     let variant = |name: &str, units_line: &str| {
@@ -574,12 +576,7 @@ fn a_unit_option_overrides_what_the_file_declares() {
     let odd = variant("odd.csv", "# units: furlong\n");
     assert!(mocap_io::read_capture(&odd, &opts()).is_err());
     let read = mocap_io::read_capture(&odd, &with(mocap_io::LengthUnit::Cm)).unwrap();
-    assert!(
-        read.info
-            .warnings
-            .iter()
-            .any(|w| w.contains("not as the file's \"furlong\""))
-    );
+    assert!(warned(&read, "not as the file's \"furlong\""));
     // Where the file declares no units (millimetres assumed), the option says so.
     let bare = variant("bare.csv", "");
     let plain = mocap_io::read_capture(&bare, &opts()).unwrap();
@@ -592,10 +589,10 @@ fn a_unit_option_overrides_what_the_file_declares() {
     let k = (0..a.len()).find(|&k| !b[k][0].is_nan()).unwrap();
     assert!((a[k][0] - 1000.0 * b[k][0]).abs() < 1e-6 * b[k][0].abs().max(1.0));
     assert!(
-        read.info
-            .warnings
-            .iter()
-            .any(|w| w.contains("read as m (mocap-io.units); the file declares no units")),
+        warned(
+            &read,
+            "read as m (mocap-io.units); the file declares no units"
+        ),
         "{:?}",
         read.info.warnings
     );
