@@ -223,7 +223,7 @@ fn run_params(args: &Args) -> Result<Params> {
 /// The assignments a settings file records, as `STAGE.PARAM=VALUE` (VALUE as JSON): the
 /// file is a JSON object of `"STAGE.PARAM": value`, or a skeleton.json, whose `settings`
 /// are that object.
-fn settings_file(path: &Path) -> Result<Vec<String>> {
+pub(crate) fn settings_file(path: &Path) -> Result<Vec<String>> {
     let text = std::fs::read_to_string(path)
         .with_context(|| format!("--settings {}: cannot read it", path.display()))?;
     let json: serde_json::Value = serde_json::from_str(&text)
@@ -843,19 +843,21 @@ mod tests {
         assert!(!dir.path().join("out").exists());
     }
 
-    #[test]
-    fn stage_command_writes_the_same_artifacts_as_run() {
-        let dir = TempDir::new("stage").unwrap();
-        let input = capture(dir.path());
-        // An upstream setting, which export records in skeleton.json as run does.
-        let set = "topo.root=0";
-        let report = execute(&args(&input, dir.path(), &[set]), &Progress::hidden()).unwrap();
-        let cache = Cache::open(&dir.path().join("cache")).unwrap();
+    /// Runs every stage alone with `stage`, each on the artifacts the one before wrote,
+    /// and checks each artifact against the one `run` cached for `report`.
+    fn stage_by_stage_matches_the_cache(
+        input: &Path,
+        dir: &Path,
+        report: &Report,
+        settings: Option<&Path>,
+        set: impl Fn(StageId) -> Vec<String>,
+    ) {
+        let cache = Cache::open(&dir.join("cache")).unwrap();
         let mut previous: Vec<PathBuf> = Vec::new();
         for (stage, run) in StageId::ALL.iter().zip(&report.stages) {
-            let out = dir.path().join(format!("{}.cbor", stage.name()));
+            let out = dir.join(format!("{}.cbor", stage.name()));
             let inputs = if *stage == StageId::MocapIo {
-                vec![input.clone()]
+                vec![input.to_path_buf()]
             } else {
                 stage
                     .inputs()
@@ -867,11 +869,8 @@ mod tests {
                 name: stage.name().into(),
                 inputs,
                 out: out.clone(),
-                set: if *stage == StageId::Topo {
-                    vec![set.into()]
-                } else {
-                    Vec::new()
-                },
+                settings: settings.map(Path::to_path_buf),
+                set: set(*stage),
             })
             .unwrap();
             let cached = cache.entry_path(stage.name(), stage.schema_version(), &run.key);
@@ -883,5 +882,55 @@ mod tests {
             );
             previous.push(out);
         }
+    }
+
+    #[test]
+    fn stage_command_writes_the_same_artifacts_as_run() {
+        let dir = TempDir::new("stage").unwrap();
+        let input = capture(dir.path());
+        // An upstream setting, which export records in skeleton.json as run does.
+        let set = "topo.root=0";
+        let report = execute(&args(&input, dir.path(), &[set]), &Progress::hidden()).unwrap();
+        stage_by_stage_matches_the_cache(&input, dir.path(), &report, None, |stage| {
+            if stage == StageId::Topo {
+                vec![set.into()]
+            } else {
+                Vec::new()
+            }
+        });
+    }
+
+    #[test]
+    fn stage_command_takes_a_runs_settings_file() {
+        let dir = TempDir::new("stage-settings").unwrap();
+        let input = capture(dir.path());
+        let set = ["jointfit.min_frames=40", "topo.root=0"];
+        let report = execute(&args(&input, dir.path(), &set), &Progress::hidden()).unwrap();
+        let made = dir.path().join("out/skeleton.json");
+        // Every stage takes its own entries of the skeleton.json the run wrote.
+        stage_by_stage_matches_the_cache(&input, dir.path(), &report, Some(&made), |_| Vec::new());
+        // Inputs made with other upstream settings than the file gives are refused, naming
+        // the artifact and the parameter; nothing is written.
+        let object = dir.path().join("settings.json");
+        std::fs::write(&object, r#"{"jointfit.min_frames": 50}"#).unwrap();
+        let out = dir.path().join("refused-topo.cbor");
+        let err = crate::stage_cmd::execute(&crate::stage_cmd::Args {
+            name: "topo".into(),
+            inputs: vec![
+                dir.path().join("segment.cbor"),
+                dir.path().join("jointfit.cbor"),
+            ],
+            out: out.clone(),
+            settings: Some(object),
+            set: Vec::new(),
+        })
+        .unwrap_err();
+        let text = format!("{err:#}");
+        assert!(
+            text.contains("jointfit.cbor")
+                && text.contains("jointfit.min_frames 50 in the file, 40 in the artifact"),
+            "{text}"
+        );
+        assert!(!out.exists());
     }
 }

@@ -34,7 +34,11 @@ pub struct Args {
     /// Output artifact (.cbor); for export, a .cbor artifact or a folder for the files.
     #[arg(long, value_name = "PATH")]
     pub out: PathBuf,
-    /// Set one of this stage's parameters (STAGE.PARAM=VALUE). Repeatable.
+    /// A settings file (a skeleton.json, or a JSON object of "STAGE.PARAM": value): this
+    /// stage's entries apply, and the inputs must have been made with the upstream ones.
+    #[arg(long, value_name = "FILE")]
+    pub settings: Option<PathBuf>,
+    /// Set one of this stage's parameters (STAGE.PARAM=VALUE), after --settings. Repeatable.
     #[arg(long = "set", value_name = "STAGE.PARAM=VALUE")]
     pub set: Vec<String>,
 }
@@ -59,7 +63,14 @@ pub fn main(args: &Args) -> Result<()> {
 /// Runs one stage and writes its output; returns the paths written.
 pub fn execute(args: &Args) -> Result<Vec<PathBuf>> {
     let stage = StageId::from_name(&args.name)?;
-    let mut params = Params::default();
+    // The whole file is read (a wrong name anywhere in it fails here); its upstream entries
+    // are checked against the inputs below, and its downstream ones are other commands'.
+    let from_file = match &args.settings {
+        Some(path) => Params::from_assignments(&crate::run::settings_file(path)?)
+            .with_context(|| format!("--settings {}", path.display()))?,
+        None => Params::default(),
+    };
+    let mut params = from_file.clone();
     for text in &args.set {
         let a = set_param::parse_assignment(text)?;
         if a.stage != stage.name() {
@@ -124,6 +135,9 @@ pub fn execute(args: &Args) -> Result<Vec<PathBuf>> {
             params
                 .take_recorded(from, &header.params)
                 .with_context(|| path.display().to_string())?;
+            if let Some(file) = &args.settings {
+                check_made_with(&from_file, &params, from, path, file)?;
+            }
         }
         let missing: Vec<StageId> = stage
             .inputs()
@@ -206,6 +220,44 @@ fn check_consistent(
     Ok(())
 }
 
+/// Checks that an input artifact of stage `from` was made with the parameters the settings
+/// file gives that stage; otherwise the output would not be what the file describes.
+fn check_made_with(
+    from_file: &Params,
+    recorded: &Params,
+    from: StageId,
+    artifact: &Path,
+    file: &Path,
+) -> Result<()> {
+    let (wanted, made) = (from_file.json(from)?, recorded.json(from)?);
+    let (Some(wanted), Some(made)) = (wanted.as_object(), made.as_object()) else {
+        return Ok(());
+    };
+    let differ: Vec<String> = wanted
+        .iter()
+        .filter(|(name, value)| made.get(*name) != Some(*value))
+        .map(|(name, value)| {
+            let was = made.get(name).map_or("absent".into(), |v| v.to_string());
+            format!(
+                "{}.{name} {value} in the file, {was} in the artifact",
+                from.name()
+            )
+        })
+        .collect();
+    if !differ.is_empty() {
+        bail!(
+            "{} was made with other {} settings than --settings {} gives ({}): run stage {} \
+             with --settings first",
+            artifact.display(),
+            from.name(),
+            file.display(),
+            differ.join("; "),
+            from.name()
+        );
+    }
+    Ok(())
+}
+
 fn stage_list(stages: &[StageId]) -> String {
     stages
         .iter()
@@ -238,6 +290,7 @@ mod tests {
             name: name.into(),
             inputs: inputs.iter().map(|p| p.to_path_buf()).collect(),
             out: out.clone(),
+            settings: None,
             set: Vec::new(),
         })?;
         Ok(out)
