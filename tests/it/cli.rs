@@ -263,7 +263,7 @@ fn a_batch_refuses_two_captures_that_would_write_one_folder() {
     std::fs::create_dir_all(&empty).unwrap();
     let result = xtask(&["run", empty.to_str().unwrap()]);
     assert!(!result.status.success());
-    assert!(String::from_utf8_lossy(&result.stderr).contains("no C3D, TRC or CSV file"));
+    assert!(String::from_utf8_lossy(&result.stderr).contains("no C3D, TRC, CSV or TSV file"));
 }
 
 /// `mocap-io.frames` and `mocap-io.exclude_markers` from the command line: the skeleton

@@ -8,4 +8,5 @@ mod cli;
 mod expect;
 mod real;
 mod support;
+mod vendor;
 mod vicon;

@@ -14,7 +14,7 @@ use crate::pipeline::{self, StageId};
 /// Arguments of `inspect`.
 #[derive(clap::Args)]
 pub struct Args {
-    /// A capture (.c3d, .trc, .csv) or an artifact (.cbor, or any file opening with the
+    /// A capture (.c3d, .trc, .csv, .tsv) or an artifact (.cbor, or any file opening with the
     /// CBOR self-describe tag d9 d9 f7).
     pub file: PathBuf,
     /// Print one JSON object on stdout instead of a readable summary.

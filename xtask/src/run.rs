@@ -22,7 +22,7 @@ is downstream of it. Output files are written only when every stage succeeded, e
 atomically. `cargo xtask params` lists every STAGE.PARAM.")]
 #[derive(Clone)]
 pub struct Args {
-    /// Capture files (C3D, TRC or CSV) or folders of them [default:
+    /// Capture files (C3D, TRC, CSV: ossify's, Motive's or Nexus's; QTM's TSV) or folders of them [default:
     /// fixtures/human-clean.c3d]. More than one capture, or a folder, is a batch: each
     /// capture's files go to <out>/<its stem>/, a capture that fails does not stop the
     /// others, and the exit status says whether any failed.
@@ -166,7 +166,10 @@ fn batch(args: &Args) -> Result<Option<Vec<(PathBuf, PathBuf)>>> {
                 .filter(|p| p.is_file() && mocap_io::detect_format(p, &[]).is_some())
                 .collect();
             if found.is_empty() {
-                bail!("{}: no C3D, TRC or CSV file in this folder", path.display());
+                bail!(
+                    "{}: no C3D, TRC, CSV or TSV file in this folder",
+                    path.display()
+                );
             }
             found.sort();
             captures.extend(found);

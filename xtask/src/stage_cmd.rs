@@ -14,7 +14,7 @@ use crate::set_param;
 #[derive(clap::Args)]
 #[command(after_help = "\
 Inputs are recognised by their artifact header, so their order does not matter:
-  mocap-io  --in CAPTURE (.c3d/.trc/.csv)
+  mocap-io  --in CAPTURE (.c3d/.trc/.csv/.tsv)
   segment   --in mocap-io.cbor
   jointfit  --in mocap-io.cbor --in segment.cbor
   topo      --in segment.cbor --in jointfit.cbor

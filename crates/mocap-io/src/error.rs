@@ -52,7 +52,7 @@ pub enum IoError {
         error: FormatError,
     },
     /// The file's extension and content match no format we read.
-    #[error("{path}: unknown capture format (expected .c3d, .trc or .csv)")]
+    #[error("{path}: unknown capture format (expected .c3d, .trc, .csv or .tsv)")]
     UnknownFormat {
         /// The file.
         path: PathBuf,

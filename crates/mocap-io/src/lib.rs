@@ -1,6 +1,7 @@
 //! mocap-io: capture files in, [`Trajectories`] out; and the artifact envelope.
 //!
-//! Takes C3D (all three processor formats, integer and float), TRC and CSV files and
+//! Takes C3D (all three processor formats, integer and float), TRC and CSV files (ossify's
+//! layout, OptiTrack Motive's and Vicon Nexus's exports) and Qualisys QTM's TSV, and
 //! gives [`Trajectories`]: labels, frame rate, first frame, positions in millimetres with
 //! gaps as missing samples (one representation, documented on the type), plus a
 //! [`CaptureInfo`] saying what the file declared and what was guessed (warnings).
@@ -20,6 +21,7 @@ mod error;
 pub mod testdata;
 mod trajectories;
 pub mod trc;
+mod vendor;
 
 use std::path::Path;
 
@@ -45,6 +47,15 @@ pub enum Format {
     Trc,
     /// ossify's documented CSV layout: `frame,label_x,label_y,label_z,...`.
     Csv,
+    /// OptiTrack Motive's CSV export (its `Marker` position columns).
+    #[serde(rename = "motive-csv")]
+    MotiveCsv,
+    /// Vicon Nexus's CSV export (its `Trajectories` section).
+    #[serde(rename = "nexus-csv")]
+    NexusCsv,
+    /// Qualisys Track Manager's TSV export of 3D data.
+    #[serde(rename = "qtm-tsv")]
+    QtmTsv,
 }
 
 impl Format {
@@ -54,6 +65,9 @@ impl Format {
             Format::C3d => "c3d",
             Format::Trc => "trc",
             Format::Csv => "csv",
+            Format::MotiveCsv => "motive-csv",
+            Format::NexusCsv => "nexus-csv",
+            Format::QtmTsv => "qtm-tsv",
         }
     }
 }
@@ -180,6 +194,9 @@ pub fn read_capture(path: &Path, options: &ReadOptions) -> Result<Capture, IoErr
         Format::C3d => c3d::parse(&bytes, options),
         Format::Trc => trc::parse(&bytes, options),
         Format::Csv => csv::parse(&bytes, options),
+        Format::MotiveCsv => vendor::motive::parse(&bytes, options),
+        Format::NexusCsv => vendor::nexus::parse(&bytes, options),
+        Format::QtmTsv => vendor::qtm::parse(&bytes, options),
     };
     parsed
         .and_then(|capture| select(capture, options))
@@ -337,7 +354,9 @@ fn glob(pattern: &str, label: &str) -> bool {
     rest.len() >= last.len() && rest.ends_with(last)
 }
 
-/// The format of a file: by extension, else C3D when byte 2 holds its 0x50 key.
+/// The format of a file: by extension (a `.csv` by its first line: Motive's, Nexus's or
+/// ossify's layout), else by its first bytes (C3D's 0x50 key, TRC's `PathFileType`, QTM's
+/// `NO_OF_FRAMES`).
 pub fn detect_format(path: &Path, bytes: &[u8]) -> Option<Format> {
     let ext = path
         .extension()
@@ -345,9 +364,11 @@ pub fn detect_format(path: &Path, bytes: &[u8]) -> Option<Format> {
     match ext.as_deref() {
         Some("c3d") => Some(Format::C3d),
         Some("trc") => Some(Format::Trc),
-        Some("csv") => Some(Format::Csv),
+        Some("csv") => Some(vendor::sniff_csv(bytes).unwrap_or(Format::Csv)),
+        Some("tsv") => Some(Format::QtmTsv),
         _ if bytes.len() >= 2 && bytes[1] == 0x50 => Some(Format::C3d),
         _ if bytes.starts_with(b"PathFileType") => Some(Format::Trc),
+        _ if vendor::qtm::sniff(bytes) => Some(Format::QtmTsv),
         _ => None,
     }
 }
