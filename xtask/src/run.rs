@@ -22,10 +22,10 @@ is downstream of it. Output files are written only when every stage succeeded, e
 atomically. `cargo xtask params` lists every STAGE.PARAM.")]
 #[derive(Clone)]
 pub struct Args {
-    /// Capture files (C3D, TRC, CSV: ossify's, Motive's or Nexus's; QTM's TSV) or folders of them [default:
-    /// fixtures/human-clean.c3d]. More than one capture, or a folder, is a batch: each
-    /// capture's files go to <out>/<its stem>/, a capture that fails does not stop the
-    /// others, and the exit status says whether any failed.
+    /// Capture files (C3D, TRC, CSV: ossify's, Motive's or Nexus's; QTM's TSV) or folders
+    /// of them [default: fixtures/human-clean.c3d]. More than one capture, or a folder, is
+    /// a batch: each capture's files go to <out>/<its stem>/, a capture that fails does not
+    /// stop the others, and the exit status says whether any failed.
     pub input: Vec<PathBuf>,
     /// Output folder [default: out/<input stem>/; for a batch, the folder that receives
     /// one folder per capture, default out/].
