@@ -8,5 +8,6 @@ mod cli;
 mod expect;
 mod real;
 mod support;
+mod unlabeled;
 mod vendor;
 mod vicon;

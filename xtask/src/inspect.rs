@@ -112,6 +112,7 @@ pub fn capture_report(capture: &Capture) -> Report {
         "floor_scale": mocap_io::floor_scale_of(spacing),
         "middle_frame": middle_frame,
         "warnings": capture.info.warnings,
+        "stitched": capture.info.stitched,
     });
 
     let mut text = String::new();

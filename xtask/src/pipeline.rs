@@ -72,6 +72,14 @@ pub const READ_PARAM_DOCS: &[(&str, &str)] = &[
          loose marker, a prop or floor marker, virtual points; a label or pattern that \
          matches no marker is an error; default []",
     ),
+    (
+        "stitch",
+        "join tracks that are one marker seen in pieces (an unlabeled capture starts a new \
+         track at every occlusion): a piece that ends continues as the piece that starts \
+         within 1 s where the rigid motion of its steady neighbours carries it, uniquely; \
+         a warning lists what was joined; default true (a capture with nothing to join \
+         reads unchanged)",
+    ),
 ];
 
 /// One stage of the pipeline, in pipeline order.

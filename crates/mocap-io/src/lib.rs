@@ -6,18 +6,22 @@
 //! gaps as missing samples (one representation, documented on the type), plus a
 //! [`CaptureInfo`] saying what the file declared and what was guessed (warnings).
 //! [`ReadOptions`] can override the file's units and, in [`read_capture`], keep a range
-//! of frames and leave markers out by label.
+//! of frames and leave markers out by label; [`read_capture`] also joins the pieces an
+//! unlabeled capture cuts one marker into at its gaps (`stitch`).
 //! Writes C3D, TRC and CSV for the synthetic generator and the exporters.
 //!
 //! It also owns the CBOR artifact envelope ([`artifact`]) every stage's output is stored
-//! in, and the bulk-float encoding ([`bulk`]). It does not cache, schedule stages or
-//! know what a segment is: that is `xtask` and the stage crates.
+//! in, the bulk-float encoding ([`bulk`]) and the 4 × 4 eigen-solver of Horn's rigid fit
+//! every stage uses ([`eigen4`]). It does not cache, schedule stages or know what a
+//! segment is: that is `xtask` and the stage crates.
 
 pub mod artifact;
 pub mod bulk;
 pub mod c3d;
 pub mod csv;
+pub mod eigen4;
 mod error;
+mod stitch;
 pub mod testdata;
 mod trajectories;
 pub mod trc;
@@ -35,7 +39,7 @@ pub use trajectories::{
 /// Stage name of capture artifacts.
 pub const STAGE: &str = "mocap-io";
 /// Schema version of capture artifacts ([`Capture`]).
-pub const SCHEMA_VERSION: u32 = 5;
+pub const SCHEMA_VERSION: u32 = 6;
 
 /// The file formats we read.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize)]
@@ -85,6 +89,10 @@ pub struct CaptureInfo {
     pub point_scale: Option<f64>,
     /// Things a user should know: guesses made, disagreements resolved, data skipped.
     pub warnings: Vec<String>,
+    /// Tracks joined as one marker ([`ReadOptions::stitch`]): per joined marker, the
+    /// labels of its pieces in the file, the first being the label it keeps.
+    #[serde(default, skip_serializing_if = "Vec::is_empty")]
+    pub stitched: Vec<Vec<String>>,
 }
 
 /// A capture as read: its trajectories, format and what the file declared.
@@ -152,7 +160,7 @@ impl LengthUnit {
 }
 
 /// Options for reading captures; defaults suit every file we know of.
-#[derive(Clone, Debug, Default, PartialEq, Serialize, Deserialize)]
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 #[serde(default, deny_unknown_fields)]
 pub struct ReadOptions {
     /// C3D: keep samples whose residual is negative when a file flags *every* sample
@@ -179,9 +187,28 @@ pub struct ReadOptions {
     /// starting with V): a loose marker, a prop or floor marker, virtual points. Default
     /// none; a label or pattern that matches no marker is an error.
     pub exclude_markers: Vec<String>,
+    /// Join tracks that are one marker seen in pieces (an unlabeled capture breaks a
+    /// marker's trajectory at every occlusion): a piece that ends continues as the piece
+    /// that starts where its steady neighbours' rigid motion carries it (see `stitch`).
+    /// Default true; a capture with nothing to join reads unchanged.
+    pub stitch: bool,
 }
 
-/// Reads a capture file, choosing the format by content (C3D) or extension (TRC, CSV).
+impl Default for ReadOptions {
+    fn default() -> Self {
+        Self {
+            keep_invalid_residuals: false,
+            keep_model_outputs: false,
+            units: None,
+            frames: None,
+            exclude_markers: Vec::new(),
+            stitch: true,
+        }
+    }
+}
+
+/// Reads a capture file, choosing the format by content (C3D) or extension (TRC, CSV, TSV),
+/// then selects frames and markers and joins pieces as `options` say.
 pub fn read_capture(path: &Path, options: &ReadOptions) -> Result<Capture, IoError> {
     let bytes = std::fs::read(path).map_err(|source| IoError::Read {
         path: path.to_path_buf(),
@@ -200,6 +227,13 @@ pub fn read_capture(path: &Path, options: &ReadOptions) -> Result<Capture, IoErr
     };
     parsed
         .and_then(|capture| select(capture, options))
+        .map(|capture| {
+            if options.stitch {
+                stitch::join_pieces(capture)
+            } else {
+                capture
+            }
+        })
         .map_err(|error| IoError::Format {
             path: path.to_path_buf(),
             error,

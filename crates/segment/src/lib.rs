@@ -73,7 +73,7 @@
 mod affinity;
 mod cliques;
 mod eigen;
-pub mod eigen4;
+pub use mocap_io::eigen4;
 mod error;
 mod fitsplit;
 mod glitch;

@@ -14,6 +14,7 @@
 use mocap_io::Trajectories;
 use rayon::prelude::*;
 
+pub(crate) use crate::eigen4::rotation_matrix;
 use crate::eigen4::{det3, horn_matrix, largest_eigenpair4};
 use crate::fitsplit::{QUANTILE, median, median_distances, quantile, reference_shape};
 use crate::pairstats::PairStats;
@@ -133,28 +134,6 @@ fn leverage(shape: &[[f64; 3]], x: [f64; 3]) -> f64 {
 /// Frames used: every `stride`-th.
 pub(crate) fn stride_of(traj: &Trajectories) -> usize {
     traj.frames().div_ceil(MAX_FRAMES).max(1)
-}
-
-/// Rotation matrix of a unit quaternion (w, x, y, z).
-pub(crate) fn rotation_matrix(q: [f64; 4]) -> [[f64; 3]; 3] {
-    let [w, x, y, z] = q;
-    [
-        [
-            w * w + x * x - y * y - z * z,
-            2.0 * (x * y - w * z),
-            2.0 * (x * z + w * y),
-        ],
-        [
-            2.0 * (x * y + w * z),
-            w * w - x * x + y * y - z * z,
-            2.0 * (y * z - w * x),
-        ],
-        [
-            2.0 * (x * z - w * y),
-            2.0 * (y * z + w * x),
-            w * w - x * x - y * y + z * z,
-        ],
-    ]
 }
 
 /// Least-squares rigid pose mapping `p` (shape points) onto `q` (positions), Horn's

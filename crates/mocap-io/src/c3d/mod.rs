@@ -201,6 +201,7 @@ pub fn parse(bytes: &[u8], options: &ReadOptions) -> Result<Capture, FormatError
             storage: Some(if layout.float { "float" } else { "integer" }.to_string()),
             point_scale: Some(f64::from(layout.scale)),
             warnings,
+            stitched: Vec::new(),
         },
     })
 }

@@ -189,8 +189,9 @@ pub(crate) fn parse(bytes: &[u8], options: &ReadOptions) -> Result<Capture, Form
     if unlabeled > 0 {
         warnings.push(format!(
             "{unlabeled} of {} markers are Motive's unlabeled tracks (`Unlabeled N`): each \
-             is one stretch of a marker, so a marker lost and found again is two; labelling \
-             the take in Motive (any names) gives whole trajectories",
+             is one stretch of a marker; pieces that can be followed across their gaps are \
+             joined (mocap-io.stitch), and labelling the take in Motive (any names) gives \
+             whole trajectories",
             labels.len()
         ));
     }

@@ -1,6 +1,7 @@
 //! Largest eigenpair of a symmetric 4 × 4 matrix: Horn's quaternion method for the rigid
-//! fits every stage runs once per frame (segment's fit residuals and joint test, jointfit's
-//! poses), so it is shared from here and kept allocation-free and fast.
+//! fits every stage runs once per frame (mocap-io's stitching of pieces, segment's fit
+//! residuals and joint test, jointfit's poses), so it is shared from here, the crate they
+//! all build on, and kept allocation-free and fast.
 
 // Index loops read like the matrix formulas they implement.
 #![allow(clippy::needless_range_loop)]
@@ -18,8 +19,30 @@ pub fn horn_matrix(s: [[f64; 3]; 3]) -> [[f64; 4]; 4] {
     ]
 }
 
+/// Rotation matrix (row-major) of a unit quaternion (w, x, y, z).
+pub fn rotation_matrix(q: [f64; 4]) -> [[f64; 3]; 3] {
+    let [w, x, y, z] = q;
+    [
+        [
+            w * w + x * x - y * y - z * z,
+            2.0 * (x * y - w * z),
+            2.0 * (x * z + w * y),
+        ],
+        [
+            2.0 * (x * y + w * z),
+            w * w - x * x + y * y - z * z,
+            2.0 * (y * z - w * x),
+        ],
+        [
+            2.0 * (x * z - w * y),
+            2.0 * (y * z + w * x),
+            w * w - x * x - y * y + z * z,
+        ],
+    ]
+}
+
 /// Determinant of a 3 × 3 matrix.
-pub(crate) fn det3(j: &[[f64; 3]; 3]) -> f64 {
+pub fn det3(j: &[[f64; 3]; 3]) -> f64 {
     j[0][0] * (j[1][1] * j[2][2] - j[1][2] * j[2][1])
         - j[0][1] * (j[1][0] * j[2][2] - j[1][2] * j[2][0])
         + j[0][2] * (j[1][0] * j[2][1] - j[1][1] * j[2][0])
