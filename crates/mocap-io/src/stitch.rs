@@ -8,11 +8,11 @@
 //! markers around it: the rigid motion that carries its steady neighbours from t₁ to t₂
 //! (at least [`MIN_PARTNERS`], each visible at both frames and keeping its distance to the
 //! ending piece and to the starting one within [`STEADY_SHARE`] of the marker spacing over
-//! [`WINDOW_SECONDS`]) carries its last position to within [`MATCH_SHARE`] of the marker
-//! spacing of the new piece's first; no rival lands within twice that error (a rival being
-//! another piece whose span overlaps the chosen one's: two markers at once, where a piece
-//! only before or after it may be the same marker again), and neither piece has a better
-//! partner. Joining repeats on the joined tracks (longer tracks have more steady
+//! [`WINDOW_SECONDS`]) carries its last position to within [`MATCH_SHARE`] of the way to
+//! the nearest other marker (at either end, and at most of the capture's marker spacing)
+//! of the new piece's first; no rival lands within twice that error (a rival being any
+//! other piece but one that starts after the chosen one ends, which may be the same marker
+//! again), and neither piece has a better partner. Joining repeats on the joined tracks (longer tracks have more steady
 //! neighbours) until nothing joins. Skin turns a segment's markers together over a gap far
 //! less than the spacing between two markers: in a probe on quadruped-hard cut at every
 //! gap, the true continuation landed 5 mm away (median), the nearest wrong one 39 mm, at
@@ -36,7 +36,8 @@ const MAX_PARTNERS: usize = 6;
 /// A neighbour is steady when its distance's standard deviation over the window is within
 /// this share of the capture's marker spacing.
 const STEADY_SHARE: f64 = 0.1;
-/// A continuation lands within this share of the marker spacing of where it was carried.
+/// A continuation lands within this share of the distance from the piece to its nearest
+/// other marker (capped at the marker spacing) of where it was carried.
 const MATCH_SHARE: f64 = 0.5;
 
 /// Where each piece starts and ends: first and last frame seen.
@@ -80,7 +81,16 @@ fn continuations(t: &Trajectories) -> Vec<Option<usize>> {
         })
         .collect();
     let max_gap = (MAX_GAP_SECONDS * t.frame_rate()).round().max(1.0) as usize;
-    let (tolerance, limit) = (MATCH_SHARE * spacing, STEADY_SHARE * spacing);
+    let limit = STEADY_SHARE * spacing;
+    // Half the way to the nearest other marker, capped at the capture's spacing: where two
+    // markers sit close, a piece landing near one of them is no evidence for the other.
+    let nearest = |k: usize, f: usize| {
+        let row = t.frame(f);
+        (0..m)
+            .filter(|&r| r != k && is_present(row[r]))
+            .map(|r| distance(row[k], row[r]))
+            .fold(spacing, f64::min)
+    };
     let window = ((WINDOW_SECONDS * t.frame_rate()).round() as usize).max(3);
     // A track can only be continued if it ends before the last frame, and only continue
     // another if it starts after the first: the neighbours at those ends, once each.
@@ -124,8 +134,9 @@ fn continuations(t: &Trajectories) -> Vec<Option<usize>> {
     }
     // Each side's best, clearly better than any rival (see the module docs), and not
     // within a quarter of the tolerance either (two pieces in one place are a guess).
-    let coexist = |x: usize, y: usize| match (spans[x], spans[y]) {
-        (Some(p), Some(q)) => p.first <= q.last && q.first <= p.last,
+    // Only a piece that starts after the chosen one ends may be the same marker again.
+    let after = |x: usize, y: usize| match (spans[x], spans[y]) {
+        (Some(p), Some(q)) => p.first > q.last,
         _ => false,
     };
     let mut best_next: Vec<Option<(usize, f64)>> = vec![None; m];
@@ -143,23 +154,28 @@ fn continuations(t: &Trajectories) -> Vec<Option<usize>> {
     for &(a, b, error) in &carried {
         if let Some((chosen, _)) = best_next[a]
             && chosen != b
-            && coexist(chosen, b)
+            && !after(b, chosen)
         {
             rival_next[a] = rival_next[a].min(error);
         }
         if let Some((chosen, _)) = best_previous[b]
             && chosen != a
-            && coexist(chosen, a)
+            && !after(chosen, a)
         {
             rival_previous[b] = rival_previous[b].min(error);
         }
     }
     for a in 0..m {
-        let Some((b, error)) = best_next[a] else {
+        let (Some((b, error)), Some(sa), Some(sb)) = (
+            best_next[a],
+            spans[a],
+            best_next[a].and_then(|(b, _)| spans[b]),
+        ) else {
             continue;
         };
+        let tolerance = MATCH_SHARE * nearest(a, sa.last).min(nearest(b, sb.first));
         let clear = |rival: f64| rival >= (2.0 * error).max(0.25 * tolerance);
-        if error <= tolerance
+        if error < tolerance
             && best_previous[b].is_some_and(|(p, _)| p == a)
             && clear(rival_next[a])
             && clear(rival_previous[b])
