@@ -194,7 +194,10 @@ fn carry(
     (a, t1, at_end): (usize, usize, &[(usize, f64)]),
     (b, t2, at_start): (usize, usize, &[(usize, f64)]),
 ) -> Option<f64> {
-    let mut steady: Vec<(f64, usize)> = Vec::new();
+    // The steadiest common neighbours by (spread, id), kept in place: this runs for every
+    // candidate pair, so it does not allocate.
+    let mut steady = [(f64::INFINITY, usize::MAX); MAX_PARTNERS];
+    let mut count = 0;
     let (mut i, mut j) = (0, 0);
     while i < at_end.len() && j < at_start.len() {
         match at_end[i].0.cmp(&at_start[j].0) {
@@ -202,23 +205,31 @@ fn carry(
             std::cmp::Ordering::Greater => j += 1,
             std::cmp::Ordering::Equal => {
                 let r = at_end[i].0;
-                if r != a && r != b {
-                    steady.push((at_end[i].1.max(at_start[j].1), r));
+                let item = (at_end[i].1.max(at_start[j].1), r);
+                let before = |x: (f64, usize), y: (f64, usize)| {
+                    x.0.total_cmp(&y.0).then(x.1.cmp(&y.1)).is_lt()
+                };
+                if r != a && r != b && (count < MAX_PARTNERS || before(item, steady[count - 1])) {
+                    let mut at = count.min(MAX_PARTNERS - 1);
+                    steady[at] = item;
+                    while at > 0 && before(steady[at], steady[at - 1]) {
+                        steady.swap(at, at - 1);
+                        at -= 1;
+                    }
+                    count = (count + 1).min(MAX_PARTNERS);
                 }
                 i += 1;
                 j += 1;
             }
         }
     }
-    if steady.len() < MIN_PARTNERS {
+    if count < MIN_PARTNERS {
         return None;
     }
-    steady.sort_by(|x, y| x.0.total_cmp(&y.0).then(x.1.cmp(&y.1)));
-    steady.truncate(MAX_PARTNERS);
     let (row1, row2) = (t.frame(t1), t.frame(t2));
-    let from: Vec<[f64; 3]> = steady.iter().map(|&(_, r)| row1[r]).collect();
-    let to: Vec<[f64; 3]> = steady.iter().map(|&(_, r)| row2[r]).collect();
-    let (rotation, translation) = rigid_motion(&from, &to)?;
+    let from: [[f64; 3]; MAX_PARTNERS] = std::array::from_fn(|k| row1[steady[k.min(count - 1)].1]);
+    let to: [[f64; 3]; MAX_PARTNERS] = std::array::from_fn(|k| row2[steady[k.min(count - 1)].1]);
+    let (rotation, translation) = rigid_motion(&from[..count], &to[..count])?;
     let p = row1[a];
     let moved: [f64; 3] = std::array::from_fn(|i| {
         rotation[i][0] * p[0] + rotation[i][1] * p[1] + rotation[i][2] * p[2] + translation[i]
