@@ -85,6 +85,36 @@ pub struct Args {
     /// something a capture has).
     #[arg(long)]
     pub true_segments: bool,
+    /// Give the reader each trial as an unlabeled reconstruction would: every marker cut
+    /// at each of its gaps into a track of its own, shuffled, so what `mocap-io.stitch`
+    /// joins back is measured (`--compare mocap-io.stitch=true,false`). Scoring reads a
+    /// marker's first piece under the marker's label, later ones as `LABEL~K`.
+    #[arg(long, conflicts_with = "true_segments")]
+    pub unlabeled: bool,
+}
+
+/// What the stages are given of each trial.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Given {
+    /// The generated capture.
+    Capture,
+    /// The capture, with the true segments in place of the segment stage's.
+    TrueSegments,
+    /// The capture cut into unlabeled pieces at its gaps, then read as a file is read.
+    Unlabeled,
+}
+
+impl Given {
+    /// From the command line's flags.
+    pub fn of(args: &Args) -> Given {
+        if args.true_segments {
+            Given::TrueSegments
+        } else if args.unlabeled {
+            Given::Unlabeled
+        } else {
+            Given::Capture
+        }
+    }
 }
 
 /// One trial of the suite.
@@ -339,7 +369,7 @@ const TRUTH_LEFT_OUT: &str = "on no true segment";
 
 /// Generates, runs and scores one trial. Any failure (generator, pipeline, an unreadable
 /// skeleton.json) is recorded in the result, so one bad trial does not hide the others.
-pub fn run_trial(spec: &TrialSpec, params: &Params, true_segments: bool) -> TrialResult {
+pub fn run_trial(spec: &TrialSpec, params: &Params, given: Given) -> TrialResult {
     let config = &spec.config;
     let mut result = TrialResult {
         trial: config.trial_name(),
@@ -368,7 +398,7 @@ pub fn run_trial(spec: &TrialSpec, params: &Params, true_segments: bool) -> Tria
         runner_up_ratios: Vec::new(),
         near_joints: NearJointTally::default(),
     };
-    if let Err(e) = evaluate(config, params, true_segments, &mut result) {
+    if let Err(e) = evaluate(config, params, given, &mut result) {
         result.error = Some(format!("{e:#}"));
     }
     result
@@ -377,17 +407,29 @@ pub fn run_trial(spec: &TrialSpec, params: &Params, true_segments: bool) -> Tria
 fn evaluate(
     config: &SynthConfig,
     params: &Params,
-    true_segments: bool,
+    given: Given,
     result: &mut TrialResult,
 ) -> Result<()> {
     let trial = synth::generate(config).context("generating the trial")?;
     result.true_segments = trial.truth.segments.len();
-    let truth_groups = true_segments.then(|| trial.true_segment_markers());
-    let capture = Capture {
+    let truth_groups = (given == Given::TrueSegments).then(|| trial.true_segment_markers());
+    let mut capture = Capture {
         format: Format::C3d,
         trajectories: trial.trajectories,
         info: CaptureInfo::default(),
     };
+    if given == Given::Unlabeled {
+        // The pieces' names never reach the stitch or the stages; the first piece keeping
+        // the marker's label only lets the scorer find the joined marker.
+        let name = |_: usize, label: &str, k: usize| match k {
+            0 => label.to_owned(),
+            _ => format!("{label}~{k}"),
+        };
+        capture.trajectories = synth::unlabeled(&capture.trajectories, config.seed, name).0;
+        if params.mocap_io.stitch {
+            capture = mocap_io::stitch(capture);
+        }
+    }
     let start = Instant::now();
     let ran = pipeline::run_in_memory_with(capture, params, |seg| {
         if let Some(groups) = &truth_groups {
@@ -628,11 +670,11 @@ fn fill_from_score(result: &mut TrialResult, score: &synth::score::Score) {
 }
 
 /// Runs the suite with one parameter set; results in suite order.
-pub fn run_suite(specs: &[TrialSpec], params: &Params, true_segments: bool) -> Vec<TrialResult> {
+pub fn run_suite(specs: &[TrialSpec], params: &Params, given: Given) -> Vec<TrialResult> {
     // Trials are independent: run them in parallel, collect, then print in order.
     specs
         .par_iter()
-        .map(|spec| run_trial(spec, params, true_segments))
+        .map(|spec| run_trial(spec, params, given))
         .collect()
 }
 
@@ -697,9 +739,12 @@ pub fn main(args: &Args) -> Result<()> {
     let settings = generator_settings(&specs);
     eprintln!("generator: {settings}");
     let mut variants = variants(args)?;
-    if args.true_segments {
-        for v in &mut variants {
-            v.label.push_str(", true segments");
+    let given = Given::of(args);
+    for v in &mut variants {
+        match given {
+            Given::Capture => {}
+            Given::TrueSegments => v.label.push_str(", true segments"),
+            Given::Unlabeled => v.label.push_str(", unlabeled"),
         }
     }
     let pool = rayon::ThreadPoolBuilder::new()
@@ -710,7 +755,7 @@ pub fn main(args: &Args) -> Result<()> {
     for v in &variants {
         let start = Instant::now();
         eprintln!("eval {}: {} trials...", v.label, specs.len());
-        let results = pool.install(|| run_suite(&specs, &v.params, args.true_segments));
+        let results = pool.install(|| run_suite(&specs, &v.params, given));
         all.push((v.label.clone(), results, start.elapsed().as_secs_f64()));
     }
     if args.json {
@@ -1390,6 +1435,35 @@ mod tests {
         assert_eq!(seg.unassigned[0].reason, "on no true segment");
     }
 
+    /// An unlabeled trial is cut into more pieces than markers, the reader joins them back,
+    /// and the scorer finds the joined markers: the snowman's tree comes out exact with the
+    /// joining and not without it.
+    #[test]
+    fn unlabeled_trials_are_cut_joined_and_scored() {
+        let spec = TrialSpec {
+            config: SynthConfig {
+                subject: Subject::Snowman,
+                preset: Preset::Hard,
+                frames: 480,
+                seed: 20001,
+                ..SynthConfig::default()
+            },
+        };
+        let mut apart = Params::default();
+        apart.mocap_io.stitch = false;
+        let joined = run_trial(&spec, &Params::default(), Given::Unlabeled);
+        let left = run_trial(&spec, &apart, Given::Unlabeled);
+        assert!(joined.error.is_none() && left.error.is_none());
+        assert!(
+            joined.topology_exact && joined.known_fraction > 0.99,
+            "{joined:?}"
+        );
+        assert!(
+            !left.topology_exact && left.segments > joined.segments,
+            "{left:?}"
+        );
+    }
+
     /// The skeleton's segments turn as the true ones do, up to each frame's constant
     /// offset: to within numerical noise on clean data, by degrees under skin (hard), per
     /// segment and pooled.
@@ -1405,7 +1479,7 @@ mod tests {
                     ..SynthConfig::default()
                 },
             };
-            let r = run_trial(&spec, &Params::default(), false);
+            let r = run_trial(&spec, &Params::default(), Given::Capture);
             assert!(r.error.is_none(), "{:?}", r.error);
             // Every segment of the snowman's tree is scored, each against its own true
             // segment, over every frame, and the trial's figure pools them.

@@ -229,7 +229,7 @@ pub fn read_capture(path: &Path, options: &ReadOptions) -> Result<Capture, IoErr
         .and_then(|capture| select(capture, options))
         .map(|capture| {
             if options.stitch {
-                stitch::join_pieces(capture)
+                stitch(capture)
             } else {
                 capture
             }
@@ -238,6 +238,12 @@ pub fn read_capture(path: &Path, options: &ReadOptions) -> Result<Capture, IoErr
             path: path.to_path_buf(),
             error,
         })
+}
+
+/// The capture with the pieces of each marker joined, as [`read_capture`] does when
+/// [`ReadOptions::stitch`] is on (for captures built in memory).
+pub fn stitch(capture: Capture) -> Capture {
+    stitch::join_pieces(capture)
 }
 
 /// A capture as read, cut to `options.frames` and without `options.exclude_markers`.

@@ -25,6 +25,7 @@ mod motion;
 pub mod score;
 mod subjects;
 mod truth;
+mod unlabeled;
 
 use mocap_io::Trajectories;
 use rand::SeedableRng;
@@ -36,6 +37,7 @@ pub use truth::{
     POSITION_STEP_MM, TRUTH_SCHEMA_VERSION, Truth, TruthGap, TruthJoint, TruthSegment, TruthSwap,
     read_truth, write_trial,
 };
+pub use unlabeled::unlabeled;
 
 /// Stage-like name of this crate, for logs and artifact headers.
 pub const STAGE: &str = "synth";
