@@ -1435,32 +1435,40 @@ mod tests {
         assert_eq!(seg.unassigned[0].reason, "on no true segment");
     }
 
-    /// An unlabeled trial is cut into more pieces than markers, the reader joins them back,
-    /// and the scorer finds the joined markers: the snowman's tree comes out exact with the
-    /// joining and not without it.
+    /// Unlabeled trials are cut into more pieces than markers, the reader joins them back,
+    /// and the scorer finds the joined markers: over a few snowman trials, with the joining
+    /// the joints are known nearly throughout and the segment counts are nearer the truth
+    /// than without (one trial can still come out worse).
     #[test]
     fn unlabeled_trials_are_cut_joined_and_scored() {
-        let spec = TrialSpec {
-            config: SynthConfig {
-                subject: Subject::Snowman,
-                preset: Preset::Hard,
-                frames: 480,
-                seed: 20001,
-                ..SynthConfig::default()
-            },
-        };
         let mut apart = Params::default();
         apart.mocap_io.stitch = false;
-        let joined = run_trial(&spec, &Params::default(), Given::Unlabeled);
-        let left = run_trial(&spec, &apart, Given::Unlabeled);
-        assert!(joined.error.is_none() && left.error.is_none());
+        let (mut off_joined, mut off_apart, mut known_joined, mut known_apart) = (0, 0, 0.0, 0.0);
+        for seed in 20001..20005 {
+            let spec = TrialSpec {
+                config: SynthConfig {
+                    subject: Subject::Snowman,
+                    preset: Preset::Hard,
+                    frames: 480,
+                    seed,
+                    ..SynthConfig::default()
+                },
+            };
+            let joined = run_trial(&spec, &Params::default(), Given::Unlabeled);
+            let left = run_trial(&spec, &apart, Given::Unlabeled);
+            assert!(joined.error.is_none() && left.error.is_none());
+            off_joined += joined.segments.abs_diff(joined.true_segments);
+            off_apart += left.segments.abs_diff(left.true_segments);
+            known_joined += joined.known_fraction / 4.0;
+            known_apart += left.known_fraction / 4.0;
+        }
         assert!(
-            joined.topology_exact && joined.known_fraction > 0.99,
-            "{joined:?}"
+            off_joined < off_apart,
+            "{off_joined} vs {off_apart} segments off"
         );
         assert!(
-            !left.topology_exact && left.segments > joined.segments,
-            "{left:?}"
+            known_joined > 0.95 && known_apart < 0.9,
+            "{known_joined} vs {known_apart} known"
         );
     }
 

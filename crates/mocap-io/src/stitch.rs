@@ -35,7 +35,7 @@ const MIN_PARTNERS: usize = 3;
 const MAX_PARTNERS: usize = 6;
 /// A neighbour is steady when its distance's standard deviation over the window is within
 /// this share of the capture's marker spacing.
-const STEADY_SHARE: f64 = 0.1;
+const STEADY_SHARE: f64 = 0.2;
 /// A continuation lands within this share of the distance from the piece to its nearest
 /// other marker (capped at the marker spacing) of where it was carried.
 const MATCH_SHARE: f64 = 0.5;
