@@ -331,4 +331,15 @@ Frame,Time (Seconds),TimeCode,X,Y,Z,W,X,Y,Z,,X,Y,Z,X,Y,Z,X,Y,Z\r
             "ends before",
         );
     }
+
+    #[test]
+    fn every_cut_short_export_reads_or_fails_without_a_panic() {
+        // A file cut anywhere (a copy interrupted, a partial download) must give a capture
+        // or an error naming a place, never a panic.
+        for end in (0..=TAKE.len()).filter(|&e| TAKE.is_char_boundary(e)) {
+            if let Err(e) = parse(TAKE[..end].as_bytes(), &ReadOptions::default()) {
+                assert!(e.location.starts_with("line "), "{e}");
+            }
+        }
+    }
 }

@@ -311,4 +311,15 @@ Frame,Sub Frame,X,Y,Z,,,
             "expected the `Frame,Sub Frame",
         );
     }
+
+    #[test]
+    fn every_cut_short_export_reads_or_fails_without_a_panic() {
+        // A file cut anywhere (a copy interrupted, a partial download) must give a capture
+        // or an error naming a place, never a panic.
+        for end in (0..=EXPORT.len()).filter(|&e| EXPORT.is_char_boundary(e)) {
+            if let Err(e) = parse(EXPORT[..end].as_bytes(), &ReadOptions::default()) {
+                assert!(e.location.starts_with("line "), "{e}");
+            }
+        }
+    }
 }

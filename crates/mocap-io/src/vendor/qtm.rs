@@ -324,4 +324,15 @@ Frame\tTime\tLASI X\tLASI Y\tLASI Z\tNew 0002 X\tNew 0002 Y\tNew 0002 Z\t
         );
         assert!(sniff(EXPORT.as_bytes()) && !sniff(b"frame,a_x"));
     }
+
+    #[test]
+    fn every_cut_short_export_reads_or_fails_without_a_panic() {
+        // A file cut anywhere (a copy interrupted, a partial download) must give a capture
+        // or an error naming a place, never a panic.
+        for end in (0..=EXPORT.len()).filter(|&e| EXPORT.is_char_boundary(e)) {
+            if let Err(e) = parse(EXPORT[..end].as_bytes(), &ReadOptions::default()) {
+                assert!(e.location.starts_with("line "), "{e}");
+            }
+        }
+    }
 }
