@@ -337,7 +337,7 @@ Frame,Time (Seconds),TimeCode,X,Y,Z,W,X,Y,Z,,X,Y,Z,X,Y,Z,X,Y,Z\r
         // A file cut anywhere (a copy interrupted, a partial download) must give a capture
         // or an error naming a place, never a panic.
         for end in (0..=TAKE.len()).filter(|&e| TAKE.is_char_boundary(e)) {
-            if let Err(e) = parse(TAKE[..end].as_bytes(), &ReadOptions::default()) {
+            if let Err(e) = parse(&TAKE.as_bytes()[..end], &ReadOptions::default()) {
                 assert!(e.location.starts_with("line "), "{e}");
             }
         }

@@ -317,7 +317,7 @@ Frame,Sub Frame,X,Y,Z,,,
         // A file cut anywhere (a copy interrupted, a partial download) must give a capture
         // or an error naming a place, never a panic.
         for end in (0..=EXPORT.len()).filter(|&e| EXPORT.is_char_boundary(e)) {
-            if let Err(e) = parse(EXPORT[..end].as_bytes(), &ReadOptions::default()) {
+            if let Err(e) = parse(&EXPORT.as_bytes()[..end], &ReadOptions::default()) {
                 assert!(e.location.starts_with("line "), "{e}");
             }
         }

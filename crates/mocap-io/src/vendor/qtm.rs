@@ -330,7 +330,7 @@ Frame\tTime\tLASI X\tLASI Y\tLASI Z\tNew 0002 X\tNew 0002 Y\tNew 0002 Z\t
         // A file cut anywhere (a copy interrupted, a partial download) must give a capture
         // or an error naming a place, never a panic.
         for end in (0..=EXPORT.len()).filter(|&e| EXPORT.is_char_boundary(e)) {
-            if let Err(e) = parse(EXPORT[..end].as_bytes(), &ReadOptions::default()) {
+            if let Err(e) = parse(&EXPORT.as_bytes()[..end], &ReadOptions::default()) {
                 assert!(e.location.starts_with("line "), "{e}");
             }
         }
