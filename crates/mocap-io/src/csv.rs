@@ -35,7 +35,7 @@ use std::fmt::Write as _;
 
 use crate::trc::{
     FrameColumn, GapCounts, Lines, clean_label, parse_number, sample_limit, show, unique_labels,
-    units_to_mm,
+    units_to_mm, warn_frame_jumps,
 };
 use crate::{Capture, CaptureInfo, Format, FormatError, ReadOptions, Trajectories};
 
@@ -259,12 +259,7 @@ pub fn parse(bytes: &[u8], options: &ReadOptions) -> Result<Capture, FormatError
             "no data rows after the header row",
         ));
     };
-    let frame_jumps = frame_column.jumps;
-    if frame_jumps > 0 {
-        warnings.push(format!(
-            "frame numbers are not consecutive at {frame_jumps} rows; rows are read in file order as consecutive frames"
-        ));
-    }
+    warn_frame_jumps("frame numbers are", frame_column.jumps, &mut warnings);
     counts.warn(&mut warnings);
 
     let trajectories = Trajectories::new(labels, frame_rate, first_frame, rows, positions)
@@ -308,7 +303,7 @@ pub fn write(t: &Trajectories) -> String {
 }
 
 /// A header cell without surrounding spaces and double quotes.
-fn unquote(cell: &[u8]) -> &[u8] {
+pub(crate) fn unquote(cell: &[u8]) -> &[u8] {
     let cell = cell.trim_ascii();
     cell.strip_prefix(b"\"")
         .and_then(|c| c.strip_suffix(b"\""))

@@ -22,6 +22,7 @@
 //! join tracks that share a frame.
 
 use crate::eigen4::{horn_matrix, largest_eigenpair4, rotation_matrix};
+use crate::trajectories::distance;
 use crate::{Capture, MISSING, Trajectories, is_present};
 
 /// Longest gap a piece is followed across, in seconds.
@@ -258,10 +259,6 @@ fn distance_spread(
         return f64::INFINITY;
     }
     (sum_sq / n - (sum / n).powi(2)).max(0.0).sqrt()
-}
-
-fn distance(p: [f64; 3], q: [f64; 3]) -> f64 {
-    ((p[0] - q[0]).powi(2) + (p[1] - q[1]).powi(2) + (p[2] - q[2]).powi(2)).sqrt()
 }
 
 /// The rotation (row-major) and translation carrying points `from` onto `to` best in least

@@ -209,7 +209,8 @@ pub const SPACING_FRAMES: usize = 64;
 /// captures at 36-321 mm but c3d.org's arthuman-sample (20 mm, labelled noise-free bodies).
 pub const FLOOR_SPACING_MM: f64 = 30.0;
 
-fn distance(a: [f64; 3], b: [f64; 3]) -> f64 {
+/// Euclidean distance between two points, mm.
+pub(crate) fn distance(a: [f64; 3], b: [f64; 3]) -> f64 {
     ((a[0] - b[0]).powi(2) + (a[1] - b[1]).powi(2) + (a[2] - b[2]).powi(2)).sqrt()
 }
 

@@ -283,12 +283,7 @@ pub fn parse(bytes: &[u8], options: &ReadOptions) -> Result<Capture, FormatError
             "line {values_no}: NumFrames says {declared} but the file has {rows} data rows; reading {rows}"
         ));
     }
-    let frame_jumps = frame_column.jumps;
-    if frame_jumps > 0 {
-        warnings.push(format!(
-            "Frame# is not consecutive at {frame_jumps} rows; rows are read in file order as consecutive frames"
-        ));
-    }
+    warn_frame_jumps("Frame# is", frame_column.jumps, &mut warnings);
     extra.warn(markers, &mut warnings);
     counts.warn(&mut warnings);
 
@@ -400,6 +395,17 @@ impl FrameColumn {
         }
         self.previous = Some(frame);
         Ok(())
+    }
+}
+
+/// Says, when `jumps` rows' frame numbers were not the previous one's plus one, that rows
+/// are read in file order anyway; `subject` names the column ("frame numbers are").
+pub(crate) fn warn_frame_jumps(subject: &str, jumps: usize, warnings: &mut Vec<String>) {
+    if jumps > 0 {
+        warnings.push(format!(
+            "{subject} not consecutive at {jumps} rows; rows are read in file order as \
+             consecutive frames"
+        ));
     }
 }
 

@@ -11,7 +11,8 @@ pub(crate) mod motive;
 pub(crate) mod nexus;
 pub(crate) mod qtm;
 
-use crate::trc::{FrameColumn, GapCounts, parse_number, sample_limit, show};
+use crate::csv::unquote;
+use crate::trc::{FrameColumn, GapCounts, parse_number, sample_limit, show, warn_frame_jumps};
 use crate::{Format, FormatError, LengthUnit};
 
 /// Which vendor layout a `.csv` file holds, by its first line with content; `None` when
@@ -265,14 +266,6 @@ fn number(field: &[u8], decimal_comma: bool) -> Option<f64> {
     })
 }
 
-/// A field without the double quotes some tools put around it.
-fn unquote(field: &[u8]) -> &[u8] {
-    field
-        .strip_prefix(b"\"")
-        .and_then(|f| f.strip_suffix(b"\""))
-        .unwrap_or(field)
-}
-
 /// The frame rate from the rows' times, where the header gives none: rows − 1 intervals
 /// over the time they span.
 pub(crate) fn rate_from_times(table: &Table) -> Option<f64> {
@@ -283,13 +276,7 @@ pub(crate) fn rate_from_times(table: &Table) -> Option<f64> {
 
 /// The warnings every table reader gives alike: frame-number jumps and gap conventions.
 pub(crate) fn table_warnings(table: &Table, warnings: &mut Vec<String>) {
-    if table.frame_jumps > 0 {
-        warnings.push(format!(
-            "frame numbers are not consecutive at {} rows; rows are read in file order as \
-             consecutive frames",
-            table.frame_jumps
-        ));
-    }
+    warn_frame_jumps("frame numbers are", table.frame_jumps, warnings);
     table.counts.warn(warnings);
 }
 
