@@ -84,23 +84,85 @@ pub(crate) fn median(v: &mut [f64]) -> f64 {
 }
 
 /// Reference shape (segment-local, mm) of the markers at positions `group` of a cluster with
-/// pair distances `dist` (row-major `n × n`) by classical multidimensional scaling; `None`
-/// when some pair was never seen together.
+/// pair distances `dist` (row-major `n × n`) by classical multidimensional scaling; a pair
+/// never seen together takes the distance the rest of the shape implies (see
+/// [`complete_distances`]); `None` when the rest does not imply one.
 pub(crate) fn reference_shape(dist: &[f64], n: usize, group: &[usize]) -> Option<Vec<[f64; 3]>> {
     let k = group.len();
     let mut d2 = vec![0.0; k * k];
+    let mut missing = Vec::new();
     for (a, &i) in group.iter().enumerate() {
         for (b, &j) in group.iter().enumerate() {
             if a != b {
                 let m = dist[i * n + j];
-                if !m.is_finite() {
-                    return None;
+                if m.is_finite() {
+                    d2[a * k + b] = m * m;
+                } else if a < b {
+                    missing.push((a, b));
                 }
-                d2[a * k + b] = m * m;
             }
         }
     }
-    let n = k;
+    if !missing.is_empty() {
+        complete_distances(&mut d2, k, &missing)?;
+    }
+    classical_mds(&d2, k)
+}
+
+/// Fewest markers seen with both of a pair never seen together that place the pair's
+/// distance: three partners fix each marker's place up to a mirror image.
+const COMPLETION_PARTNERS: usize = 3;
+
+/// Most rounds of [`complete_distances`]; each costs one `k × k` eigendecomposition.
+const COMPLETION_ROUNDS: usize = 100;
+
+/// [`complete_distances`] stops once no filled distance moves by more than this, mm.
+const COMPLETION_STEP_MM: f64 = 1e-3;
+
+/// Fills the squared distances (`d2`, row-major `k × k`) of the `missing` pairs (a < b) with
+/// the ones the rest of the shape implies: each starts at its tightest triangle bound from
+/// below (max over partners c of |d_ac − d_bc|: zero for two pieces of one marker an
+/// unlabeled capture cut at a gap), then the shape is embedded in 3-D and the pair's distance
+/// read off the embedding, until it settles (a rank-3 completion of the Gram matrix). `None`
+/// when some pair has fewer than [`COMPLETION_PARTNERS`] markers seen with both of its own.
+fn complete_distances(d2: &mut [f64], k: usize, missing: &[(usize, usize)]) -> Option<()> {
+    let known = |a: usize, b: usize| a == b || !missing.contains(&(a.min(b), a.max(b)));
+    let mut lower = Vec::with_capacity(missing.len());
+    for &(a, b) in missing {
+        let bounds = (0..k)
+            .filter(|&c| c != a && c != b && known(a, c) && known(b, c))
+            .map(|c| (d2[a * k + c].sqrt() - d2[b * k + c].sqrt()).abs());
+        let (count, bound) = bounds.fold((0, 0.0f64), |(n, m), v| (n + 1, m.max(v)));
+        if count < COMPLETION_PARTNERS {
+            return None;
+        }
+        lower.push(bound);
+    }
+    for (&(a, b), &d) in missing.iter().zip(&lower) {
+        d2[a * k + b] = d * d;
+        d2[b * k + a] = d * d;
+    }
+    for _ in 0..COMPLETION_ROUNDS {
+        let shape = classical_mds(d2, k)?;
+        let mut step = 0.0f64;
+        for &(a, b) in missing {
+            let implied = (0..3)
+                .map(|i| (shape[a][i] - shape[b][i]).powi(2))
+                .sum::<f64>();
+            step = step.max((implied.sqrt() - d2[a * k + b].sqrt()).abs());
+            d2[a * k + b] = implied;
+            d2[b * k + a] = implied;
+        }
+        if step < COMPLETION_STEP_MM {
+            break;
+        }
+    }
+    Some(())
+}
+
+/// Classical multidimensional scaling of the squared distances `d2` (row-major `k × k`)
+/// into 3-D; `None` when the eigendecomposition fails.
+fn classical_mds(d2: &[f64], n: usize) -> Option<Vec<[f64; 3]>> {
     // B = −½ J D² J (double centring).
     let row: Vec<f64> = (0..n)
         .map(|a| d2[a * n..(a + 1) * n].iter().sum::<f64>() / n as f64)
@@ -436,8 +498,63 @@ pub(crate) fn join_small_clusters(
 
 #[cfg(test)]
 mod tests {
-    use super::{join_small_clusters, split_by_fit, typical_sigma};
+    use super::{join_small_clusters, reference_shape, split_by_fit, typical_sigma};
     use crate::testscene::{CHILD, PARENT, hinged_capture};
+
+    fn distance(p: [f64; 3], q: [f64; 3]) -> f64 {
+        (0..3).map(|i| (p[i] - q[i]).powi(2)).sum::<f64>().sqrt()
+    }
+
+    /// Pair distances of `points`, row-major, with the pairs in `unseen` never seen together.
+    fn distances(points: &[[f64; 3]], unseen: &[(usize, usize)]) -> Vec<f64> {
+        let n = points.len();
+        let mut dist = vec![0.0; n * n];
+        for a in 0..n {
+            for b in 0..n {
+                let never = unseen.contains(&(a.min(b), a.max(b)));
+                dist[a * n + b] = if never {
+                    f64::NAN
+                } else {
+                    distance(points[a], points[b])
+                };
+            }
+        }
+        dist
+    }
+
+    /// A pair never seen together takes the distance the rest of the shape implies: zero for
+    /// two pieces of one marker (an unlabeled capture cut at a gap), the true one for two
+    /// markers; with fewer than three partners seen with both there is no shape.
+    #[test]
+    fn reference_shape_fills_pairs_never_seen_together() {
+        let body = [
+            [0.0, 0.0, 0.0],
+            [80.0, 0.0, 0.0],
+            [0.0, 60.0, 0.0],
+            [0.0, 0.0, 50.0],
+            [40.0, 30.0, 20.0],
+        ];
+        for sixth in [body[0], [30.0, -20.0, 45.0]] {
+            let mut points = body.to_vec();
+            points.push(sixth);
+            let dist = distances(&points, &[(0, 5)]);
+            let all: Vec<usize> = (0..6).collect();
+            let shape = reference_shape(&dist, 6, &all).expect("five partners place the pair");
+            for a in 0..6 {
+                for b in 0..6 {
+                    let (got, truth) =
+                        (distance(shape[a], shape[b]), distance(points[a], points[b]));
+                    assert!(
+                        (got - truth).abs() < 0.05,
+                        "{a}–{b}: {got} mm, truly {truth}"
+                    );
+                }
+            }
+        }
+        let few = [body[0], body[1], body[2], body[0]];
+        let dist = distances(&few, &[(0, 3)]);
+        assert!(reference_shape(&dist, 4, &[0, 1, 2, 3]).is_none());
+    }
 
     /// The typical σ counts two-marker clusters: a three-marker cluster across a hinge
     /// swinging ±15° is not what a segment looks like where two pairs are rigid.

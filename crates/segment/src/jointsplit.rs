@@ -14,8 +14,9 @@
 //!
 //! A cluster splits when the relative rotation's deviation from its mean, weighed by the
 //! covariance the parts' rotation errors would have on one body (σ² J⁻¹ per part, σ the
-//! capture's typical segment fit σ, J the part's inertia tensor: a near-collinear part's
-//! spin about its own line counts for little), has a robust Mahalanobis length above
+//! capture's typical segment fit σ, J the inertia tensor of the part's markers the frame
+//! saw: a near-collinear part's spin about its own line counts for little, and a part
+//! missing a marker for a while poses worse there), has a robust Mahalanobis length above
 //! `joint_split_z` while the worse posed part's centroid travels in the other's frame
 //! beyond one body's (`joint_rotation_travel_z`: a part's pose error turns it about its
 //! own centroid, which then stays put, where a joint swings the centroid about the joint;
@@ -127,14 +128,75 @@ pub(crate) struct PartFit {
     /// Trace of the inverse inertia tensor of the part's shape, 1/mm²: rotation variance
     /// (rad²) per unit of residual variance.
     rot_gain: f64,
-    /// Inverse inertia tensor of the part's shape (segment-local), 1/mm².
-    pub(crate) inv_inertia: [[f64; 3]; 3],
-    /// Markers in the part.
-    pub(crate) markers: usize,
-    /// The reference shape the poses carry (segment-local, mm; the handedness that fit).
-    pub(crate) shape: Vec<[f64; 3]>,
     /// Which of the shape's markers each strided frame's pose saw (bit k: `shape[k]`).
     pub(crate) seen: Vec<u64>,
+    /// The geometry of each set of markers some frame was posed from (by its bit mask,
+    /// ascending; `None` when collinear): a frame that misses a marker poses the part from
+    /// the others alone.
+    geometries: Vec<(u64, Option<SeenGeometry>)>,
+}
+
+impl PartFit {
+    /// The geometry of the markers a frame was posed from (its `seen` mask).
+    pub(crate) fn geometry(&self, seen: u64) -> Option<SeenGeometry> {
+        let k = self
+            .geometries
+            .binary_search_by_key(&seen, |&(m, _)| m)
+            .ok()?;
+        self.geometries[k].1
+    }
+}
+
+/// Where a part's markers seen in a frame put its pose errors (shape coordinates).
+#[derive(Clone, Copy)]
+pub(crate) struct SeenGeometry {
+    /// Their centroid, mm: the pose's translation error is theirs.
+    pub(crate) centroid: [f64; 3],
+    /// The inverse of their inertia tensor about it, 1/mm².
+    pub(crate) inv_inertia: [[f64; 3]; 3],
+    /// How many.
+    pub(crate) count: usize,
+    /// The largest eigenvalue of `inv_inertia`, 1/mm²: rotation variance about the worst
+    /// posed axis per unit of marker variance.
+    pub(crate) worst_axis_gain: f64,
+}
+
+/// The geometry of the shape's markers set in `seen`; `None` when they are fewer than three
+/// or collinear.
+fn seen_geometry(shape: &[[f64; 3]], seen: u64) -> Option<SeenGeometry> {
+    let points: Vec<[f64; 3]> = shape
+        .iter()
+        .enumerate()
+        .filter(|(k, _)| (seen >> k) & 1 == 1)
+        .map(|(_, p)| *p)
+        .collect();
+    let count = points.len();
+    if count < 3 {
+        return None;
+    }
+    let mut centroid = [0.0; 3];
+    points
+        .iter()
+        .for_each(|p| (0..3).for_each(|i| centroid[i] += p[i] / count as f64));
+    let inv_inertia = inverse_inertia(&points)?;
+    Some(SeenGeometry {
+        centroid,
+        inv_inertia,
+        count,
+        worst_axis_gain: largest_eigenvalue(&inv_inertia),
+    })
+}
+
+/// The largest eigenvalue of a symmetric 3 × 3 matrix (infinite when it is not finite).
+fn largest_eigenvalue(m: &[[f64; 3]; 3]) -> f64 {
+    if !m.iter().flatten().all(|x| x.is_finite()) {
+        return f64::INFINITY;
+    }
+    let flat: Vec<f64> = m.iter().flatten().copied().collect();
+    symmetric_eigen(&flat, 3)
+        .ok()
+        .and_then(|s| s.values.first().copied())
+        .unwrap_or(f64::INFINITY)
 }
 
 /// Trace of the inverse of the inertia tensor of `shape` about its centroid, 1/mm²;
@@ -215,15 +277,25 @@ fn part_fit(
         .filter(|r| r.1 > 0.0)
         .map(|r| r.0 / r.1)
         .collect();
+    let shape = if handedness == 0 { shape } else { mirrored };
+    let mut masks: Vec<u64> = seen
+        .iter()
+        .copied()
+        .filter(|m| m.count_ones() >= 3)
+        .collect();
+    masks.sort_unstable();
+    masks.dedup();
+    let geometries = masks
+        .into_iter()
+        .map(|mask| (mask, seen_geometry(&shape, mask)))
+        .collect();
     Some(PartFit {
         poses,
         residuals,
         var: quantile(&mut v, QUANTILE),
         rot_gain: inverse_inertia_trace(&shape),
-        inv_inertia: inverse_inertia(&shape).unwrap_or([[f64::INFINITY; 3]; 3]),
-        markers: positions.len(),
-        shape: if handedness == 0 { shape } else { mirrored },
         seen,
+        geometries,
     })
 }
 
@@ -337,12 +409,14 @@ const CENTRE_RIDGE: f64 = 1e-4;
 
 /// The joint evidence of parts `a` and `b` (posed per strided frame).
 fn evidence(a: &PartFit, b: &PartFit, typical_var: f64) -> Option<JointEvidence> {
-    let both: Vec<(&Pose, &Pose)> = a
+    let posed: Vec<(&Pose, &Pose, u64, u64)> = a
         .poses
         .iter()
         .zip(&b.poses)
-        .filter_map(|(x, y)| Some((x.as_ref()?, y.as_ref()?)))
+        .zip(a.seen.iter().zip(&b.seen))
+        .filter_map(|((x, y), (&sa, &sb))| Some((x.as_ref()?, y.as_ref()?, sa, sb)))
         .collect();
+    let both: Vec<(&Pose, &Pose)> = posed.iter().map(|&(x, y, ..)| (x, y)).collect();
     if both.len() < 3 {
         return None;
     }
@@ -376,35 +450,37 @@ fn evidence(a: &PartFit, b: &PartFit, typical_var: f64) -> Option<JointEvidence>
     let (var_a, var_b) = (a.var.max(typical_var), b.var.max(typical_var));
     let noise = (var_a * a.rot_gain + var_b * b.rot_gain).sqrt();
     // Covariance of the deviation's rotation vector (in A's frame): A's σ² J_A⁻¹, and B's
-    // σ² J_B⁻¹ carried into A's frame by the mean relative rotation.
+    // σ² J_B⁻¹ carried into A's frame by the mean relative rotation; each J of the markers
+    // the frame was posed from, so a part that misses a marker for a while is not taken
+    // for as steady as all of it (a frame whose seen markers are collinear adds nothing).
     let qm = rotation_matrix(mean);
-    let jb = b.inv_inertia;
-    let cov: [[f64; 3]; 3] = std::array::from_fn(|i| {
-        std::array::from_fn(|j| {
-            let mut rb = 0.0;
-            for k in 0..3 {
-                for l in 0..3 {
-                    rb += qm[i][k] * jb[k][l] * qm[j][l];
+    let covariance = |ja: &[[f64; 3]; 3], jb: &[[f64; 3]; 3]| -> [[f64; 3]; 3] {
+        std::array::from_fn(|i| {
+            std::array::from_fn(|j| {
+                let mut rb = 0.0;
+                for k in 0..3 {
+                    for l in 0..3 {
+                        rb += qm[i][k] * jb[k][l] * qm[j][l];
+                    }
                 }
-            }
-            var_a * a.inv_inertia[i][j] + var_b * rb
+                var_a * ja[i][j] + var_b * rb
+            })
         })
-    });
-    let rotation_z = match invert3(&cov) {
-        Some(w) if cov.iter().flatten().all(|x| x.is_finite()) => {
-            let mut d2: Vec<f64> = rel
-                .iter()
-                .map(|q| {
-                    let v = deviation_vector(mean, *q);
-                    (0..3)
-                        .map(|i| (0..3).map(|j| v[i] * w[i][j] * v[j]).sum::<f64>())
-                        .sum::<f64>()
-                })
-                .collect();
-            quantile(&mut d2, QUANTILE).max(0.0).sqrt()
-        }
-        _ => 0.0,
     };
+    let mut weights = Vec::new();
+    let mut d2: Vec<f64> = Vec::with_capacity(rel.len());
+    for (q, &(.., sa, sb)) in rel.iter().zip(&posed) {
+        let w = memo(&mut weights, (sa, sb), || {
+            let (ga, gb) = (a.geometry(sa)?, b.geometry(sb)?);
+            let c = covariance(&ga.inv_inertia, &gb.inv_inertia);
+            c.iter()
+                .flatten()
+                .all(|x| x.is_finite())
+                .then(|| invert3(&c))?
+        });
+        d2.push(w.map_or(0.0, |w| quadratic_form(&w, deviation_vector(mean, *q))));
+    }
+    let rotation_z = quantile(&mut d2, QUANTILE).max(0.0).sqrt();
 
     // SCoRE: R_A c_A + t_A = R_B c_B + t_B; normal equations Σ [I −Q; −Qᵀ I] x = Σ [R_Aᵀ d; −R_Bᵀ d],
     // d = t_B − t_A, with a small ridge toward the midpoint of the parts' centroids.
@@ -457,11 +533,11 @@ fn evidence(a: &PartFit, b: &PartFit, typical_var: f64) -> Option<JointEvidence>
         .map(|l| (0..3).map(|i| (l[i] - mid[i]).powi(2)).sum())
         .collect();
     let translation = quantile(&mut t2, QUANTILE).sqrt();
-    let centroid_var = var_a / a.markers as f64 + var_b / b.markers as f64;
     // In the frame of the better posed part: a near-collinear part spins about its own line
     // by more than the linearised covariance allows, and would swing the other's centroid.
     let translation_z = if a.rot_gain <= b.rot_gain {
-        centroid_travel_z(&local_b, mid, centroid_var, var_a, &a.inv_inertia)
+        let seen: Vec<(u64, u64)> = posed.iter().map(|&(.., sa, sb)| (sa, sb)).collect();
+        centroid_travel_z(&local_b, mid, &seen, (a, var_a), (b, var_b), &qm)
     } else {
         let local_a: Vec<[f64; 3]> = both
             .iter()
@@ -470,13 +546,10 @@ fn evidence(a: &PartFit, b: &PartFit, typical_var: f64) -> Option<JointEvidence>
                 apply(&pb.r, d, true)
             })
             .collect();
-        centroid_travel_z(
-            &local_a,
-            median_point(&local_a),
-            centroid_var,
-            var_b,
-            &b.inv_inertia,
-        )
+        let seen: Vec<(u64, u64)> = posed.iter().map(|&(.., sa, sb)| (sb, sa)).collect();
+        let into_b = std::array::from_fn(|i| std::array::from_fn(|j| qm[j][i]));
+        let mid = median_point(&local_a);
+        centroid_travel_z(&local_a, mid, &seen, (b, var_b), (a, var_a), &into_b)
     };
     let mut pooled: Vec<f64> = a
         .residuals
@@ -510,31 +583,77 @@ pub(crate) fn median_point(points: &[[f64; 3]]) -> [f64; 3] {
 
 /// Robust Mahalanobis length of the travel of one part's centroid in the other's frame
 /// (`local`, per frame) about its median `mid` ([`median_point`] of `local`), under the
-/// covariance of one rigid body: both centroids' errors (`centroid_var`, mm²) and the
-/// frame's rotation error (`var` J⁻¹) swinging the median lever arm. 0 when the covariance
-/// is singular.
+/// covariance of one rigid body in each frame, from the markers each part was posed from
+/// (`seen`: the frame part's mask, the other's): both poses' translation errors at those
+/// markers' centroid (σ² / k each), the frame part's rotation error (σ² J⁻¹) swinging the
+/// lever from there to `mid`, and the other's swinging its full centroid about its seen
+/// one (carried into the frame part's frame by `carry`). With every marker seen, both seen
+/// centroids are the full ones. A frame whose covariance is singular adds 0.
 fn centroid_travel_z(
     local: &[[f64; 3]],
     mid: [f64; 3],
-    centroid_var: f64,
-    var: f64,
-    inv_inertia: &[[f64; 3]; 3],
+    seen: &[(u64, u64)],
+    (frame_part, frame_var): (&PartFit, f64),
+    (other, other_var): (&PartFit, f64),
+    carry: &[[f64; 3]; 3],
 ) -> f64 {
-    let cov = lever_covariance(mid, var, inv_inertia, centroid_var);
-    if !cov.iter().flatten().all(|x| x.is_finite()) {
-        return 0.0;
-    }
-    let Some(w) = invert3(&cov) else { return 0.0 };
+    let weight = |gf: SeenGeometry, go: SeenGeometry| {
+        let lever: [f64; 3] = std::array::from_fn(|i| mid[i] - gf.centroid[i]);
+        let position_var = frame_var / gf.count as f64 + other_var / go.count as f64;
+        let own = lever_covariance(lever, frame_var, &gf.inv_inertia, position_var);
+        let swing = lever_covariance(go.centroid.map(|x| -x), other_var, &go.inv_inertia, 0.0);
+        let cov: [[f64; 3]; 3] = std::array::from_fn(|i| {
+            std::array::from_fn(|j| {
+                let mut carried = 0.0;
+                for k in 0..3 {
+                    for l in 0..3 {
+                        carried += carry[i][k] * swing[k][l] * carry[j][l];
+                    }
+                }
+                own[i][j] + carried
+            })
+        });
+        cov.iter()
+            .flatten()
+            .all(|x| x.is_finite())
+            .then(|| invert3(&cov))?
+    };
+    let mut weights = Vec::new();
     let mut d2: Vec<f64> = local
         .iter()
-        .map(|l| {
-            let v: [f64; 3] = std::array::from_fn(|i| l[i] - mid[i]);
-            (0..3)
-                .map(|i| (0..3).map(|j| v[i] * w[i][j] * v[j]).sum::<f64>())
-                .sum::<f64>()
+        .zip(seen)
+        .map(|(l, &(sf, so))| {
+            let w = memo(&mut weights, (sf, so), || {
+                weight(frame_part.geometry(sf)?, other.geometry(so)?)
+            });
+            w.map_or(0.0, |w| {
+                quadratic_form(&w, std::array::from_fn(|i| l[i] - mid[i]))
+            })
         })
         .collect();
     quantile(&mut d2, QUANTILE).max(0.0).sqrt()
+}
+
+/// `vᵀ w v`.
+fn quadratic_form(w: &[[f64; 3]; 3], v: [f64; 3]) -> f64 {
+    (0..3)
+        .map(|i| (0..3).map(|j| v[i] * w[i][j] * v[j]).sum::<f64>())
+        .sum()
+}
+
+/// The value `cache` holds for `key`, computed by `make` the first time (a few keys: the
+/// sets of markers frames were posed from).
+fn memo<K: PartialEq + Copy, V: Copy>(
+    cache: &mut Vec<(K, V)>,
+    key: K,
+    make: impl FnOnce() -> V,
+) -> V {
+    if let Some(&(_, v)) = cache.iter().find(|(k, _)| *k == key) {
+        return v;
+    }
+    let v = make();
+    cache.push((key, v));
+    v
 }
 
 /// Covariance of a point at `lever` from a body's centroid under the body's rotation error
@@ -1030,8 +1149,12 @@ mod tests {
     }
 
     fn split(traj: &Trajectories) -> Vec<Vec<usize>> {
+        split_as(traj, &[vec![0, 1, 2, 3], vec![4, 5, 6, 7]])
+    }
+
+    /// [`split_by_joint`] on all of `traj`'s markers, the typical σ from the `truth` groups.
+    fn split_as(traj: &Trajectories, truth: &[Vec<usize>]) -> Vec<Vec<usize>> {
         let stats = pair_stats(traj);
-        let truth = vec![vec![0, 1, 2, 3], vec![4, 5, 6, 7]];
         let test = JointTest {
             min_z: 4.5,
             min_travel_z: 0.0,
@@ -1039,10 +1162,11 @@ mod tests {
             rotation_alone_z: 8.0,
             centre_fraction: 1.0,
             pair: crate::pairsplit::PairTest::default(),
-            typical_sigma_mm: typical_sigma(traj, &truth),
-            max_part_sigma_mm: 2.0 * typical_sigma(traj, &truth),
+            typical_sigma_mm: typical_sigma(traj, truth),
+            max_part_sigma_mm: 2.0 * typical_sigma(traj, truth),
         };
-        let mut parts = split_by_joint(traj, &stats, 10, &(0..8).collect::<Vec<_>>(), test);
+        let all: Vec<usize> = (0..traj.markers()).collect();
+        let mut parts = split_by_joint(traj, &stats, 10, &all, test);
         parts.iter_mut().for_each(|p| p.sort_unstable());
         parts.sort();
         parts
@@ -1066,6 +1190,47 @@ mod tests {
                 vec![(0..8).collect::<Vec<_>>()],
                 "seed {seed}"
             );
+        }
+    }
+
+    /// `traj` with marker `m` hidden over frames `gap` and seen after it only as a new
+    /// marker (appended), as an unlabeled reconstruction cuts a marker at an occlusion.
+    fn cut(traj: &Trajectories, m: usize, gap: std::ops::Range<usize>) -> Trajectories {
+        let n = traj.markers();
+        let mut labels = traj.labels().to_vec();
+        labels.push(format!("{}~1", labels[m]));
+        let missing = [f64::NAN; 3];
+        let mut positions = Vec::with_capacity(traj.frames() * (n + 1));
+        for f in 0..traj.frames() {
+            let frame = traj.frame(f);
+            let (before, after) = (f < gap.start, f >= gap.end);
+            for (k, &p) in frame.iter().enumerate() {
+                positions.push(if k != m || before { p } else { missing });
+            }
+            positions.push(if after { frame[m] } else { missing });
+        }
+        match Trajectories::new(labels, traj.frame_rate(), 1, traj.frames(), positions) {
+            Ok(cut) => cut,
+            Err(e) => panic!("cut capture: {e}"),
+        }
+    }
+
+    /// A marker an unlabeled capture cut at an occlusion into two pieces never seen together
+    /// leaves a rigid body whole and a jointed one cut at its joint, the pieces together:
+    /// a part with both is posed (their distance filled in by the rest of the shape), and a
+    /// part posed without a marker for a while is not taken for as steady as all of it.
+    #[test]
+    fn pieces_of_one_marker_stay_together() {
+        for seed in 1..=3 {
+            for m in [1, 6] {
+                let rigid = cut(&capture(0.0, 8.0, seed), m, 150..170);
+                let truth = [(0..9).collect::<Vec<_>>()];
+                assert_eq!(split_as(&rigid, &truth), truth, "seed {seed}, marker {m}");
+                let jointed = cut(&capture(15.0, 8.0, seed), m, 150..170);
+                let mut truth = vec![vec![0, 1, 2, 3], vec![4, 5, 6, 7]];
+                truth[usize::from(m >= 4)].push(8);
+                assert_eq!(split_as(&jointed, &truth), truth, "seed {seed}, marker {m}");
+            }
         }
     }
 

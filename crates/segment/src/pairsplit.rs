@@ -9,10 +9,8 @@
 //! that loses its fourth marker to a gap may be posed from three nearly in a line, and
 //! then spins the pair about that line.
 
-use std::collections::BTreeMap;
-
 use crate::fitsplit::{QUANTILE, median, quantile};
-use crate::jointsplit::{PartCache, inverse_inertia, lever_covariance, median_point};
+use crate::jointsplit::{PartCache, SeenGeometry, lever_covariance, median_point};
 use crate::swing::solve;
 
 /// Fewest strided frames with the body posed and both markers seen.
@@ -111,45 +109,6 @@ impl PairEvidence {
     }
 }
 
-/// Where the body's markers seen in a frame put its pose errors (shape coordinates).
-#[derive(Clone, Copy)]
-struct SeenGeometry {
-    /// Their centroid, mm: the pose's translation error is theirs.
-    centroid: [f64; 3],
-    /// The inverse of their inertia tensor about it, 1/mm².
-    inv_inertia: [[f64; 3]; 3],
-    /// How many.
-    count: usize,
-    /// The largest eigenvalue of `inv_inertia`, 1/mm²: rotation variance about the worst
-    /// posed axis per unit of marker variance.
-    worst_axis_gain: f64,
-}
-
-/// The geometry of the shape's markers set in `seen`; `None` when they are collinear.
-fn seen_geometry(shape: &[[f64; 3]], seen: u64) -> Option<SeenGeometry> {
-    let points: Vec<[f64; 3]> = shape
-        .iter()
-        .enumerate()
-        .filter(|(k, _)| (seen >> k) & 1 == 1)
-        .map(|(_, p)| *p)
-        .collect();
-    let count = points.len();
-    if count < 3 {
-        return None;
-    }
-    let mut centroid = [0.0; 3];
-    points
-        .iter()
-        .for_each(|p| (0..3).for_each(|i| centroid[i] += p[i] / count as f64));
-    let inv_inertia = inverse_inertia(&points)?;
-    Some(SeenGeometry {
-        centroid,
-        inv_inertia,
-        count,
-        worst_axis_gain: largest_eigenvalue(&inv_inertia),
-    })
-}
-
 /// One frame the pair route reads: both markers in the body's frame, the body's residual
 /// (sum of squares, dof) and where its seen markers put its pose errors.
 struct PairFrame {
@@ -195,7 +154,6 @@ fn read_pair(cache: &mut PartCache<'_>, pair: u64, max_spin_deg: f64) -> Option<
     // linearised covariance (a body losing its one marker off the line to a gap).
     let max_gain = max_spin_deg.to_radians().powi(2) / body_var.max(1e-12);
     let markers = traj.markers().max(1);
-    let mut geometry: BTreeMap<u64, Option<SeenGeometry>> = BTreeMap::new();
     let mut frames: Vec<PairFrame> = Vec::new();
     for (((frame, pose), &residual), &seen) in traj
         .positions()
@@ -211,10 +169,7 @@ fn read_pair(cache: &mut PartCache<'_>, pair: u64, max_spin_deg: f64) -> Option<
         if !(mocap_io::is_present(x) && mocap_io::is_present(y)) {
             continue;
         }
-        let Some(g) = *geometry
-            .entry(seen)
-            .or_insert_with(|| seen_geometry(&body.shape, seen))
-        else {
+        let Some(g) = body.geometry(seen) else {
             continue;
         };
         if g.worst_axis_gain > max_gain {
@@ -372,18 +327,6 @@ fn mahalanobis2(cov: &[[f64; 3]; 3], v: [f64; 3]) -> f64 {
             .sum(),
         None => 0.0,
     }
-}
-
-/// The largest eigenvalue of a symmetric 3 × 3 matrix (infinite when it is not finite).
-fn largest_eigenvalue(m: &[[f64; 3]; 3]) -> f64 {
-    if !m.iter().flatten().all(|x| x.is_finite()) {
-        return f64::INFINITY;
-    }
-    let flat: Vec<f64> = m.iter().flatten().copied().collect();
-    crate::eigen::symmetric_eigen(&flat, 3)
-        .ok()
-        .and_then(|s| s.values.first().copied())
-        .unwrap_or(f64::INFINITY)
 }
 
 /// Squared Mahalanobis length of the unit direction `u`'s deviation from `mean` in the
