@@ -1075,6 +1075,7 @@ mod tests {
     use super::{JointEvidence, JointTest, RigidMerge, merge_rigid, near_joints, split_by_joint};
     use crate::fitsplit::typical_sigma;
     use crate::pairstats::pair_stats;
+    use crate::testscene::cut_at_gap;
 
     /// Eight markers: four on a parent, four on a child hinged at the origin (about x) that
     /// swings ±`swing_deg`, all translating; every marker carries smooth skin artefact of
@@ -1193,28 +1194,6 @@ mod tests {
         }
     }
 
-    /// `traj` with marker `m` hidden over frames `gap` and seen after it only as a new
-    /// marker (appended), as an unlabeled reconstruction cuts a marker at an occlusion.
-    fn cut(traj: &Trajectories, m: usize, gap: std::ops::Range<usize>) -> Trajectories {
-        let n = traj.markers();
-        let mut labels = traj.labels().to_vec();
-        labels.push(format!("{}~1", labels[m]));
-        let missing = [f64::NAN; 3];
-        let mut positions = Vec::with_capacity(traj.frames() * (n + 1));
-        for f in 0..traj.frames() {
-            let frame = traj.frame(f);
-            let (before, after) = (f < gap.start, f >= gap.end);
-            for (k, &p) in frame.iter().enumerate() {
-                positions.push(if k != m || before { p } else { missing });
-            }
-            positions.push(if after { frame[m] } else { missing });
-        }
-        match Trajectories::new(labels, traj.frame_rate(), 1, traj.frames(), positions) {
-            Ok(cut) => cut,
-            Err(e) => panic!("cut capture: {e}"),
-        }
-    }
-
     /// A marker an unlabeled capture cut at an occlusion into two pieces never seen together
     /// leaves a rigid body whole and a jointed one cut at its joint, the pieces together:
     /// a part with both is posed (their distance filled in by the rest of the shape), and a
@@ -1223,10 +1202,10 @@ mod tests {
     fn pieces_of_one_marker_stay_together() {
         for seed in 1..=3 {
             for m in [1, 6] {
-                let rigid = cut(&capture(0.0, 8.0, seed), m, 150..170);
+                let rigid = cut_at_gap(&capture(0.0, 8.0, seed), m, 150..170);
                 let truth = [(0..9).collect::<Vec<_>>()];
                 assert_eq!(split_as(&rigid, &truth), truth, "seed {seed}, marker {m}");
-                let jointed = cut(&capture(15.0, 8.0, seed), m, 150..170);
+                let jointed = cut_at_gap(&capture(15.0, 8.0, seed), m, 150..170);
                 let mut truth = vec![vec![0, 1, 2, 3], vec![4, 5, 6, 7]];
                 truth[usize::from(m >= 4)].push(8);
                 assert_eq!(split_as(&jointed, &truth), truth, "seed {seed}, marker {m}");

@@ -883,42 +883,63 @@ fn steadiest_rho(stats: &PairStats, m: usize, min_overlap: usize) -> Option<(f64
 }
 
 /// Puts each lone marker into the group of two or more every marker of which it keeps its
-/// distance to within `tol_mm` (ρ), the one with the smallest largest ρ.
+/// distance to within `tol_mm` (ρ), the one with the smallest largest ρ. A marker never seen
+/// together with some of a group's markers (an unlabeled capture's piece, whose other pieces
+/// may be among them) joins it when it keeps its distance to at least
+/// [`PIECE_PARTNERS`] of the others and to every one it was seen with; so does a marker of a
+/// pair, into a group of three or more: in its frames a three-marker segment missing its
+/// other piece cannot be posed to hold it, and two such pieces at a joint pair up.
 fn join_rigid_lone_markers(
     clusters: &mut [Vec<usize>],
     stats: &PairStats,
     tol_mm: f64,
     min_overlap: usize,
 ) {
-    let lone: Vec<usize> = clusters
+    let small: Vec<usize> = clusters
         .iter()
-        .filter(|c| c.len() == 1)
-        .map(|c| c[0])
+        .filter(|c| c.len() <= 2)
+        .flatten()
+        .copied()
         .collect();
-    for m in lone {
+    for m in small {
+        let Some(own) = clusters.iter().position(|c| c.contains(&m)) else {
+            continue;
+        };
+        let paired = clusters[own].len() == 2;
         let best = clusters
             .iter()
             .enumerate()
-            .filter(|(_, c)| c.len() >= 2)
+            .filter(|&(k, c)| k != own && c.len() >= if paired { 3 } else { 2 })
             .filter_map(|(k, c)| {
-                let worst = c
-                    .iter()
-                    .map(|&x| stats.rho(m, x, min_overlap))
-                    .try_fold(0.0f64, |w, r| r.map(|r| w.max(r)))?;
-                (worst <= tol_mm).then_some((k, worst))
+                let (mut worst, mut seen) = (0.0f64, 0);
+                for &x in c {
+                    if stats.overlap[stats.at(m, x)] == 0 {
+                        continue;
+                    }
+                    worst = worst.max(stats.rho(m, x, min_overlap)?);
+                    seen += 1;
+                }
+                let never_seen = seen < c.len();
+                let enough = if never_seen {
+                    seen >= PIECE_PARTNERS
+                } else {
+                    !paired
+                };
+                (enough && worst <= tol_mm).then_some((k, worst))
             })
             .min_by(|a, b| a.1.total_cmp(&b.1));
         if let Some((k, _)) = best {
+            clusters[own].retain(|&x| x != m);
             clusters[k].push(m);
-            if let Some(own) = clusters.iter().position(|c| c[..] == [m]) {
-                clusters[own].clear();
-            }
         }
     }
 }
 
-/// Takes out of its cluster every marker whose steadiest ρ to the cluster's other markers
-/// exceeds `max_rho_mm` (both markers of a loose pair), as a lone marker.
+/// Fewest markers of a group a piece must keep its distance to (see
+/// `join_rigid_lone_markers`): two fix it on a circle about their line, which the group's
+/// rigidity check then tests no further.
+const PIECE_PARTNERS: usize = 2;
+
 fn take_out_loose_markers(
     clusters: &mut Vec<Vec<usize>>,
     stats: &PairStats,

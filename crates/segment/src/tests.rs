@@ -1502,3 +1502,32 @@ fn a_group_naming_no_marker_is_an_error() {
         "{error}"
     );
 }
+
+/// Two pieces of one marker at a joint (an unlabeled capture's, each never seen with its
+/// other piece, whose three-marker segment cannot be posed in their frames) go to the
+/// bodies they keep their distances to, alone or paired up; two whole markers paired at the
+/// joint stay as they were.
+#[test]
+fn pieces_of_markers_go_to_the_bodies_they_are_rigid_with() {
+    use crate::testscene::{CHILD, PARENT, cut_at_gap, hinged_capture};
+    let whole = hinged_capture(&PARENT[..3], &CHILD, 200, 20.0, 0.2);
+    // Parent marker 2's later piece is 7, child marker 6's is 8.
+    let cut = cut_at_gap(&cut_at_gap(&whole, 2, 90..100), 6, 110..120);
+    let stats = pairstats::pair_stats(&cut);
+    let tidy = |clusters: &mut Vec<Vec<usize>>| {
+        clusters.retain(|c| !c.is_empty());
+        clusters.iter_mut().for_each(|c| c.sort_unstable());
+    };
+    let mut lone = vec![vec![0, 1, 2], vec![3, 4, 5, 6], vec![7]];
+    join_rigid_lone_markers(&mut lone, &stats, 2.0, 10);
+    tidy(&mut lone);
+    assert_eq!(lone, vec![vec![0, 1, 2, 7], vec![3, 4, 5, 6]]);
+    let mut paired = vec![vec![0, 1, 2], vec![3, 4, 5, 6], vec![7, 8]];
+    join_rigid_lone_markers(&mut paired, &stats, 2.0, 10);
+    tidy(&mut paired);
+    assert_eq!(paired, vec![vec![0, 1, 2, 7], vec![3, 4, 5, 6, 8]]);
+    let stats = pairstats::pair_stats(&whole);
+    let mut markers = vec![vec![0, 1], vec![3, 4, 5], vec![2, 6]];
+    join_rigid_lone_markers(&mut markers, &stats, 2.0, 10);
+    assert_eq!(markers, vec![vec![0, 1], vec![3, 4, 5], vec![2, 6]]);
+}

@@ -128,3 +128,29 @@ pub(crate) fn skin_hinged_capture(
         Err(e) => panic!("test scene: {e}"),
     }
 }
+
+/// `traj` with marker `m` hidden over frames `gap` and seen after it only as a new marker
+/// (appended, labelled `M…~1`), as an unlabeled reconstruction cuts a marker at an occlusion.
+pub(crate) fn cut_at_gap(
+    traj: &Trajectories,
+    m: usize,
+    gap: std::ops::Range<usize>,
+) -> Trajectories {
+    let n = traj.markers();
+    let mut labels = traj.labels().to_vec();
+    labels.push(format!("{}~1", labels[m]));
+    let missing = [f64::NAN; 3];
+    let mut positions = Vec::with_capacity(traj.frames() * (n + 1));
+    for f in 0..traj.frames() {
+        let frame = traj.frame(f);
+        let (before, after) = (f < gap.start, f >= gap.end);
+        for (k, &p) in frame.iter().enumerate() {
+            positions.push(if k != m || before { p } else { missing });
+        }
+        positions.push(if after { frame[m] } else { missing });
+    }
+    match Trajectories::new(labels, traj.frame_rate(), 1, traj.frames(), positions) {
+        Ok(cut) => cut,
+        Err(e) => panic!("cut capture: {e}"),
+    }
+}
