@@ -455,17 +455,8 @@ fn evidence(a: &PartFit, b: &PartFit, typical_var: f64) -> Option<JointEvidence>
     // for as steady as all of it (a frame whose seen markers are collinear adds nothing).
     let qm = rotation_matrix(mean);
     let covariance = |ja: &[[f64; 3]; 3], jb: &[[f64; 3]; 3]| -> [[f64; 3]; 3] {
-        std::array::from_fn(|i| {
-            std::array::from_fn(|j| {
-                let mut rb = 0.0;
-                for k in 0..3 {
-                    for l in 0..3 {
-                        rb += qm[i][k] * jb[k][l] * qm[j][l];
-                    }
-                }
-                var_a * ja[i][j] + var_b * rb
-            })
-        })
+        let rb = carried(&qm, jb);
+        std::array::from_fn(|i| std::array::from_fn(|j| var_a * ja[i][j] + var_b * rb[i][j]))
     };
     let mut weights = Vec::new();
     let mut d2: Vec<f64> = Vec::with_capacity(rel.len());
@@ -602,17 +593,9 @@ fn centroid_travel_z(
         let position_var = frame_var / gf.count as f64 + other_var / go.count as f64;
         let own = lever_covariance(lever, frame_var, &gf.inv_inertia, position_var);
         let swing = lever_covariance(go.centroid.map(|x| -x), other_var, &go.inv_inertia, 0.0);
-        let cov: [[f64; 3]; 3] = std::array::from_fn(|i| {
-            std::array::from_fn(|j| {
-                let mut carried = 0.0;
-                for k in 0..3 {
-                    for l in 0..3 {
-                        carried += carry[i][k] * swing[k][l] * carry[j][l];
-                    }
-                }
-                own[i][j] + carried
-            })
-        });
+        let swing = carried(carry, &swing);
+        let cov: [[f64; 3]; 3] =
+            std::array::from_fn(|i| std::array::from_fn(|j| own[i][j] + swing[i][j]));
         cov.iter()
             .flatten()
             .all(|x| x.is_finite())
@@ -632,6 +615,21 @@ fn centroid_travel_z(
         })
         .collect();
     quantile(&mut d2, QUANTILE).max(0.0).sqrt()
+}
+
+/// `r m rᵀ`: a covariance `m` in one frame carried into another by the rotation `r`.
+fn carried(r: &[[f64; 3]; 3], m: &[[f64; 3]; 3]) -> [[f64; 3]; 3] {
+    std::array::from_fn(|i| {
+        std::array::from_fn(|j| {
+            let mut s = 0.0;
+            for k in 0..3 {
+                for l in 0..3 {
+                    s += r[i][k] * m[k][l] * r[j][l];
+                }
+            }
+            s
+        })
+    })
 }
 
 /// `vᵀ w v`.

@@ -940,6 +940,8 @@ fn join_rigid_lone_markers(
 /// rigidity check then tests no further.
 const PIECE_PARTNERS: usize = 2;
 
+/// Takes out of its cluster every marker whose steadiest ρ to the cluster's other markers
+/// exceeds `max_rho_mm` (both markers of a loose pair), as a lone marker.
 fn take_out_loose_markers(
     clusters: &mut Vec<Vec<usize>>,
     stats: &PairStats,
