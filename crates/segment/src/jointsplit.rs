@@ -409,14 +409,15 @@ const CENTRE_RIDGE: f64 = 1e-4;
 
 /// The joint evidence of parts `a` and `b` (posed per strided frame).
 fn evidence(a: &PartFit, b: &PartFit, typical_var: f64) -> Option<JointEvidence> {
-    let posed: Vec<(&Pose, &Pose, u64, u64)> = a
-        .poses
-        .iter()
-        .zip(&b.poses)
-        .zip(a.seen.iter().zip(&b.seen))
-        .filter_map(|((x, y), (&sa, &sb))| Some((x.as_ref()?, y.as_ref()?, sa, sb)))
-        .collect();
-    let both: Vec<(&Pose, &Pose)> = posed.iter().map(|&(x, y, ..)| (x, y)).collect();
+    // The frames both parts were posed in, and which markers each was posed from there.
+    let mut both: Vec<(&Pose, &Pose)> = Vec::with_capacity(a.poses.len());
+    let mut seen: Vec<(u64, u64)> = Vec::with_capacity(a.poses.len());
+    for ((x, y), (&sa, &sb)) in a.poses.iter().zip(&b.poses).zip(a.seen.iter().zip(&b.seen)) {
+        if let (Some(x), Some(y)) = (x, y) {
+            both.push((x, y));
+            seen.push((sa, sb));
+        }
+    }
     if both.len() < 3 {
         return None;
     }
@@ -460,7 +461,7 @@ fn evidence(a: &PartFit, b: &PartFit, typical_var: f64) -> Option<JointEvidence>
     };
     let mut weights = Vec::new();
     let mut d2: Vec<f64> = Vec::with_capacity(rel.len());
-    for (q, &(.., sa, sb)) in rel.iter().zip(&posed) {
+    for (q, &(sa, sb)) in rel.iter().zip(&seen) {
         let w = memo(&mut weights, (sa, sb), || {
             let (ga, gb) = (a.geometry(sa)?, b.geometry(sb)?);
             let c = covariance(&ga.inv_inertia, &gb.inv_inertia);
@@ -527,8 +528,14 @@ fn evidence(a: &PartFit, b: &PartFit, typical_var: f64) -> Option<JointEvidence>
     // In the frame of the better posed part: a near-collinear part spins about its own line
     // by more than the linearised covariance allows, and would swing the other's centroid.
     let translation_z = if a.rot_gain <= b.rot_gain {
-        let seen: Vec<(u64, u64)> = posed.iter().map(|&(.., sa, sb)| (sa, sb)).collect();
-        centroid_travel_z(&local_b, mid, &seen, (a, var_a), (b, var_b), &qm)
+        centroid_travel_z(
+            &local_b,
+            mid,
+            seen.iter().copied(),
+            (a, var_a),
+            (b, var_b),
+            &qm,
+        )
     } else {
         let local_a: Vec<[f64; 3]> = both
             .iter()
@@ -537,10 +544,10 @@ fn evidence(a: &PartFit, b: &PartFit, typical_var: f64) -> Option<JointEvidence>
                 apply(&pb.r, d, true)
             })
             .collect();
-        let seen: Vec<(u64, u64)> = posed.iter().map(|&(.., sa, sb)| (sb, sa)).collect();
         let into_b = std::array::from_fn(|i| std::array::from_fn(|j| qm[j][i]));
         let mid = median_point(&local_a);
-        centroid_travel_z(&local_a, mid, &seen, (b, var_b), (a, var_a), &into_b)
+        let seen_from_b = seen.iter().map(|&(sa, sb)| (sb, sa));
+        centroid_travel_z(&local_a, mid, seen_from_b, (b, var_b), (a, var_a), &into_b)
     };
     let mut pooled: Vec<f64> = a
         .residuals
@@ -583,7 +590,7 @@ pub(crate) fn median_point(points: &[[f64; 3]]) -> [f64; 3] {
 fn centroid_travel_z(
     local: &[[f64; 3]],
     mid: [f64; 3],
-    seen: &[(u64, u64)],
+    seen: impl Iterator<Item = (u64, u64)>,
     (frame_part, frame_var): (&PartFit, f64),
     (other, other_var): (&PartFit, f64),
     carry: &[[f64; 3]; 3],
@@ -605,7 +612,7 @@ fn centroid_travel_z(
     let mut d2: Vec<f64> = local
         .iter()
         .zip(seen)
-        .map(|(l, &(sf, so))| {
+        .map(|(l, (sf, so))| {
             let w = memo(&mut weights, (sf, so), || {
                 weight(frame_part.geometry(sf)?, other.geometry(so)?)
             });
