@@ -108,6 +108,17 @@ fn an_unlabeled_capture_cut_at_every_gap_gives_the_labelled_skeleton() {
         tree(&skeleton, &owner, &origin),
         (truth.len() + 1, truth.clone())
     );
+    // Every track the segment stage read as a later piece of another's trajectory (what
+    // the reader left apart: measured 4) was cut from that track's marker.
+    let mut pieces = 0;
+    for marker in skeleton["markers"].as_array().unwrap() {
+        if let Some(of) = marker["piece_of"].as_str() {
+            let label = marker["label"].as_str().unwrap();
+            assert_eq!(origin[label], origin[of], "{label} read as a piece of {of}");
+            pieces += 1;
+        }
+    }
+    assert!(pieces >= 2, "the segment stage joined {pieces} pieces");
 
     // Without the joining the pieces make a different, wrong skeleton.
     let apart = tmp.path("apart");

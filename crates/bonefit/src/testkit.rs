@@ -170,6 +170,7 @@ pub fn scene(frames: usize, rate: f64) -> Scene {
         near_joints: Vec::new(),
         labels: Vec::new(),
         named_segments: Vec::new(),
+        pieces: Vec::new(),
     };
 
     let topology = Topology {

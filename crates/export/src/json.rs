@@ -257,6 +257,11 @@ pub struct MarkerJson {
     pub slides: bool,
     /// Why it is in no segment, when it is in none.
     pub unassigned_reason: Option<String>,
+    /// The label of the track whose trajectory this one continues after a gap (the same
+    /// marker, cut in pieces by an unlabeled reconstruction; the segment stage's `pieces`),
+    /// null when none.
+    #[serde(default)]
+    pub piece_of: Option<String>,
 }
 
 /// Rounds to `decimals` places; None for NaN/infinite; no negative zero.
@@ -555,6 +560,11 @@ pub(crate) fn document(input: &Inputs<'_>) -> Result<SkeletonJson, Error> {
             glitch_frames: diagnostics.map_or(0, |d| d.glitch_frames),
             rigidity_residual_mm: diagnostics.and_then(|d| round(d.rigidity_residual_mm, 3)),
             slides: diagnostics.is_some_and(|d| d.slides),
+            piece_of: seg
+                .pieces
+                .iter()
+                .find(|g| g.len() > 1 && g[1..].contains(&m))
+                .and_then(|g| labels.get(g[0]).cloned()),
             unassigned_reason: seg
                 .unassigned
                 .iter()

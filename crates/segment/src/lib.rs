@@ -26,7 +26,12 @@
 //! split piece rejoins a cluster it fits with like an ordinary segment (`fit_split_*`).
 //! Then each marker of a cluster of ≥ 4 is weighed in its own body posed without it against
 //! the other bodies of ≥ 3 (its trajectory's scatter in each body's frame, less the pose's
-//! own error) and moves where it is held clearly stiller (`reassign_ratio`). Then the joint
+//! own error) and moves where it is held clearly stiller (`reassign_ratio`). Then pieces of
+//! one marker's trajectory the reader left apart (an unlabeled capture's tracks) are looked
+//! for: a body of ≥ 3 markers holding one carries its end to where the other starts, past
+//! any gap (see `pieces`); any found are joined and the capture segmented again with each
+//! as one marker (up to four rounds), each piece then put in its marker's segment
+//! ([`Segmentation::pieces`], `join_pieces`). Then the joint
 //! test splits a cluster of ≥ 6 whose two best-fitting parts turn relative to each other
 //! beyond their own fits' rotation noise while one part's centroid moves in the other's
 //! frame (`joint_rotation_travel_z`: a turn that carries no centroid is the parts' own
@@ -84,6 +89,7 @@ mod named;
 mod pairsplit;
 mod pairstats;
 mod params;
+mod pieces;
 mod reassign;
 mod regroup;
 mod rigidity;
@@ -113,6 +119,9 @@ use crate::rigidity::rms_rho;
 /// Most passes of the joint test, each over the clusters the settling after the last changed.
 const JOINT_SPLIT_ROUNDS: usize = 3;
 
+/// Most rounds of joining pieces of one marker's trajectory, each segmenting again.
+const PIECE_ROUNDS: usize = 4;
+
 /// Stage name of segmentation artifacts.
 pub const STAGE: &str = "segment";
 
@@ -123,19 +132,30 @@ pub fn run(traj: &Trajectories, params: &Params) -> Result<Segmentation, Error> 
     params.validate()?;
     let params = &params.with_floors_scaled(traj.floor_scale());
     let named = named::resolve(traj.labels(), &params.groups)?;
-    segment_capture(traj, params, &named, params.repair_swaps, None)
+    segment_capture(
+        traj,
+        params,
+        &named,
+        params.repair_swaps,
+        PIECE_ROUNDS,
+        None,
+    )
 }
 
 /// [`run`] on parameters it has validated and scaled, looking for label swaps when
 /// `find_swaps`: when there are any, the capture is segmented again with them undone (and
-/// not looked for again). `spread_given`: the rigid spread a first pass read off its
-/// segments (`spread_second_pass`), used instead of the spectral clusters'. `named`: the
-/// user's groups (`Params::groups`, resolved), which stand over what the data say.
+/// not looked for again); and for pieces of one marker's trajectory for up to
+/// `piece_rounds` more rounds: when there are any, the capture is segmented again with them
+/// joined, and each piece put where its marker went (see `pieces`). `spread_given`: the
+/// rigid spread a first pass read off its segments (`spread_second_pass`), used instead of
+/// the spectral clusters'. `named`: the user's groups (`Params::groups`, resolved), which
+/// stand over what the data say.
 fn segment_capture(
     traj: &Trajectories,
     params: &Params,
     named: &[Vec<usize>],
     find_swaps: bool,
+    piece_rounds: usize,
     spread_given: Option<f64>,
 ) -> Result<Segmentation, Error> {
     let (frames, markers) = (traj.frames(), traj.markers());
@@ -352,6 +372,33 @@ fn segment_capture(
     if params.reassign_ratio > 0.0 {
         settle(&mut clusters);
     }
+    if piece_rounds > 0 && params.join_pieces {
+        // A marker the user named stays the track the user named.
+        let fixed: Vec<bool> = (0..markers)
+            .map(|m| named.iter().any(|g| g.contains(&m)))
+            .collect();
+        let groups = pieces::find_pieces(traj, &stats, &clusters, &fixed);
+        if !groups.is_empty() {
+            let joined = pieces::joined(raw, &groups);
+            // Joined tracks pose more bodies, which may carry more pieces.
+            let mut again = segment_capture(
+                &joined,
+                params,
+                named,
+                find_swaps,
+                piece_rounds - 1,
+                spread_given,
+            )?;
+            pieces::spread_back(&mut again, raw, &groups);
+            let mut glitch_frames = vec![0usize; markers];
+            for g in &again.glitches {
+                glitch_frames[g.marker] += g.frames.iter().map(|[a, b]| b + 1 - a).sum::<usize>();
+            }
+            let stats = pair_stats(&again.repaired(raw));
+            again.markers = marker_diagnostics(&stats, &glitch_frames, &again.segments, params);
+            return Ok(again);
+        }
+    }
     // A marker set with two markers on some segments shows them as clusters of two; only
     // there can a cluster be a segment of two merged with its neighbour, which the pair
     // route cuts (at three to six markers per segment its cuts are false splits).
@@ -457,7 +504,14 @@ fn segment_capture(
         if let Some(spread) = rigidity::rigid_spread(&stats, &clusters, min_overlap) {
             let bounded = bound_spread(spread);
             if bounded > noise_mm {
-                return segment_capture(raw, params, named, find_swaps, Some(bounded));
+                return segment_capture(
+                    raw,
+                    params,
+                    named,
+                    find_swaps,
+                    piece_rounds,
+                    Some(bounded),
+                );
             }
         }
     }
@@ -467,8 +521,14 @@ fn segment_capture(
             * typical_sigma(traj, &clusters, &mut sigma_memo).max(params.tolerance_min_mm);
         let swaps = swaps::find_swaps(raw, &clusters, hold_mm, reassign::stride_of(raw));
         if !swaps.is_empty() {
-            let mut again =
-                segment_capture(&untangle(raw, &swaps), params, named, false, spread_given)?;
+            let mut again = segment_capture(
+                &untangle(raw, &swaps),
+                params,
+                named,
+                false,
+                piece_rounds,
+                spread_given,
+            )?;
             again.swaps = swaps;
             return Ok(again);
         }
@@ -628,6 +688,7 @@ fn segment_capture(
         near_joints,
         labels: labels.to_vec(),
         named_segments,
+        pieces: Vec::new(),
     })
 }
 

@@ -320,6 +320,22 @@ pub(crate) fn group_poses(
         .collect()
 }
 
+/// A group of ≥ 3 markers posed as one rigid body.
+pub(crate) struct PosedGroup {
+    /// Reference shape, indexed like the group (segment-local, mm).
+    pub shape: Vec<[f64; 3]>,
+    /// Pose per strided frame (see [`stride_of`]), `None` with < 3 markers seen.
+    pub poses: Vec<Option<Pose>>,
+}
+
+/// `group` posed as one rigid body; `None` without a reference shape.
+pub(crate) fn posed_group(traj: &Trajectories, group: &[usize]) -> Option<PosedGroup> {
+    Body::new(traj, group, stride_of(traj)).map(|b| PosedGroup {
+        shape: b.shape,
+        poses: b.poses,
+    })
+}
+
 /// Robust fit σ of three markers as one rigid body, mm per coordinate: the [`QUANTILE`] over
 /// frames with all three seen of the residual sum of squares over its 3 degrees of freedom.
 /// Where a body of two cannot be posed without the marker, this is how well it holds it.

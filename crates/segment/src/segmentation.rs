@@ -6,7 +6,7 @@ use mocap_io::{MISSING, Trajectories};
 use serde::{Deserialize, Serialize};
 
 /// Schema version of [`Segmentation`]; bump when its fields or the algorithm's output change.
-pub const SCHEMA_VERSION: u32 = 40;
+pub const SCHEMA_VERSION: u32 = 41;
 
 /// The rigid segments found in a capture.
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
@@ -50,6 +50,11 @@ pub struct Segmentation {
     /// Ids of the segments `Params::groups` named (the user's, not the data's), ascending.
     #[serde(default)]
     pub named_segments: Vec<usize>,
+    /// Tracks read as pieces of one marker's trajectory (each ascending, never seen
+    /// together; `Params::join_pieces`): segmented as one marker, each piece in its
+    /// marker's segment.
+    #[serde(default)]
+    pub pieces: Vec<Vec<usize>>,
 }
 
 /// A segment the joint test left whole although its best cut came near the test's bounds:

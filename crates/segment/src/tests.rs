@@ -1013,6 +1013,7 @@ fn untangle_exchanges_the_swapped_frames_back() {
         near_joints: Vec::new(),
         labels: Vec::new(),
         named_segments: Vec::new(),
+        pieces: Vec::new(),
     };
     let repaired = beyond.repaired(&traj);
     for f in 0..4 {
@@ -1533,4 +1534,48 @@ fn pieces_of_markers_go_to_the_bodies_they_are_rigid_with() {
     let mut markers = pairs.clone();
     join_rigid_lone_markers(&mut markers, &stats, 2.0, 10);
     assert_eq!(markers, pairs);
+}
+
+/// An unlabeled capture's pieces of one marker, cut past the reader's stitch (1.8 and
+/// 1.3 s), are one marker to segmentation: each piece goes to its marker's segment, is
+/// listed in `pieces`, and keeps its own diagnostics; with `join_pieces` off none is listed.
+#[test]
+fn pieces_of_a_marker_are_segmented_as_one() {
+    use crate::testscene::{CHILD, PARENT, cut_at_gap, skin_hinged_capture};
+    for seed in 1..=3 {
+        let whole = skin_hinged_capture(&PARENT, &CHILD, 30.0, 6.0, seed);
+        let cut = cut_at_gap(&cut_at_gap(&whole, 1, 120..300), 6, 200..330);
+        let seg = run(&cut, &Params::default()).expect("segments");
+        let groups: Vec<Vec<usize>> = seg.segments.iter().map(|s| s.markers.clone()).collect();
+        assert_eq!(
+            groups,
+            vec![vec![0, 1, 2, 3, 8], vec![4, 5, 6, 7, 9]],
+            "seed {seed}"
+        );
+        assert_eq!(seg.pieces, vec![vec![1, 8], vec![6, 9]], "seed {seed}");
+        assert!(
+            seg.unassigned.is_empty(),
+            "seed {seed}: {:?}",
+            seg.unassigned
+        );
+        let seen = |m: usize| seg.markers[m].visible_frames;
+        assert_eq!(
+            [seen(1), seen(8), seen(6), seen(9)],
+            [120, 100, 200, 70],
+            "seed {seed}"
+        );
+        assert_eq!(seg.markers[8].segment, Some(0), "seed {seed}");
+        assert!(
+            seg.markers[8].rigidity_residual_mm.is_finite(),
+            "seed {seed}"
+        );
+        let off = Params {
+            join_pieces: false,
+            ..Params::default()
+        };
+        assert!(
+            run(&cut, &off).expect("segments").pieces.is_empty(),
+            "seed {seed}"
+        );
+    }
 }

@@ -698,6 +698,7 @@ mod tests {
             near_joints: Vec::new(),
             labels: (0..next).map(|m| format!("M{m}")).collect(),
             named_segments: Vec::new(),
+            pieces: Vec::new(),
         }
     }
 

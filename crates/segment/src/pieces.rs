@@ -1,0 +1,454 @@
+//! Pieces of one marker's trajectory that the reader left apart, joined by a body that
+//! holds one of them.
+//!
+//! The reader's stitch (`mocap_io::stitch`) follows a piece across a gap of up to a second,
+//! carried by neighbours that keep their distances around both ends; past that it cannot
+//! tell a neighbour on the same segment from one across a joint. Once segmented, a body of
+//! ≥ 3 markers is posed wherever three of its markers are seen, on both sides of any gap:
+//! a piece that ends continues as the piece that starts later where its mean position in
+//! the body's frame over its last [`WINDOW_SECONDS`] is, to within [`MATCH_SHARE`] of the
+//! way to the body's nearest marker seen with it (capped at the marker spacing), the mean
+//! position of the later piece over its first, and no rival starts within
+//! [`RIVAL_FACTOR`] times that distance (as the stitch decides). The body holds either
+//! piece, so a piece that went to a neighbour's cluster is found from its other piece's
+//! body. A piece with two candidate continuations, or continuing two pieces, joins none.
+//! Skin moves a marker in its body's frame slowly: on the hard preset's unlabeled captures
+//! (seeds 20001..20020, a throwaway print of every body's best candidate) the true
+//! continuation started 0.18 (median) of the way to the nearest marker from where its piece
+//! ended, a wrong best candidate 4.7; over seeds 20001..20050 and 30001..30050 one of the
+//! 1834 groups joined is wrong.
+//!
+//! It does not join pieces that share a frame, or pieces no body of ≥ 3 poses at both ends.
+
+use std::collections::{BTreeMap, BTreeSet};
+
+use mocap_io::{MISSING, Trajectories};
+
+use crate::glitch::runs;
+use crate::pairstats::PairStats;
+use crate::reassign::{Pose, PosedGroup, posed_group, stride_of};
+use crate::segmentation::{Glitch, LabelSwap, Segmentation, UnassignedMarker, with_positions};
+
+/// Seconds at each piece's end over which its position in a body's frame is averaged.
+const WINDOW_SECONDS: f64 = 0.5;
+/// A continuation starts within this share of the distance from the ended piece to the
+/// body's nearest marker seen with it (capped at the marker spacing) of where it ended.
+const MATCH_SHARE: f64 = 0.5;
+/// No rival continuation starts within this many times the chosen one's distance.
+const RIVAL_FACTOR: f64 = 2.0;
+
+/// First and last frame a track is seen in.
+fn span(traj: &Trajectories, m: usize) -> Option<(usize, usize)> {
+    let first = (0..traj.frames()).find(|&f| traj.get(f, m).is_some())?;
+    let last = (0..traj.frames())
+        .rev()
+        .find(|&f| traj.get(f, m).is_some())?;
+    Some((first, last))
+}
+
+/// Marker `m`'s mean position in a body's frame over the posed strided frames of `frames`
+/// in which it is seen; `None` when there are none.
+fn local_mean(
+    traj: &Trajectories,
+    poses: &[Option<Pose>],
+    stride: usize,
+    m: usize,
+    frames: std::ops::RangeInclusive<usize>,
+) -> Option<[f64; 3]> {
+    let mut sum = [0.0; 3];
+    let mut count = 0usize;
+    for f in frames.filter(|f| f % stride == 0) {
+        let (Some(pose), Some(x)) = (poses.get(f / stride).copied().flatten(), traj.get(f, m))
+        else {
+            continue;
+        };
+        let d = [x[0] - pose.t[0], x[1] - pose.t[1], x[2] - pose.t[2]];
+        for (i, s) in sum.iter_mut().enumerate() {
+            *s += (0..3).map(|j| pose.r[j][i] * d[j]).sum::<f64>();
+        }
+        count += 1;
+    }
+    (count > 0).then(|| sum.map(|s| s / count as f64))
+}
+
+fn distance(a: [f64; 3], b: [f64; 3]) -> f64 {
+    ((a[0] - b[0]).powi(2) + (a[1] - b[1]).powi(2) + (a[2] - b[2]).powi(2)).sqrt()
+}
+
+/// Groups of tracks that are pieces of one marker's trajectory (each ascending, ≥ 2, never
+/// seen together), by the rule in the module docs; tracks `fixed` marks are left alone.
+pub(crate) fn find_pieces(
+    traj: &Trajectories,
+    stats: &PairStats,
+    clusters: &[Vec<usize>],
+    fixed: &[bool],
+) -> Vec<Vec<usize>> {
+    let Some(spacing_mm) = traj.marker_spacing_mm() else {
+        return Vec::new();
+    };
+    let frames = traj.frames();
+    let window = ((WINDOW_SECONDS * traj.frame_rate()).round() as usize).max(1);
+    let stride = stride_of(traj);
+    let spans: Vec<Option<(usize, usize)>> = (0..traj.markers())
+        .map(|m| span(traj, m).filter(|_| !fixed.get(m).copied().unwrap_or(true)))
+        .collect();
+    let head = |m: usize| spans[m].map(|(first, _)| first..=(first + window).min(frames - 1));
+    let tail = |m: usize| spans[m].map(|(_, last)| last.saturating_sub(window)..=last);
+    // (earlier piece, later piece)
+    let mut joins: BTreeSet<(usize, usize)> = BTreeSet::new();
+    for c in clusters.iter().filter(|c| c.len() >= 3) {
+        let Some((members, PosedGroup { shape, poses })) = posable_body(traj, stats, c) else {
+            continue;
+        };
+        // Every track's mean place in this body over its first and its last window.
+        let at = |m: usize, frames: Option<std::ops::RangeInclusive<usize>>| {
+            local_mean(traj, &poses, stride, m, frames?)
+        };
+        let starts: Vec<Option<[f64; 3]>> = (0..spans.len()).map(|m| at(m, head(m))).collect();
+        let ends: Vec<Option<[f64; 3]>> = (0..spans.len()).map(|m| at(m, tail(m))).collect();
+        for &k in c {
+            let Some((first_k, last_k)) = spans[k] else {
+                continue;
+            };
+            // How far this marker sits from its body's nearest marker seen with it.
+            let nearest = |x: [f64; 3]| {
+                members
+                    .iter()
+                    .zip(&shape)
+                    .filter(|&(&m, _)| m != k && stats.overlap[stats.at(k, m)] > 0)
+                    .map(|(_, s)| distance(*s, x))
+                    .fold(spacing_mm, f64::min)
+            };
+            // k's continuation, then what k continues; a rival is any other candidate but
+            // a later (earlier) piece of the chosen one's marker.
+            if let Some(end) = ends[k] {
+                let candidates: Vec<(usize, f64)> = (0..spans.len())
+                    .filter(|&m| spans[m].is_some_and(|(first, _)| first > last_k))
+                    .filter_map(|m| Some((m, distance(starts[m]?, end))))
+                    .collect();
+                let after = |r: usize, p: usize| match (spans[r], spans[p]) {
+                    (Some((first, _)), Some((_, last))) => first > last,
+                    _ => false,
+                };
+                if let Some(p) = continuation(&candidates, nearest(end), after) {
+                    joins.insert((k, p));
+                }
+            }
+            if let Some(start) = starts[k] {
+                let candidates: Vec<(usize, f64)> = (0..spans.len())
+                    .filter(|&m| spans[m].is_some_and(|(_, last)| last < first_k))
+                    .filter_map(|m| Some((m, distance(ends[m]?, start))))
+                    .collect();
+                let before = |r: usize, q: usize| match (spans[r], spans[q]) {
+                    (Some((_, last)), Some((first, _))) => last < first,
+                    _ => false,
+                };
+                if let Some(q) = continuation(&candidates, nearest(start), before) {
+                    joins.insert((q, k));
+                }
+            }
+        }
+    }
+    chains(&joins)
+}
+
+/// The cluster posed as one rigid body (its members, their reference shape and the poses
+/// per strided frame), without the fewest seen of the tracks never seen with some other
+/// member, one at a time, while that leaves no shape (two pieces of one marker with fewer
+/// than three partners seen with both) and ≥ 3 members.
+fn posable_body(
+    traj: &Trajectories,
+    stats: &PairStats,
+    cluster: &[usize],
+) -> Option<(Vec<usize>, PosedGroup)> {
+    let mut members = cluster.to_vec();
+    while members.len() >= 3 {
+        if let Some(posed) = posed_group(traj, &members) {
+            return Some((members, posed));
+        }
+        let apart = |m: usize| {
+            members
+                .iter()
+                .any(|&o| stats.overlap[stats.at(m, o)] == 0 && o != m)
+        };
+        let drop = members
+            .iter()
+            .copied()
+            .filter(|&m| apart(m))
+            .min_by_key(|&m| (stats.visible[m], m))?;
+        members.retain(|&m| m != drop);
+    }
+    None
+}
+
+/// The nearest of `candidates` (track, distance in mm), when within [`MATCH_SHARE`] ×
+/// `scale_mm` and no rival is within [`RIVAL_FACTOR`] times as far; `same_marker(r, c)`:
+/// whether `r` may be another piece of the chosen `c`'s marker, and so no rival.
+fn continuation(
+    candidates: &[(usize, f64)],
+    scale_mm: f64,
+    same_marker: impl Fn(usize, usize) -> bool,
+) -> Option<usize> {
+    let &(chosen, d) = candidates.iter().min_by(|a, b| a.1.total_cmp(&b.1))?;
+    let rival = candidates
+        .iter()
+        .filter(|&&(r, _)| r != chosen && !same_marker(r, chosen))
+        .map(|&(_, e)| e)
+        .fold(f64::INFINITY, f64::min);
+    (d <= MATCH_SHARE * scale_mm && rival >= RIVAL_FACTOR * d).then_some(chosen)
+}
+
+/// Joins in chains: a piece with two continuations, or continuing two, is in none.
+fn chains(joins: &BTreeSet<(usize, usize)>) -> Vec<Vec<usize>> {
+    let mut next: BTreeMap<usize, Vec<usize>> = BTreeMap::new();
+    let mut prev: BTreeMap<usize, Vec<usize>> = BTreeMap::new();
+    for &(a, b) in joins {
+        next.entry(a).or_default().push(b);
+        prev.entry(b).or_default().push(a);
+    }
+    let sure = |a: usize, b: usize| next[&a].len() == 1 && prev[&b].len() == 1;
+    let mut groups: Vec<Vec<usize>> = Vec::new();
+    for &(a, _) in joins {
+        // Chains start at a piece nothing surely continues.
+        if prev.get(&a).is_some_and(|p| p.len() == 1 && sure(p[0], a)) {
+            continue;
+        }
+        let mut group = vec![a];
+        let mut at = a;
+        while let Some(&[b]) = next.get(&at).map(Vec::as_slice) {
+            if !sure(at, b) {
+                break;
+            }
+            group.push(b);
+            at = b;
+        }
+        if group.len() >= 2 {
+            group.sort_unstable();
+            groups.push(group);
+        }
+    }
+    groups.sort_unstable();
+    groups.dedup();
+    groups
+}
+
+/// `traj` with each group's pieces in its first track (the smallest index) and the others
+/// empty: what segmentation reads once the pieces are joined.
+pub(crate) fn joined(traj: &Trajectories, groups: &[Vec<usize>]) -> Trajectories {
+    let n = traj.markers();
+    let mut positions = traj.positions().to_vec();
+    for group in groups {
+        let Some((&kept, pieces)) = group.split_first() else {
+            continue;
+        };
+        for frame in positions.chunks_exact_mut(n.max(1)) {
+            for &p in pieces {
+                if mocap_io::is_present(frame[p]) {
+                    frame[kept] = frame[p];
+                    frame[p] = MISSING;
+                }
+            }
+        }
+    }
+    with_positions(traj, positions)
+}
+
+/// Puts the segmentation of [`joined`]`(traj, groups)` back on `traj`'s tracks: each piece
+/// goes where its group's first track went (segment, near-joint part, or unassigned with
+/// that track's reason), and the glitches and swaps found on the joined track go to the
+/// piece seen in their frames. The per-marker diagnostics are the caller's to redo.
+pub(crate) fn spread_back(seg: &mut Segmentation, traj: &Trajectories, groups: &[Vec<usize>]) {
+    // Which track holds each joined track's sample in a frame.
+    let owner = |m: usize, f: usize| -> usize {
+        groups
+            .iter()
+            .find(|g| g[0] == m)
+            .and_then(|g| g.iter().copied().find(|&p| traj.get(f, p).is_some()))
+            .unwrap_or(m)
+    };
+    let mut placed: BTreeMap<usize, usize> = BTreeMap::new();
+    for group in groups {
+        for &p in &group[1..] {
+            placed.insert(p, group[0]);
+        }
+    }
+    for s in &mut seg.segments {
+        let pieces: Vec<usize> = placed
+            .iter()
+            .filter(|&(_, kept)| s.markers.contains(kept))
+            .map(|(&p, _)| p)
+            .collect();
+        s.markers.extend(pieces);
+        s.markers.sort_unstable();
+    }
+    for near in &mut seg.near_joints {
+        for part in &mut near.parts {
+            let pieces: Vec<usize> = placed
+                .iter()
+                .filter(|&(_, kept)| part.contains(kept))
+                .map(|(&p, _)| p)
+                .collect();
+            part.extend(pieces);
+            part.sort_unstable();
+        }
+    }
+    let label = |m: usize| seg.labels.get(m).cloned().unwrap_or_else(|| m.to_string());
+    let mut unassigned: Vec<UnassignedMarker> = seg
+        .unassigned
+        .iter()
+        .filter(|u| !placed.contains_key(&u.marker))
+        .cloned()
+        .collect();
+    for (&p, &kept) in &placed {
+        if let Some(u) = seg.unassigned.iter().find(|u| u.marker == kept) {
+            unassigned.push(UnassignedMarker {
+                marker: p,
+                reason: format!("a piece of {}'s trajectory: {}", label(kept), u.reason),
+            });
+        }
+    }
+    unassigned.sort_by_key(|u| u.marker);
+    seg.unassigned = unassigned;
+    let mut glitches: BTreeMap<usize, Vec<usize>> = BTreeMap::new();
+    for g in &seg.glitches {
+        for &[first, last] in &g.frames {
+            for f in first..=last {
+                glitches.entry(owner(g.marker, f)).or_default().push(f);
+            }
+        }
+    }
+    seg.glitches = glitches
+        .into_iter()
+        .map(|(marker, frames)| Glitch {
+            marker,
+            frames: runs(&frames),
+        })
+        .collect();
+    let mut swaps: BTreeMap<[usize; 2], Vec<usize>> = BTreeMap::new();
+    for s in &seg.swaps {
+        let [a, b] = s.markers;
+        for &[first, last] in &s.frames {
+            for f in first..=last {
+                swaps.entry([owner(a, f), owner(b, f)]).or_default().push(f);
+            }
+        }
+    }
+    seg.swaps = swaps
+        .into_iter()
+        .map(|(markers, frames)| LabelSwap {
+            markers,
+            frames: runs(&frames),
+        })
+        .collect();
+    // Pieces an inner round joined, by their tracks here.
+    let mut all: Vec<Vec<usize>> = groups.to_vec();
+    for inner in std::mem::take(&mut seg.pieces) {
+        match all.iter_mut().find(|g| inner.iter().any(|m| g.contains(m))) {
+            Some(g) => {
+                g.extend(inner);
+                g.sort_unstable();
+                g.dedup();
+            }
+            None => all.push(inner),
+        }
+    }
+    all.sort_unstable();
+    seg.pieces = all;
+}
+
+#[cfg(test)]
+mod tests {
+    use super::{find_pieces, joined};
+    use crate::pairstats::pair_stats;
+    use crate::testscene::{CHILD, PARENT, cut_at_gap, skin_hinged_capture};
+    use mocap_io::Trajectories;
+
+    /// Parent markers 0–3 and child markers 4–7 hinged ±30° under 6 mm of skin, marker `a`
+    /// cut over frames 120..300 (1.8 s at 100 Hz, past the reader's stitch) and marker `b`
+    /// over `b_gap`: the later pieces are markers 8 and 9.
+    fn two_cuts(a: usize, b: usize, b_gap: std::ops::Range<usize>, seed: u64) -> Trajectories {
+        let traj = skin_hinged_capture(&PARENT, &CHILD, 30.0, 6.0, seed);
+        cut_at_gap(&cut_at_gap(&traj, a, 120..300), b, b_gap)
+    }
+
+    fn found(traj: &Trajectories, clusters: &[Vec<usize>]) -> Vec<Vec<usize>> {
+        find_pieces(
+            traj,
+            &pair_stats(traj),
+            clusters,
+            &vec![false; traj.markers()],
+        )
+    }
+
+    /// Each later piece joins its marker's earlier one, in its own body's cluster or,
+    /// found from the earlier piece's body, in the neighbour's.
+    #[test]
+    fn pieces_join_the_marker_their_body_carries_them_to() {
+        let side = |m: usize| usize::from(m >= 4);
+        for seed in 1..=3 {
+            for (a, b, b_gap) in [(1, 6, 200..330), (5, 2, 200..330), (0, 3, 310..360)] {
+                let traj = two_cuts(a, b, b_gap, seed);
+                let mut clusters = vec![vec![0, 1, 2, 3], vec![4, 5, 6, 7]];
+                clusters[side(a)].push(8);
+                clusters[side(b)].push(9);
+                let mut expected = vec![vec![a, 8], vec![b, 9]];
+                expected.sort_unstable();
+                assert_eq!(found(&traj, &clusters), expected, "seed {seed}, {a} {b}");
+            }
+            for a in [1, 5] {
+                let traj = cut_at_gap(
+                    &skin_hinged_capture(&PARENT, &CHILD, 30.0, 6.0, seed),
+                    a,
+                    120..300,
+                );
+                let mut astray = vec![vec![0, 1, 2, 3], vec![4, 5, 6, 7]];
+                astray[1 - side(a)].push(8);
+                assert_eq!(
+                    found(&traj, &astray),
+                    vec![vec![a, 8]],
+                    "seed {seed}, {a} astray"
+                );
+            }
+        }
+    }
+
+    /// A later piece of another marker is no continuation: with marker 5's later piece gone,
+    /// marker 6's (cut over the same frames) joins 6, not 5 (a child of five markers, so
+    /// the body holding the piece is posed: 5 and the piece have three partners seen with
+    /// both).
+    #[test]
+    fn a_piece_of_another_marker_does_not_join() {
+        let mut child = CHILD.to_vec();
+        child.push([0.0, -20.0, -150.0]);
+        for seed in 1..=3 {
+            let traj = skin_hinged_capture(&PARENT, &child, 30.0, 6.0, seed);
+            let mut cut = cut_at_gap(&cut_at_gap(&traj, 5, 120..300), 6, 120..300);
+            // Marker 5's later piece (9) never seen.
+            let n = cut.markers();
+            let mut positions = cut.positions().to_vec();
+            positions
+                .iter_mut()
+                .skip(9)
+                .step_by(n)
+                .for_each(|p| *p = [f64::NAN; 3]);
+            cut = Trajectories::new(cut.labels().to_vec(), 100.0, 1, cut.frames(), positions)
+                .expect("same shape");
+            let clusters = vec![vec![0, 1, 2, 3], vec![4, 5, 6, 7, 8, 10]];
+            assert_eq!(found(&cut, &clusters), vec![vec![6, 10]], "seed {seed}");
+        }
+    }
+
+    /// Joining moves each piece's samples into the group's first track and leaves the rest
+    /// empty.
+    #[test]
+    fn joined_pieces_are_one_track() {
+        let traj = two_cuts(1, 6, 200..330, 1);
+        let one = joined(&traj, &[vec![1, 8]]);
+        for f in 0..traj.frames() {
+            let piece = traj.get(f, 1).or(traj.get(f, 8));
+            assert_eq!(one.get(f, 1), piece, "frame {f}");
+            assert_eq!(one.get(f, 8), None, "frame {f}");
+            assert_eq!(one.get(f, 6), traj.get(f, 6), "frame {f}");
+        }
+    }
+}
