@@ -394,7 +394,10 @@ fn segment_capture(
             for g in &again.glitches {
                 glitch_frames[g.marker] += g.frames.iter().map(|[a, b]| b + 1 - a).sum::<usize>();
             }
+            // Each piece's own diagnostics: the capture as read, its pieces apart.
+            let pieces = std::mem::take(&mut again.pieces);
             let stats = pair_stats(&again.repaired(raw));
+            again.pieces = pieces;
             again.markers = marker_diagnostics(&stats, &glitch_frames, &again.segments, params);
             return Ok(again);
         }

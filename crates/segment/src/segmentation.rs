@@ -52,7 +52,7 @@ pub struct Segmentation {
     pub named_segments: Vec<usize>,
     /// Tracks read as pieces of one marker's trajectory (each ascending, never seen
     /// together; `Params::join_pieces`): segmented as one marker, each piece in its
-    /// marker's segment.
+    /// marker's segment; later stages read them joined (see [`Segmentation::repaired`]).
     #[serde(default)]
     pub pieces: Vec<Vec<usize>>,
 }
@@ -145,10 +145,11 @@ impl Segmentation {
     }
 
     /// The capture's trajectories as segmentation read them: every label swap undone, then
-    /// every glitch sample missing; borrowed unchanged when there is neither. Markers or
+    /// every glitch sample missing, then each group of pieces of one marker in its first
+    /// track (the others left empty); borrowed unchanged when there is none of these. Markers or
     /// frames out of the capture's range are left alone.
     pub fn repaired<'a>(&self, traj: &'a Trajectories) -> Cow<'a, Trajectories> {
-        if self.swaps.is_empty() && self.glitches.is_empty() {
+        if self.swaps.is_empty() && self.glitches.is_empty() && self.pieces.is_empty() {
             return Cow::Borrowed(traj);
         }
         let (n, frames) = (traj.markers(), traj.frames());
@@ -157,6 +158,19 @@ impl Segmentation {
             for &[first, last] in &glitch.frames {
                 for f in (first..=last).take_while(|&f| f < frames) {
                     positions[f * n + glitch.marker] = MISSING;
+                }
+            }
+        }
+        for group in self.pieces.iter().filter(|g| g.iter().all(|&m| m < n)) {
+            let Some((&kept, pieces)) = group.split_first() else {
+                continue;
+            };
+            for frame in positions.chunks_exact_mut(n.max(1)) {
+                for &p in pieces {
+                    if mocap_io::is_present(frame[p]) {
+                        frame[kept] = frame[p];
+                        frame[p] = MISSING;
+                    }
                 }
             }
         }

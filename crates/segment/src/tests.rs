@@ -1538,7 +1538,8 @@ fn pieces_of_markers_go_to_the_bodies_they_are_rigid_with() {
 
 /// An unlabeled capture's pieces of one marker, cut past the reader's stitch (1.8 and
 /// 1.3 s), are one marker to segmentation: each piece goes to its marker's segment, is
-/// listed in `pieces`, and keeps its own diagnostics; with `join_pieces` off none is listed.
+/// listed in `pieces`, keeps its own diagnostics and reaches later stages joined to its
+/// marker's first track; with `join_pieces` off none is listed.
 #[test]
 fn pieces_of_a_marker_are_segmented_as_one() {
     use crate::testscene::{CHILD, PARENT, cut_at_gap, skin_hinged_capture};
@@ -1569,6 +1570,12 @@ fn pieces_of_a_marker_are_segmented_as_one() {
             seg.markers[8].rigidity_residual_mm.is_finite(),
             "seed {seed}"
         );
+        // Later stages read each marker's pieces as its first track.
+        let read = seg.repaired(&cut);
+        for f in 0..cut.frames() {
+            assert_eq!(read.get(f, 1), cut.get(f, 1).or(cut.get(f, 8)), "frame {f}");
+            assert_eq!(read.get(f, 8), None, "frame {f}");
+        }
         let off = Params {
             join_pieces: false,
             ..Params::default()
