@@ -22,12 +22,14 @@
 
 use std::collections::{BTreeMap, BTreeSet};
 
-use mocap_io::{MISSING, Trajectories};
+use mocap_io::Trajectories;
 
 use crate::glitch::runs;
 use crate::pairstats::PairStats;
 use crate::reassign::{Pose, PosedGroup, posed_group, stride_of};
-use crate::segmentation::{Glitch, LabelSwap, Segmentation, UnassignedMarker, with_positions};
+use crate::segmentation::{
+    Glitch, LabelSwap, Segmentation, UnassignedMarker, join_pieces, with_positions,
+};
 
 /// Seconds at each piece's end over which its position in a body's frame is averaged.
 const WINDOW_SECONDS: f64 = 0.5;
@@ -232,24 +234,31 @@ fn chains(joins: &BTreeSet<(usize, usize)>) -> Vec<Vec<usize>> {
     groups
 }
 
+/// Adds the frames of `ranges` (`[first, last]`, inclusive) to `into` under the key `key`
+/// gives each frame, as ranges again.
+fn by_owner<K: Ord>(
+    into: &mut BTreeMap<K, Vec<[usize; 2]>>,
+    ranges: &[[usize; 2]],
+    key: impl Fn(usize) -> K,
+) {
+    let mut frames: BTreeMap<K, Vec<usize>> = BTreeMap::new();
+    for &[first, last] in ranges {
+        for f in first..=last {
+            frames.entry(key(f)).or_default().push(f);
+        }
+    }
+    for (k, frames) in frames {
+        let held = into.entry(k).or_default();
+        held.extend(runs(&frames));
+        held.sort_unstable();
+    }
+}
+
 /// `traj` with each group's pieces in its first track (the smallest index) and the others
 /// empty: what segmentation reads once the pieces are joined.
 pub(crate) fn joined(traj: &Trajectories, groups: &[Vec<usize>]) -> Trajectories {
-    let n = traj.markers();
     let mut positions = traj.positions().to_vec();
-    for group in groups {
-        let Some((&kept, pieces)) = group.split_first() else {
-            continue;
-        };
-        for frame in positions.chunks_exact_mut(n.max(1)) {
-            for &p in pieces {
-                if mocap_io::is_present(frame[p]) {
-                    frame[kept] = frame[p];
-                    frame[p] = MISSING;
-                }
-            }
-        }
-    }
+    join_pieces(&mut positions, traj.markers(), groups);
     with_positions(traj, positions)
 }
 
@@ -272,26 +281,23 @@ pub(crate) fn spread_back(seg: &mut Segmentation, traj: &Trajectories, groups: &
             placed.insert(p, group[0]);
         }
     }
-    for s in &mut seg.segments {
+    // A list of markers takes the pieces of the marker tracks it holds.
+    let with_pieces = |markers: &mut Vec<usize>| {
         let pieces: Vec<usize> = placed
             .iter()
-            .filter(|&(_, kept)| s.markers.contains(kept))
+            .filter(|&(_, kept)| markers.contains(kept))
             .map(|(&p, _)| p)
             .collect();
-        s.markers.extend(pieces);
-        s.markers.sort_unstable();
-    }
-    for near in &mut seg.near_joints {
-        for part in &mut near.parts {
-            let pieces: Vec<usize> = placed
-                .iter()
-                .filter(|&(_, kept)| part.contains(kept))
-                .map(|(&p, _)| p)
-                .collect();
-            part.extend(pieces);
-            part.sort_unstable();
-        }
-    }
+        markers.extend(pieces);
+        markers.sort_unstable();
+    };
+    seg.segments
+        .iter_mut()
+        .for_each(|s| with_pieces(&mut s.markers));
+    seg.near_joints
+        .iter_mut()
+        .flat_map(|near| near.parts.iter_mut())
+        .for_each(with_pieces);
     let label = |m: usize| seg.labels.get(m).cloned().unwrap_or_else(|| m.to_string());
     let mut unassigned: Vec<UnassignedMarker> = seg
         .unassigned
@@ -309,36 +315,22 @@ pub(crate) fn spread_back(seg: &mut Segmentation, traj: &Trajectories, groups: &
     }
     unassigned.sort_by_key(|u| u.marker);
     seg.unassigned = unassigned;
-    let mut glitches: BTreeMap<usize, Vec<usize>> = BTreeMap::new();
+    let mut glitches = BTreeMap::new();
     for g in &seg.glitches {
-        for &[first, last] in &g.frames {
-            for f in first..=last {
-                glitches.entry(owner(g.marker, f)).or_default().push(f);
-            }
-        }
+        by_owner(&mut glitches, &g.frames, |f| owner(g.marker, f));
     }
     seg.glitches = glitches
         .into_iter()
-        .map(|(marker, frames)| Glitch {
-            marker,
-            frames: runs(&frames),
-        })
+        .map(|(marker, frames)| Glitch { marker, frames })
         .collect();
-    let mut swaps: BTreeMap<[usize; 2], Vec<usize>> = BTreeMap::new();
+    let mut swaps = BTreeMap::new();
     for s in &seg.swaps {
         let [a, b] = s.markers;
-        for &[first, last] in &s.frames {
-            for f in first..=last {
-                swaps.entry([owner(a, f), owner(b, f)]).or_default().push(f);
-            }
-        }
+        by_owner(&mut swaps, &s.frames, |f| [owner(a, f), owner(b, f)]);
     }
     seg.swaps = swaps
         .into_iter()
-        .map(|(markers, frames)| LabelSwap {
-            markers,
-            frames: runs(&frames),
-        })
+        .map(|(markers, frames)| LabelSwap { markers, frames })
         .collect();
     // Pieces an inner round joined, by their tracks here.
     let mut all: Vec<Vec<usize>> = groups.to_vec();
@@ -358,9 +350,11 @@ pub(crate) fn spread_back(seg: &mut Segmentation, traj: &Trajectories, groups: &
 
 #[cfg(test)]
 mod tests {
-    use super::{find_pieces, joined};
+    use super::{find_pieces, joined, spread_back};
     use crate::pairstats::pair_stats;
+    use crate::segmentation::{Glitch, LabelSwap};
     use crate::testscene::{CHILD, PARENT, cut_at_gap, skin_hinged_capture};
+    use crate::{Params, run};
     use mocap_io::Trajectories;
 
     /// Parent markers 0–3 and child markers 4–7 hinged ±30° under 6 mm of skin, marker `a`
@@ -436,6 +430,68 @@ mod tests {
             let clusters = vec![vec![0, 1, 2, 3], vec![4, 5, 6, 7, 8, 10]];
             assert_eq!(found(&cut, &clusters), vec![vec![6, 10]], "seed {seed}");
         }
+    }
+
+    /// The segmentation of the joined capture, put back: the piece goes to its marker's
+    /// segment, and a glitch or swap on the joined track to the piece seen in its frames.
+    #[test]
+    fn a_joined_segmentation_goes_back_to_the_pieces() {
+        let traj = cut_at_gap(
+            &skin_hinged_capture(&PARENT, &CHILD, 30.0, 6.0, 1),
+            1,
+            120..300,
+        );
+        let groups = vec![vec![1, 8]];
+        let plain = Params {
+            join_pieces: false,
+            ..Params::default()
+        };
+        let mut seg = run(&joined(&traj, &groups), &plain).expect("segments");
+        assert!(
+            seg.unassigned.iter().any(|u| u.marker == 8),
+            "{:?}",
+            seg.unassigned
+        );
+        seg.glitches = vec![Glitch {
+            marker: 1,
+            frames: vec![[110, 119], [310, 312]],
+        }];
+        seg.swaps = vec![LabelSwap {
+            markers: [1, 5],
+            frames: vec![[100, 119], [300, 304]],
+        }];
+        spread_back(&mut seg, &traj, &groups);
+        let groups_found: Vec<Vec<usize>> =
+            seg.segments.iter().map(|s| s.markers.clone()).collect();
+        assert_eq!(groups_found, vec![vec![0, 1, 2, 3, 8], vec![4, 5, 6, 7]]);
+        assert!(seg.unassigned.is_empty(), "{:?}", seg.unassigned);
+        assert_eq!(
+            seg.glitches,
+            vec![
+                Glitch {
+                    marker: 1,
+                    frames: vec![[110, 119]]
+                },
+                Glitch {
+                    marker: 8,
+                    frames: vec![[310, 312]]
+                },
+            ]
+        );
+        assert_eq!(
+            seg.swaps,
+            vec![
+                LabelSwap {
+                    markers: [1, 5],
+                    frames: vec![[100, 119]]
+                },
+                LabelSwap {
+                    markers: [8, 5],
+                    frames: vec![[300, 304]]
+                },
+            ]
+        );
+        assert_eq!(seg.pieces, groups);
     }
 
     /// Joining moves each piece's samples into the group's first track and leaves the rest

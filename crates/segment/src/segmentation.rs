@@ -161,20 +161,26 @@ impl Segmentation {
                 }
             }
         }
-        for group in self.pieces.iter().filter(|g| g.iter().all(|&m| m < n)) {
-            let Some((&kept, pieces)) = group.split_first() else {
-                continue;
-            };
-            for frame in positions.chunks_exact_mut(n.max(1)) {
-                for &p in pieces {
-                    if mocap_io::is_present(frame[p]) {
-                        frame[kept] = frame[p];
-                        frame[p] = MISSING;
-                    }
+        join_pieces(&mut positions, n, &self.pieces);
+        Cow::Owned(with_positions(traj, positions))
+    }
+}
+
+/// Moves each group's samples (frame-major `positions` of `n` markers) into its first track
+/// and leaves the others empty; groups naming a marker out of range are left alone.
+pub(crate) fn join_pieces(positions: &mut [[f64; 3]], n: usize, groups: &[Vec<usize>]) {
+    for group in groups.iter().filter(|g| g.iter().all(|&m| m < n)) {
+        let Some((&kept, pieces)) = group.split_first() else {
+            continue;
+        };
+        for frame in positions.chunks_exact_mut(n.max(1)) {
+            for &p in pieces {
+                if mocap_io::is_present(frame[p]) {
+                    frame[kept] = frame[p];
+                    frame[p] = MISSING;
                 }
             }
         }
-        Cow::Owned(with_positions(traj, positions))
     }
 }
 
