@@ -1,11 +1,12 @@
 //! Per-frame rigid poses of every segment against a reference shape.
 //!
 //! Reference shape: the marker positions in the first frame where most of the segment's
-//! markers are visible, then replaced by the mean shape in the local frame (every frame
-//! aligned to that first reference by Horn's method, each marker averaged over the frames
-//! where it is visible), so markers hidden in the reference frame still get a reference
-//! position and one frame's noise does not define the body. Local frame: origin at the
-//! reference centroid, axes = global axes at the reference frame.
+//! markers are visible (of those, the one whose markers are seen longest: a marker in
+//! pieces never seen together), then replaced by the mean shape in the local frame
+//! (every frame aligned to that first reference by Horn's method, each marker averaged
+//! over the frames where it is visible), so markers hidden in the reference frame still
+//! get a reference position and one frame's noise does not define the body. Local frame:
+//! origin at the reference centroid, axes = global axes at the reference frame.
 
 use glam::{DMat3, DQuat, DVec3};
 use mocap_io::Trajectories;
@@ -172,17 +173,30 @@ pub(crate) fn fit_shape(
 ) -> Shape {
     let mut spread = Spread::fixed(rules.min_spread_mm);
     let visible = |f: usize| (0..count).filter(|&k| point(f, k).is_some()).count();
-    // First frame with the most visible points.
+    // First frame with the most visible points; among those, the first whose points are
+    // seen longest: a point missing there gets a place only from frames posed without it,
+    // and a segment of an unlabeled capture's pieces (a marker's later piece is never seen
+    // with its earlier one) would otherwise be posed only while its shortest piece lasts.
+    let seen: Vec<usize> = (0..count)
+        .map(|k| (0..frames).filter(|&f| point(f, k).is_some()).count())
+        .collect();
+    let seen_in = |f: usize| -> usize {
+        (0..count)
+            .filter(|&k| point(f, k).is_some())
+            .map(|k| seen[k])
+            .sum()
+    };
     let mut ref_frame = None;
-    let mut best = 0;
+    let (mut best, mut best_seen) = (0, 0);
     for f in 0..frames {
         let v = visible(f);
-        if v > best {
-            best = v;
+        if v < best || v == 0 {
+            continue;
+        }
+        let s = seen_in(f);
+        if v > best || s > best_seen {
+            (best, best_seen) = (v, s);
             ref_frame = Some(f);
-            if v == count {
-                break;
-            }
         }
     }
     let mut reference: Vec<DVec3> = match ref_frame {
@@ -1010,6 +1024,39 @@ mod tests {
             assert!(sp.rms_mm[f] < 0.3);
         }
         assert_eq!(known, frames - 10 - 17);
+    }
+
+    /// A segment of three markers, one of them in two pieces never seen together (an
+    /// unlabeled capture's: 30 frames, then 150): posed in the longer piece's frames, not
+    /// only the first piece's (the reference frame holds the longer piece; the shorter one
+    /// is never seen with three placed markers).
+    #[test]
+    fn a_marker_in_pieces_poses_its_segment_while_the_longer_piece_lasts() {
+        let mut rng = TestRng(17);
+        let local = [
+            DVec3::new(60.0, 0.0, 0.0),
+            DVec3::new(-30.0, 50.0, 0.0),
+            DVec3::new(-30.0, -50.0, 10.0),
+        ];
+        let frames = 200;
+        let mut positions = Vec::new();
+        for f in 0..frames {
+            let (q, t) = (rng.rotation(), rng.vec3(500.0));
+            let at = |k: usize| (q * local[k] + t).to_array();
+            // Tracks: markers 1 and 2, then marker 0's first piece (frames 0..30) and its
+            // second (50..200).
+            positions.extend([
+                at(1),
+                at(2),
+                if f < 30 { at(0) } else { mocap_io::MISSING },
+                if f >= 50 { at(0) } else { mocap_io::MISSING },
+            ]);
+        }
+        let labels = ["B", "C", "A", "A~1"].map(String::from).to_vec();
+        let traj = Trajectories::new(labels, 100.0, 1, frames, positions).unwrap();
+        let sp = segment_poses(&traj, 0, &[0, 1, 2, 3], rules());
+        let posed = pose_track(&sp).iter().filter(|p| p.is_some()).count();
+        assert_eq!(posed, 150, "{:?}", sp.reference);
     }
 
     #[test]
