@@ -173,32 +173,39 @@ pub(crate) fn fit_shape(
 ) -> Shape {
     let mut spread = Spread::fixed(rules.min_spread_mm);
     let visible = |f: usize| (0..count).filter(|&k| point(f, k).is_some()).count();
-    // First frame with the most visible points; among those, the first whose points are
-    // seen longest: a point missing there gets a place only from frames posed without it,
-    // and a segment of an unlabeled capture's pieces (a marker's later piece is never seen
-    // with its earlier one) would otherwise be posed only while its shortest piece lasts.
-    let seen: Vec<usize> = (0..count)
-        .map(|k| (0..frames).filter(|&f| point(f, k).is_some()).count())
-        .collect();
-    let seen_in = |f: usize| -> usize {
-        (0..count)
-            .filter(|&k| point(f, k).is_some())
-            .map(|k| seen[k])
-            .sum()
+    // The first frame seeing every point; else, of the frames seeing most, the first whose
+    // points are seen longest: a point missing there gets a place only from frames posed
+    // without it, and a segment of an unlabeled capture's pieces (a marker's later piece is
+    // never seen with its earlier one) would otherwise be posed only while its shortest
+    // piece lasts.
+    let (ref_frame, best) = match (0..frames).find(|&f| count > 0 && visible(f) == count) {
+        Some(f) => (Some(f), count),
+        None => {
+            let seen: Vec<usize> = (0..count)
+                .map(|k| (0..frames).filter(|&f| point(f, k).is_some()).count())
+                .collect();
+            let seen_in = |f: usize| -> usize {
+                (0..count)
+                    .filter(|&k| point(f, k).is_some())
+                    .map(|k| seen[k])
+                    .sum()
+            };
+            let mut ref_frame = None;
+            let (mut best, mut best_seen) = (0, 0);
+            for f in 0..frames {
+                let v = visible(f);
+                if v < best || v == 0 {
+                    continue;
+                }
+                let s = seen_in(f);
+                if v > best || s > best_seen {
+                    (best, best_seen) = (v, s);
+                    ref_frame = Some(f);
+                }
+            }
+            (ref_frame, best)
+        }
     };
-    let mut ref_frame = None;
-    let (mut best, mut best_seen) = (0, 0);
-    for f in 0..frames {
-        let v = visible(f);
-        if v < best || v == 0 {
-            continue;
-        }
-        let s = seen_in(f);
-        if v > best || s > best_seen {
-            (best, best_seen) = (v, s);
-            ref_frame = Some(f);
-        }
-    }
     let mut reference: Vec<DVec3> = match ref_frame {
         Some(f) => (0..count)
             .map(|k| point(f, k).unwrap_or(DVec3::NAN))

@@ -168,7 +168,7 @@ fn pair_medians(traj: &Trajectories, min_overlap: usize) -> PairMedians {
 }
 
 /// Distance between two samples, mm (NaN when either is missing).
-fn distance(a: [f64; 3], b: [f64; 3]) -> f64 {
+pub(crate) fn distance(a: [f64; 3], b: [f64; 3]) -> f64 {
     ((a[0] - b[0]).powi(2) + (a[1] - b[1]).powi(2) + (a[2] - b[2]).powi(2)).sqrt()
 }
 

@@ -395,9 +395,7 @@ fn segment_capture(
                 glitch_frames[g.marker] += g.frames.iter().map(|[a, b]| b + 1 - a).sum::<usize>();
             }
             // Each piece's own diagnostics: the capture as read, its pieces apart.
-            let pieces = std::mem::take(&mut again.pieces);
-            let stats = pair_stats(&again.repaired(raw));
-            again.pieces = pieces;
+            let stats = pair_stats(&again.repaired_apart(raw));
             again.markers = marker_diagnostics(&stats, &glitch_frames, &again.segments, params);
             return Ok(again);
         }

@@ -24,7 +24,7 @@ use std::collections::{BTreeMap, BTreeSet};
 
 use mocap_io::Trajectories;
 
-use crate::glitch::runs;
+use crate::glitch::{distance, runs};
 use crate::pairstats::PairStats;
 use crate::reassign::{Pose, PosedGroup, posed_group, stride_of};
 use crate::segmentation::{
@@ -64,17 +64,13 @@ fn local_mean(
         else {
             continue;
         };
-        let d = [x[0] - pose.t[0], x[1] - pose.t[1], x[2] - pose.t[2]];
-        for (i, s) in sum.iter_mut().enumerate() {
-            *s += (0..3).map(|j| pose.r[j][i] * d[j]).sum::<f64>();
+        let local = pose.local(x);
+        for (s, l) in sum.iter_mut().zip(local) {
+            *s += l;
         }
         count += 1;
     }
     (count > 0).then(|| sum.map(|s| s / count as f64))
-}
-
-fn distance(a: [f64; 3], b: [f64; 3]) -> f64 {
-    ((a[0] - b[0]).powi(2) + (a[1] - b[1]).powi(2) + (a[2] - b[2]).powi(2)).sqrt()
 }
 
 /// Groups of tracks that are pieces of one marker's trajectory (each ascending, ≥ 2, never

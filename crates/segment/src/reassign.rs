@@ -37,6 +37,14 @@ pub(crate) struct Pose {
     pub t: [f64; 3],
 }
 
+impl Pose {
+    /// `x` (global, mm) in the body's frame: Rᵀ (x − t).
+    pub(crate) fn local(&self, x: [f64; 3]) -> [f64; 3] {
+        let d = [x[0] - self.t[0], x[1] - self.t[1], x[2] - self.t[2]];
+        std::array::from_fn(|i| (0..3).map(|j| self.r[j][i] * d[j]).sum())
+    }
+}
+
 /// A cluster posed as one rigid body: its reference shape (segment-local, mm; the
 /// handedness that fits) and its pose per strided frame (`None` with < 3 visible markers).
 struct Body {
@@ -298,11 +306,7 @@ pub(crate) fn locals_in(
             if !mocap_io::is_present(x) {
                 return None;
             }
-            let d = [x[0] - pose.t[0], x[1] - pose.t[1], x[2] - pose.t[2]];
-            // Rᵀ · d: into the body's frame.
-            Some(std::array::from_fn(|i| {
-                (0..3).map(|j| pose.r[j][i] * d[j]).sum()
-            }))
+            Some(pose.local(x))
         })
         .collect()
 }

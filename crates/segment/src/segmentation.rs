@@ -152,6 +152,18 @@ impl Segmentation {
         if self.swaps.is_empty() && self.glitches.is_empty() && self.pieces.is_empty() {
             return Cow::Borrowed(traj);
         }
+        let mut positions = self.unswapped_unglitched(traj);
+        join_pieces(&mut positions, traj.markers(), &self.pieces);
+        Cow::Owned(with_positions(traj, positions))
+    }
+
+    /// As [`Segmentation::repaired`], with each piece of one marker left in its own track.
+    pub(crate) fn repaired_apart(&self, traj: &Trajectories) -> Trajectories {
+        with_positions(traj, self.unswapped_unglitched(traj))
+    }
+
+    /// `traj`'s samples with every label swap undone and every glitch sample missing.
+    fn unswapped_unglitched(&self, traj: &Trajectories) -> Vec<[f64; 3]> {
         let (n, frames) = (traj.markers(), traj.frames());
         let mut positions = untangled_positions(traj, &self.swaps);
         for glitch in self.glitches.iter().filter(|g| g.marker < n) {
@@ -161,8 +173,7 @@ impl Segmentation {
                 }
             }
         }
-        join_pieces(&mut positions, n, &self.pieces);
-        Cow::Owned(with_positions(traj, positions))
+        positions
     }
 }
 
