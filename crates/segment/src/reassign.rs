@@ -16,7 +16,7 @@ use rayon::prelude::*;
 
 pub(crate) use crate::eigen4::rotation_matrix;
 use crate::eigen4::{det3, horn_matrix, largest_eigenpair4};
-use crate::fitsplit::{QUANTILE, median, median_distances, quantile, reference_shape};
+use crate::fitsplit::{QUANTILE, core_shape, median, median_distances, quantile, reference_shape};
 use crate::pairstats::PairStats;
 use crate::rigidity::{DONOR_KEEPS, rms_rho};
 
@@ -216,13 +216,22 @@ fn poses(
 
 impl Body {
     /// Poses `group` (≥ 3 markers with a reference shape) in every strided frame, with the
-    /// shape's handedness that fits better (MDS cannot tell a shape from its mirror image).
+    /// shape's handedness that fits better (MDS cannot tell a shape from its mirror image), or
+    /// on [`core_shape`] when it holds tracks never seen together.
     fn new(traj: &Trajectories, group: &[usize], stride: usize) -> Option<Self> {
         if group.len() < 3 {
             return None;
         }
         let dist = median_distances(traj, group);
         let all: Vec<usize> = (0..group.len()).collect();
+        if let Some(shape) = core_shape(traj, group, &dist, &all) {
+            let (poses, sum_sq, dof) = poses(traj, group, &shape, &all, stride);
+            return Some(Self {
+                shape,
+                poses,
+                var: sum_sq / dof.max(1.0),
+            });
+        }
         let shape = reference_shape(&dist, group.len(), &all)?;
         let mirrored: Vec<[f64; 3]> = shape.iter().map(|p| [-p[0], p[1], p[2]]).collect();
         let (a, sa, da) = poses(traj, group, &shape, &all, stride);
