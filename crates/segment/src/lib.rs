@@ -377,7 +377,8 @@ fn segment_capture(
         let fixed: Vec<bool> = (0..markers)
             .map(|m| named.iter().any(|g| g.contains(&m)))
             .collect();
-        let groups = pieces::find_pieces(traj, &stats, &clusters, &fixed);
+        let groups =
+            pieces::find_pieces(traj, &stats, &clusters, &fixed, (min_overlap, tolerance_mm));
         if !groups.is_empty() {
             let joined = pieces::joined(raw, &groups);
             // Joined tracks pose more bodies, which may carry more pieces.

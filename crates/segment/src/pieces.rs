@@ -11,14 +11,22 @@
 //! position of the later piece over its first, and no rival starts within
 //! [`RIVAL_FACTOR`] times that distance (as the stitch decides). The body holds either
 //! piece, so a piece that went to a neighbour's cluster is found from its other piece's
-//! body. A piece with two candidate continuations, or continuing two pieces, joins none.
+//! body. Where no pose carries a piece across (the body's other markers hidden or in
+//! pieces over the same stretch), a track never seen with a member joins it when it keeps
+//! the distances the body's shape puts that member from ≥ 2 of the others, rigidly
+//! ([`kept_distances`]). A piece with two candidate continuations, or continuing two
+//! pieces, joins none.
 //! Skin moves a marker in its body's frame slowly: on the hard preset's unlabeled captures
 //! (seeds 20001..20020, a throwaway print of every body's best candidate) the true
 //! continuation started 0.18 (median) of the way to the nearest marker from where its piece
 //! ended, a wrong best candidate 4.7; over seeds 20001..20050 and 30001..30050 one of the
-//! 1834 groups joined is wrong.
+//! 1885 groups the poses join is wrong, and with the distances 8 of 2484, each a marker's
+//! piece taken for another marker's of the same segment (at 2–3 markers per segment, 28
+//! of 1254, 8 of them across a joint: a cluster of two segments' few markers passes for a
+//! body there).
 //!
-//! It does not join pieces that share a frame, or pieces no body of ≥ 3 poses at both ends.
+//! It does not join pieces that share a frame, or pieces of a marker whose body of ≥ 3
+//! neither poses at both ends nor is seen with two of its markers along the other piece.
 
 use std::collections::{BTreeMap, BTreeSet};
 
@@ -80,6 +88,7 @@ pub(crate) fn find_pieces(
     stats: &PairStats,
     clusters: &[Vec<usize>],
     fixed: &[bool],
+    rigid: (usize, f64),
 ) -> Vec<Vec<usize>> {
     let Some(spacing_mm) = traj.marker_spacing_mm() else {
         return Vec::new();
@@ -94,6 +103,7 @@ pub(crate) fn find_pieces(
     let tail = |m: usize| spans[m].map(|(_, last)| last.saturating_sub(window)..=last);
     // (earlier piece, later piece)
     let mut joins: BTreeSet<(usize, usize)> = BTreeSet::new();
+    let mut by_distances: BTreeSet<(usize, usize)> = BTreeSet::new();
     for c in clusters.iter().filter(|c| c.len() >= 3) {
         let Some((members, PosedGroup { shape, poses })) = posable_body(traj, stats, c) else {
             continue;
@@ -146,9 +156,102 @@ pub(crate) fn find_pieces(
                 }
             }
         }
+        by_distances.extend(kept_distances(
+            stats, &members, &shape, &spans, spacing_mm, rigid,
+        ));
+    }
+    // A pose carries a piece across where it can; distances only join what it left apart.
+    for (a, b) in by_distances {
+        if !joins.iter().any(|&(x, y)| x == a || y == b) {
+            joins.insert((a, b));
+        }
     }
     chains(&joins)
 }
+
+/// Joins (earlier piece, later piece) of a body's member with a track never seen with it
+/// that keeps its distances to the member's place in the body's shape: for a body not
+/// posed at one end of a gap (its markers hidden or in pieces together), the track seen
+/// with ≥ [`DISTANCE_PARTNERS`] of the other members, rigidly to every member it is seen
+/// with (ρ within `rigid.1` over ≥ `rigid.0` frames; fewer frames rule it out) and at the distances the shape puts the member from them (RMS
+/// within [`MATCH_SHARE`] × the member's distance to its nearest neighbour in the shape,
+/// capped at `spacing_mm`), no other member as near within [`RIVAL_FACTOR`] times; of
+/// several such tracks on one side of the member, the nearest in time.
+fn kept_distances(
+    stats: &PairStats,
+    members: &[usize],
+    shape: &[[f64; 3]],
+    spans: &[Option<(usize, usize)>],
+    spacing_mm: f64,
+    (min_overlap, tolerance_mm): (usize, f64),
+) -> Vec<(usize, usize)> {
+    // RMS misfit of `c`'s distances as the member at `i`, when it qualifies.
+    let misfit = |c: usize, i: usize| -> Option<f64> {
+        let (mut sum, mut count) = (0.0, 0usize);
+        for (j, &x) in members.iter().enumerate() {
+            if j == i || stats.overlap[stats.at(c, x)] == 0 {
+                continue;
+            }
+            let rho = stats.rho(c, x, min_overlap)?;
+            if rho > tolerance_mm {
+                return None;
+            }
+            let d = stats.mean[stats.at(c, x)] - distance(shape[i], shape[j]);
+            sum += d * d;
+            count += 1;
+        }
+        (count >= DISTANCE_PARTNERS).then(|| (sum / count as f64).sqrt())
+    };
+    let apart = |a: usize, b: usize| stats.overlap[stats.at(a, b)] == 0;
+    let mut out = Vec::new();
+    for (i, &b) in members.iter().enumerate() {
+        let Some((first_b, last_b)) = spans[b] else {
+            continue;
+        };
+        let scale = members
+            .iter()
+            .enumerate()
+            .filter(|&(j, _)| j != i)
+            .map(|(j, _)| distance(shape[i], shape[j]))
+            .fold(spacing_mm, f64::min);
+        let mut after: Option<(usize, usize)> = None;
+        let mut before: Option<(usize, usize)> = None;
+        for c in (0..spans.len()).filter(|&c| !members.contains(&c) && apart(b, c)) {
+            let Some((first_c, last_c)) = spans[c] else {
+                continue;
+            };
+            if first_c <= last_b && last_c >= first_b {
+                continue;
+            }
+            let Some(fit) = misfit(c, i) else {
+                continue;
+            };
+            let rival = members
+                .iter()
+                .enumerate()
+                .filter(|&(j, &o)| j != i && apart(o, c))
+                .filter_map(|(j, _)| misfit(c, j))
+                .any(|other| other < RIVAL_FACTOR * fit);
+            if fit > MATCH_SHARE * scale || rival {
+                continue;
+            }
+            if first_c > last_b {
+                if after.is_none_or(|(first, _)| first_c < first) {
+                    after = Some((first_c, c));
+                }
+            } else if before.is_none_or(|(last, _)| last_c > last) {
+                before = Some((last_c, c));
+            }
+        }
+        out.extend(after.map(|(_, c)| (b, c)));
+        out.extend(before.map(|(_, c)| (c, b)));
+    }
+    out
+}
+
+/// Fewest of a body's members a track must be seen with to join a member by its distances:
+/// two fix it on a circle about their line, the member's place one point of it.
+const DISTANCE_PARTNERS: usize = 2;
 
 /// The cluster posed as one rigid body (its members, their reference shape and the poses
 /// per strided frame), without the fewest seen of the tracks never seen with some other
@@ -367,7 +470,38 @@ mod tests {
             &pair_stats(traj),
             clusters,
             &vec![false; traj.markers()],
+            (crate::Params::default().min_overlap_frames, 10.0),
         )
+    }
+
+    /// Two of a body's four markers hidden together (frames 120..260, past the reader's
+    /// stitch) come back as new tracks, so no three of its tracks are seen on both sides of
+    /// the gap and no pose carries a piece across: each later piece keeps the distances its
+    /// marker had to the two markers seen throughout, and joins it; the other pairing does
+    /// not fit.
+    #[test]
+    fn pieces_hidden_together_join_by_their_distances() {
+        for seed in 1..=3 {
+            for (a, b) in [(1, 2), (4, 6), (0, 3)] {
+                let traj = cut_at_gap(
+                    &cut_at_gap(
+                        &skin_hinged_capture(&PARENT, &CHILD, 30.0, 6.0, seed),
+                        a,
+                        120..260,
+                    ),
+                    b,
+                    120..260,
+                );
+                let side = usize::from(a >= 4);
+                let mut clusters = vec![vec![0, 1, 2, 3], vec![4, 5, 6, 7]];
+                clusters[side].extend([8, 9]);
+                assert_eq!(
+                    found(&traj, &clusters),
+                    vec![vec![a, 8], vec![b, 9]],
+                    "seed {seed}, {a} {b}"
+                );
+            }
+        }
     }
 
     /// Each later piece joins its marker's earlier one, in its own body's cluster or,
