@@ -281,7 +281,7 @@ fn residuals(traj: &Trajectories, group: &[usize], shape: &[[f64; 3]]) -> Vec<Fi
     traj.positions()
         .chunks_exact(traj.markers().max(1))
         .map(|frame| {
-            let k = seen_in(frame, group, shape, &mut p, &mut q, &mut [0; MAX_GROUP]);
+            let k = seen_in(frame, group, shape, &mut p, &mut q);
             if k < 2 {
                 return FitResidual::default();
             }
@@ -295,23 +295,21 @@ fn residuals(traj: &Trajectories, group: &[usize], shape: &[[f64; 3]]) -> Vec<Fi
 }
 
 /// Fills `p` with the shape points and `q` with the positions of the markers of `group`
-/// seen in `frame`, and `at` with their places in `group`; returns how many.
+/// seen in `frame`; returns how many.
 fn seen_in(
     frame: &[[f64; 3]],
     group: &[usize],
     shape: &[[f64; 3]],
     p: &mut [[f64; 3]; MAX_GROUP],
     q: &mut [[f64; 3]; MAX_GROUP],
-    at: &mut [usize; MAX_GROUP],
 ) -> usize {
     let mut k = 0;
-    for (a, &m) in group.iter().enumerate().take(MAX_GROUP) {
+    for (&m, &point) in group.iter().zip(shape).take(MAX_GROUP) {
         if let Some(&x) = frame.get(m)
             && mocap_io::is_present(x)
         {
-            p[k] = shape[a];
+            p[k] = point;
             q[k] = x;
-            at[k] = a;
             k += 1;
         }
     }
@@ -364,6 +362,7 @@ pub(crate) fn core_shape(
     if core.len() < 3 {
         return None;
     }
+    let placed: Vec<usize> = (0..k).filter(|a| !core.contains(a)).collect();
     let core_markers: Vec<usize> = core.iter().map(|&a| markers[a]).collect();
     let core_at: Vec<usize> = core.iter().map(|&a| group[a]).collect();
     let mds = reference_shape(dist, n, &core_at)?;
@@ -383,19 +382,12 @@ pub(crate) fn core_shape(
     let mut count = vec![0usize; k];
     let (mut p, mut q) = ([[0.0; 3]; MAX_GROUP], [[0.0; 3]; MAX_GROUP]);
     for frame in frames() {
-        let seen = seen_in(
-            frame,
-            &core_markers,
-            &core_shape,
-            &mut p,
-            &mut q,
-            &mut [0; MAX_GROUP],
-        );
+        let seen = seen_in(frame, &core_markers, &core_shape, &mut p, &mut q);
         if seen < 3 {
             continue;
         }
         let (pose, _) = horn(&p[..seen], &q[..seen]);
-        for a in (0..k).filter(|a| !core.contains(a)) {
+        for &a in &placed {
             if let Some(&x) = frame.get(markers[a])
                 && mocap_io::is_present(x)
             {
@@ -409,7 +401,7 @@ pub(crate) fn core_shape(
     for (&a, &point) in core.iter().zip(&core_shape) {
         shape[a] = point;
     }
-    for a in (0..k).filter(|a| !core.contains(a)) {
+    for &a in &placed {
         if count[a] == 0 {
             return None;
         }
