@@ -14,7 +14,7 @@ use rayon::prelude::*;
 use crate::eigen::symmetric_eigen;
 use crate::eigen4::{horn_matrix, largest_eigenvalue4};
 use crate::pairstats::PairStats;
-use crate::reassign::horn;
+use crate::reassign::{Pose, horn, locals_in};
 use crate::rigidity::{merge_best_pairs, rms_rho};
 
 /// Largest cluster whose bipartitions are all tried (2^(n−1) candidates).
@@ -378,34 +378,27 @@ pub(crate) fn core_shape(
     } else {
         mirrored
     };
-    let mut sum = vec![[0.0; 3]; k];
-    let mut count = vec![0usize; k];
     let (mut p, mut q) = ([[0.0; 3]; MAX_GROUP], [[0.0; 3]; MAX_GROUP]);
-    for frame in frames() {
-        let seen = seen_in(frame, &core_markers, &core_shape, &mut p, &mut q);
-        if seen < 3 {
-            continue;
-        }
-        let (pose, _) = horn(&p[..seen], &q[..seen]);
-        for &a in &placed {
-            if let Some(&x) = frame.get(markers[a])
-                && mocap_io::is_present(x)
-            {
-                let local = pose.local(x);
-                (0..3).for_each(|c| sum[a][c] += local[c]);
-                count[a] += 1;
-            }
-        }
-    }
+    let poses: Vec<Option<Pose>> = frames()
+        .map(|frame| {
+            let seen = seen_in(frame, &core_markers, &core_shape, &mut p, &mut q);
+            (seen >= 3).then(|| horn(&p[..seen], &q[..seen]).0)
+        })
+        .collect();
     let mut shape = vec![[0.0; 3]; k];
     for (&a, &point) in core.iter().zip(&core_shape) {
         shape[a] = point;
     }
     for &a in &placed {
-        if count[a] == 0 {
+        let locals = locals_in(traj, &poses, markers[a], 1);
+        if locals.is_empty() {
             return None;
         }
-        shape[a] = sum[a].map(|v| v / count[a] as f64);
+        let mut sum = [0.0; 3];
+        for local in &locals {
+            (0..3).for_each(|c| sum[c] += local[c]);
+        }
+        shape[a] = sum.map(|v| v / locals.len() as f64);
     }
     Some(shape)
 }
