@@ -87,8 +87,9 @@ pub struct Args {
     pub true_segments: bool,
     /// Give the reader each trial as an unlabeled reconstruction would: every marker cut
     /// at each of its gaps into a track of its own, shuffled, so what `mocap-io.stitch`
-    /// joins back is measured (`--compare mocap-io.stitch=true,false`). Scoring reads a
-    /// marker's first piece under the marker's label, later ones as `LABEL~K`.
+    /// joins back is measured (`--compare mocap-io.stitch=true,false`). A marker's first
+    /// piece keeps its label, later ones are named `LABEL~K`; scoring reads each segment's
+    /// pieces as their markers, each once.
     #[arg(long)]
     pub unlabeled: bool,
 }
@@ -466,8 +467,11 @@ fn evaluate(
         .as_ref()
         .and_then(|o| o.files.get("skeleton.json"))
         .ok_or_else(|| anyhow!("export wrote no skeleton.json"))?;
-    let estimate: synth::score::Estimate = serde_json::from_slice(json_bytes)
+    let mut estimate: synth::score::Estimate = serde_json::from_slice(json_bytes)
         .context("skeleton.json does not parse as an Estimate")?;
+    if matches!(given, Given::Unlabeled | Given::UnlabeledTrueSegments) {
+        pieces_as_their_markers(&mut estimate);
+    }
     let score = synth::score::score(&trial.truth, &estimate);
     fill_from_score(result, &score);
     let listed: Vec<usize> = products.segmentation.as_ref().map_or_else(Vec::new, |s| {
@@ -536,6 +540,23 @@ fn evaluate(
             .collect();
     }
     Ok(())
+}
+
+/// Names each estimated segment's tracks after their markers (`LABEL~K` → `LABEL`), each
+/// marker once: an unlabeled trial's segment is scored by the markers it holds, however
+/// many pieces each came in (as a labelled capture's would be), so a segment of later
+/// pieces only is the segment they are on, not an unknown one.
+fn pieces_as_their_markers(estimate: &mut synth::score::Estimate) {
+    for segment in &mut estimate.segments {
+        let mut markers: Vec<String> = Vec::with_capacity(segment.markers.len());
+        for label in &segment.markers {
+            let marker = label.split('~').next().unwrap_or(label);
+            if !markers.iter().any(|m| m == marker) {
+                markers.push(marker.to_owned());
+            }
+        }
+        segment.markers = markers;
+    }
 }
 
 /// The true segment most of an estimated segment's markers are on (ties to the lower
@@ -1307,6 +1328,32 @@ fn seed_list(items: &[String]) -> Result<Vec<u64>> {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn a_segment_of_later_pieces_is_scored_as_its_markers_segment() {
+        let trial = synth::generate(&SynthConfig {
+            subject: Subject::Snake,
+            frames: 60,
+            seed: 11,
+            ..SynthConfig::default()
+        })
+        .unwrap();
+        let truth = &trial.truth;
+        let mut estimate = synth::score::Estimate::from_truth(truth);
+        // Segment 1 holds only its markers' later pieces, its first marker in two.
+        let pieces = &mut estimate.segments[1].markers;
+        let first = pieces[0].clone();
+        for label in pieces.iter_mut() {
+            label.push_str("~1");
+        }
+        pieces.push(format!("{first}~2"));
+        let before = synth::score::score(truth, &estimate);
+        assert!(!before.topology_exact, "{before:?}");
+        pieces_as_their_markers(&mut estimate);
+        assert_eq!(estimate.segments[1].markers, truth.segments[1].markers);
+        let after = synth::score::score(truth, &estimate);
+        assert!(after.topology_exact && after.ari == 1.0, "{after:?}");
+    }
 
     #[test]
     fn extra_joints_are_named_by_the_true_segments_they_join() {
