@@ -66,6 +66,9 @@
 //! cluster of ≤ 4 markers (skin's piece at a joint, some markers from each side, or a piece
 //! of one segment) shared out between two of its nearest clusters, where the two bodies pass
 //! the joint test and fit almost as well as the three did (`regroup_ratio`; see `regroup`).
+//! Then a track that keeps its distances to its cluster and to another alike, seen only
+//! while the two held still against each other, is left out: which it is on, the data
+//! cannot say (`leave_out_undecided`; see `undecided`).
 //! Last, each group the user names (`groups`, by label) becomes a segment of exactly its
 //! markers, taken out of the segments found: what the data cannot decide, the person who
 //! put the markers on can. A segment of ≥ 6 markers whose best cut came near the joint
@@ -101,6 +104,7 @@ mod swing;
 mod tests;
 #[cfg(test)]
 mod testscene;
+mod undecided;
 
 pub use error::Error;
 pub use jointsplit::JointEvidence;
@@ -627,6 +631,20 @@ fn segment_capture(
             &mut clusters,
             test,
             params.regroup_ratio,
+        );
+    }
+    if params.leave_out_undecided {
+        let fixed: Vec<bool> = (0..markers)
+            .map(|m| named.iter().any(|g| g.contains(&m)))
+            .collect();
+        undecided::leave_out_undecided(
+            traj,
+            &stats,
+            &mut clusters,
+            &mut unassigned,
+            &fixed,
+            tolerance_mm,
+            min_overlap,
         );
     }
     named::apply(

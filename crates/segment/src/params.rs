@@ -168,6 +168,8 @@ pub struct Params {
     pub repair_swaps: bool,
     /// Join pieces of one marker's trajectory a body carries across their gap, and segment again.
     pub join_pieces: bool,
+    /// Last, a track rigid with its own cluster and as rigid with another, seen only while the two moved against each other less than a third as much as over the capture, is left out: the data cannot tell which it is on.
+    pub leave_out_undecided: bool,
     /// A sample is a glitch (a gap to segmentation) when most of its marker's steadiest partners are off by more than this × their robust scatter; 0 = off.
     pub glitch_factor: f64,
     /// A segment the joint test left whole is reported as maybe two (`Segmentation::near_joints`) when its best cut scores this fraction of joint_split_z or joint_travel_z; 0 = off.
@@ -270,6 +272,7 @@ impl Default for Params {
             join_small: true,
             repair_swaps: true,
             join_pieces: true,
+            leave_out_undecided: true,
             glitch_factor: 8.0,
             near_joint_fraction: default_near_joint_fraction(),
             groups: Vec::new(),
@@ -468,6 +471,10 @@ pub const PARAM_DOCS: &[(&str, &str)] = &[
     (
         "join_pieces",
         "after the reassignment, tracks that are pieces of one marker's trajectory (an unlabeled capture's, which the reader's stitch left apart: a gap over a second, or a rival near) are joined where a body of >= 3 markers holding either carries one's end to the other's start: the later piece's mean position in the body's frame over its first 0.5 s lies within half the way to the body's nearest marker seen with the earlier piece (at most the marker spacing) of the earlier piece's over its last 0.5 s, with no rival within twice that (see the pieces module); a track with two such continuations, or continuing two, joins none. The capture is then segmented again with each group as one marker (up to 4 rounds: joined tracks pose more bodies) and each piece put in its marker's segment (the artifact's pieces, skeleton.json's piece_of); jointfit and bonefit read each group as its first track. A labelled capture has nothing to join: cargo xtask eval --presets hard --seeds 20001..20050,30001..30050 scores every trial as before, and every real capture's skeleton is unchanged; with --unlabeled, 473 -> 497/700 exact trees, 1.6027 -> 1.5004 % of height, known 99.92 -> 99.93 %, the suite's time 136 s before, 138 and 151 s in two runs after (493 trees and 1.5331 % with the later stages reading the pieces apart); of the 1834 groups joined there (3761 tracks) one is wrong (a marker's first piece taken with another's third). Where no pose carries a piece across (a segment's other markers hidden or in pieces over the same stretch), a track never seen with a body's member joins it when seen with >= 2 of the body's other markers, rigidly (rho within the rigidity tolerance), at the distances the body's shape puts that member from them (RMS within half its distance to its nearest neighbour in the shape), no other member within twice that, no other track seen with it fitting too: with --unlabeled 530 -> 555 trees, 1.4256 -> 1.3897 %, known 99.95 -> 99.99 %, 7 of 2483 groups wrong (1 of 1885 without), each a marker's piece taken for another's of its segment; with --markers 2:3 --unlabeled 168 -> 228 trees, 3.6998 -> 3.4015 %, 25 of 1245 wrong (4 of 272 without), 5 across a joint. Looked for after the whole segmentation instead, one round: 488 trees at 1.9 x the time; after the reassignment, one round: 488; default true",
+    ),
+    (
+        "leave_out_undecided",
+        "last (before the user's groups), a track is left out, unassigned with the reason, when it keeps its distance (rho within the rigidity tolerance, over >= min_overlap_frames) to every marker of its cluster it was seen with, and to every marker of another cluster it was seen with no worse (its largest rho there within its largest to its own; at least one of each), while over the frames it was seen the two clusters moved against each other by less than a third of what they do over the capture (the RMS ratio of each cross pair's rho over those frames to its rho over all its frames): seen only while the two held still against each other, it could be on either, and in the wrong one it poses that segment wrongly while it is seen (an unlabeled capture's short piece; a marker hidden most of the time). Rigid with two clusters that did turn against each other while it was seen, it sits at their joint and stays. A cluster keeps at least two markers; the user's groups are left alone. cargo xtask eval --presets hard --seeds 20001..20050,30001..30050 --markers 2:3 --unlabeled: 229 -> 245/700 exact trees (+16 -0), 3.3956 -> 3.2896 % of height, known 96.52 -> 96.49 %; --unlabeled 554 both, 1.3887 -> 1.3888 %; labelled at 3-6 and 2-3 markers every trial the same, every real capture's skeleton.json unchanged; default true",
     ),
     (
         "eject_ratio",
