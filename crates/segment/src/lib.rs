@@ -66,9 +66,10 @@
 //! cluster of ≤ 4 markers (skin's piece at a joint, some markers from each side, or a piece
 //! of one segment) shared out between two of its nearest clusters, where the two bodies pass
 //! the joint test and fit almost as well as the three did (`regroup_ratio`; see `regroup`).
-//! Then a track that keeps its distances to its cluster and to another alike, seen only
-//! while the two held still against each other, is left out: which it is on, the data
-//! cannot say (`leave_out_undecided`; see `undecided`).
+//! Then a track that keeps its distances to another cluster no worse than to its own, seen
+//! only while the two moved against each other less than a third as much as over the
+//! capture, is left out: which it is on, the data cannot say (`leave_out_undecided`; see
+//! `undecided`).
 //! Last, each group the user names (`groups`, by label) becomes a segment of exactly its
 //! markers, taken out of the segments found: what the data cannot decide, the person who
 //! put the markers on can. A segment of ≥ 6 markers whose best cut came near the joint

@@ -140,8 +140,9 @@ pub(crate) fn leave_out_undecided(
                 .join(", ")
         };
         let reason = format!(
-            "seen in {} frames, over which the markers {} and {} kept their distances to each \
-             other as to it: which segment it is on cannot be told",
+            "seen in {} frames, over which the markers {} and {} moved against each other \
+             less than a third as much as over the capture, and it kept its distances to \
+             both: which segment it is on cannot be told",
             stats.visible[t],
             name_of(own),
             name_of(other)
