@@ -1329,17 +1329,23 @@ fn seed_list(items: &[String]) -> Result<Vec<u64>> {
 mod tests {
     use super::*;
 
-    #[test]
-    fn a_segment_of_later_pieces_is_scored_as_its_markers_segment() {
+    /// A 60-frame trial of `subject` (seed 11) and the estimate that is its truth.
+    fn trial_and_its_truth(subject: Subject) -> (synth::Trial, synth::score::Estimate) {
         let trial = synth::generate(&SynthConfig {
-            subject: Subject::Snake,
+            subject,
             frames: 60,
             seed: 11,
             ..SynthConfig::default()
         })
         .unwrap();
+        let estimate = synth::score::Estimate::from_truth(&trial.truth);
+        (trial, estimate)
+    }
+
+    #[test]
+    fn a_segment_of_later_pieces_is_scored_as_its_markers_segment() {
+        let (trial, mut estimate) = trial_and_its_truth(Subject::Snake);
         let truth = &trial.truth;
-        let mut estimate = synth::score::Estimate::from_truth(truth);
         // Segment 1 holds only its markers' later pieces, its first marker in two.
         let pieces = &mut estimate.segments[1].markers;
         let first = pieces[0].clone();
@@ -1357,15 +1363,8 @@ mod tests {
 
     #[test]
     fn extra_joints_are_named_by_the_true_segments_they_join() {
-        let trial = synth::generate(&SynthConfig {
-            subject: Subject::Human,
-            frames: 60,
-            seed: 11,
-            ..SynthConfig::default()
-        })
-        .unwrap();
+        let (trial, mut estimate) = trial_and_its_truth(Subject::Human);
         let truth = &trial.truth;
-        let mut estimate = synth::score::Estimate::from_truth(truth);
         let score = synth::score::score(truth, &estimate);
         assert!(extra_joints(truth, &estimate, &score).is_empty());
         // Hang the left foot on the right thigh: no true joint matches that.
