@@ -123,32 +123,22 @@ fn an_unlabeled_capture_cut_at_every_gap_gives_the_labelled_skeleton() {
     // Without either joining (the reader's stitch, the segment stage's), the pieces make a
     // different, wrong skeleton. (With the segment stage's alone the tree comes out right
     // or one joint off, as its rules stand: not pinned here.)
-    let tree_without = |name: &str, sets: &[&str]| {
-        let out = tmp.path(name);
-        let cache = tmp.path(&format!("cache-{name}"));
-        let mut args = vec![
-            "run",
-            input.to_str().unwrap(),
-            "--out",
-            out.to_str().unwrap(),
-            "--cache",
-            cache.to_str().unwrap(),
-        ];
-        for set in sets {
-            args.extend(["--set", set]);
-        }
-        xtask_ok(&args);
-        let skeleton: serde_json::Value =
-            serde_json::from_slice(&std::fs::read(out.join("skeleton.json")).unwrap()).unwrap();
-        tree(&skeleton, &owner, &origin).1
-    };
-    assert_ne!(
-        tree_without(
-            "apart",
-            &["mocap-io.stitch=false", "segment.join_pieces=false"]
-        ),
-        truth
-    );
+    let apart = tmp.path("apart");
+    xtask_ok(&[
+        "run",
+        input.to_str().unwrap(),
+        "--out",
+        apart.to_str().unwrap(),
+        "--cache",
+        tmp.path("cache-apart").to_str().unwrap(),
+        "--set",
+        "mocap-io.stitch=false",
+        "--set",
+        "segment.join_pieces=false",
+    ]);
+    let skeleton: serde_json::Value =
+        serde_json::from_slice(&std::fs::read(apart.join("skeleton.json")).unwrap()).unwrap();
+    assert_ne!(tree(&skeleton, &owner, &origin).1, truth);
 }
 
 /// A deterministic stream of numbers in [0, 1) (a 64-bit LCG), for made-up occlusions.

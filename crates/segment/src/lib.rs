@@ -377,13 +377,18 @@ fn segment_capture(
     if params.reassign_ratio > 0.0 {
         settle(&mut clusters);
     }
+    // A marker the user named stays the track the user named, where it is.
+    let user_named: Vec<bool> = (0..markers)
+        .map(|m| named.iter().any(|g| g.contains(&m)))
+        .collect();
     if piece_rounds > 0 && params.join_pieces {
-        // A marker the user named stays the track the user named.
-        let fixed: Vec<bool> = (0..markers)
-            .map(|m| named.iter().any(|g| g.contains(&m)))
-            .collect();
-        let groups =
-            pieces::find_pieces(traj, &stats, &clusters, &fixed, (min_overlap, tolerance_mm));
+        let groups = pieces::find_pieces(
+            traj,
+            &stats,
+            &clusters,
+            &user_named,
+            (min_overlap, tolerance_mm),
+        );
         if !groups.is_empty() {
             let joined = pieces::joined(raw, &groups);
             // Joined tracks pose more bodies, which may carry more pieces.
@@ -635,15 +640,12 @@ fn segment_capture(
         );
     }
     if params.leave_out_undecided {
-        let fixed: Vec<bool> = (0..markers)
-            .map(|m| named.iter().any(|g| g.contains(&m)))
-            .collect();
         undecided::leave_out_undecided(
             traj,
             &stats,
             &mut clusters,
             &mut unassigned,
-            &fixed,
+            &user_named,
             tolerance_mm,
             min_overlap,
         );

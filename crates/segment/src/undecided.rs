@@ -26,11 +26,16 @@ use mocap_io::Trajectories;
 const WITNESSED_SHARE: f64 = 1.0 / 3.0;
 
 /// Distance standard deviation of markers `a` and `b` over the frames in which `t`, `a` and
-/// `b` are all seen, and the number of those frames.
-fn rho_while_seen(traj: &Trajectories, t: usize, a: usize, b: usize) -> (f64, usize) {
+/// `b` are all seen (`t` is seen only within `span`), and the number of those frames.
+fn rho_while_seen(
+    traj: &Trajectories,
+    (t, span): (usize, std::ops::RangeInclusive<usize>),
+    a: usize,
+    b: usize,
+) -> (f64, usize) {
     // Welford's running mean and sum of squared deviations: stable without a buffer.
     let (mut count, mut mean, mut m2) = (0usize, 0.0f64, 0.0f64);
-    for f in 0..traj.frames() {
+    for f in span {
         let (Some(_), Some(x), Some(y)) = (traj.get(f, t), traj.get(f, a), traj.get(f, b)) else {
             continue;
         };
@@ -74,6 +79,12 @@ fn undecided_against(
 ) -> Option<usize> {
     let own_group = &clusters[own];
     let own_rho = loosest_rho(stats, t, own_group, min_overlap).filter(|&r| r <= tol_mm)?;
+    // Only the frames from its first sighting to its last can see it.
+    let first = (0..traj.frames()).find(|&f| traj.get(f, t).is_some())?;
+    let last = (first..traj.frames())
+        .rev()
+        .find(|&f| traj.get(f, t).is_some())?;
+    let seen = first..=last;
     (0..clusters.len()).filter(|&r| r != own).find(|&r| {
         let other = &clusters[r];
         // Kept its distances to the other no worse than to its own: the clustering's choice
@@ -84,7 +95,7 @@ fn undecided_against(
         let (mut witnessed, mut overall) = (0.0, 0.0);
         for &a in own_group.iter().filter(|&&a| a != t) {
             for &b in other {
-                let (rho, frames) = rho_while_seen(traj, t, a, b);
+                let (rho, frames) = rho_while_seen(traj, (t, seen.clone()), a, b);
                 let Some(all) = stats.rho(a, b, min_overlap) else {
                     continue;
                 };
