@@ -14,8 +14,10 @@
 //! body. Where no pose carries a piece across (the body's other markers hidden or in
 //! pieces over the same stretch), a track never seen with a member joins it when it keeps
 //! the distances the body's shape puts that member from ≥ 2 of the others, rigidly
-//! ([`kept_distances`]). A piece with two candidate continuations, or continuing two
-//! pieces, joins none.
+//! ([`kept_distances`]). A cluster no three of whose tracks pose it (two markers, one or
+//! both in pieces) joins a later piece to an earlier one by the distances it keeps to the
+//! partners seen rigidly with both ([`partner_distances`]). A piece with two candidate
+//! continuations, or continuing two pieces, joins none.
 //! Skin moves a marker in its body's frame slowly: on the hard preset's unlabeled captures
 //! (seeds 20001..20020, a throwaway print of every body's best candidate) the true
 //! continuation started 0.18 (median) of the way to the nearest marker from where its piece
@@ -26,7 +28,8 @@
 //! body there).
 //!
 //! It does not join pieces that share a frame, or pieces of a marker whose body of ≥ 3
-//! neither poses at both ends nor is seen with two of its markers along the other piece.
+//! neither poses at both ends nor is seen with two of its markers along the other piece,
+//! or pieces of a two-marker body never seen with a common partner.
 
 use std::collections::{BTreeMap, BTreeSet};
 
@@ -106,6 +109,7 @@ pub(crate) fn find_pieces(
     let mut by_distances: BTreeSet<(usize, usize)> = BTreeSet::new();
     for c in clusters.iter().filter(|c| c.len() >= 3) {
         let Some((members, PosedGroup { shape, poses })) = posable_body(traj, stats, c) else {
+            by_distances.extend(partner_distances(stats, c, &spans, spacing_mm, rigid));
             continue;
         };
         // Every track's mean place in this body over its first and its last window.
@@ -256,6 +260,63 @@ fn kept_distances(
         };
         out.extend(nearest(&after).map(|c| (b, c)));
         out.extend(nearest(&before).map(|c| (c, b)));
+    }
+    out
+}
+
+/// Joins (earlier piece, later piece) of tracks of a cluster that no three of its tracks
+/// pose (two markers, one or both in pieces): the later piece, never seen with the earlier
+/// one, keeps to every partner seen rigidly with both (ρ within `rigid.1` over ≥ `rigid.0`
+/// frames; ≥ 1 partner) the earlier one's mean distance, RMS within [`MATCH_SHARE`] × the
+/// nearest such distance (capped at `spacing_mm`) and within `rigid.1`; of several such
+/// later pieces, the nearest in time, unless two of them are seen together.
+fn partner_distances(
+    stats: &PairStats,
+    cluster: &[usize],
+    spans: &[Option<(usize, usize)>],
+    spacing_mm: f64,
+    (min_overlap, tolerance_mm): (usize, f64),
+) -> Vec<(usize, usize)> {
+    let apart = |a: usize, b: usize| stats.overlap[stats.at(a, b)] == 0;
+    let rigid = |a: usize, b: usize| {
+        stats
+            .rho(a, b, min_overlap)
+            .is_some_and(|rho| rho <= tolerance_mm)
+    };
+    let mut out = Vec::new();
+    for &b in cluster {
+        let Some((_, last_b)) = spans[b] else {
+            continue;
+        };
+        let mut after: Vec<(usize, usize)> = Vec::new();
+        for &c in cluster.iter().filter(|&&c| c != b && apart(b, c)) {
+            let Some((first_c, _)) = spans[c] else {
+                continue;
+            };
+            if first_c <= last_b {
+                continue;
+            }
+            let (mut sum, mut count, mut scale) = (0.0, 0usize, spacing_mm);
+            for &x in cluster.iter().filter(|&&x| rigid(b, x) && rigid(c, x)) {
+                let (db, dc) = (stats.mean[stats.at(b, x)], stats.mean[stats.at(c, x)]);
+                sum += (dc - db) * (dc - db);
+                count += 1;
+                scale = scale.min(db);
+            }
+            if count == 0 {
+                continue;
+            }
+            let misfit = (sum / count as f64).sqrt();
+            if misfit <= (MATCH_SHARE * scale).min(tolerance_mm) {
+                after.push((first_c - last_b, c));
+            }
+        }
+        let clash = after
+            .iter()
+            .any(|&(_, c)| after.iter().any(|&(_, d)| c != d && !apart(c, d)));
+        if let Some(&(_, c)) = after.iter().min().filter(|_| !clash) {
+            out.push((b, c));
+        }
     }
     out
 }
@@ -512,6 +573,43 @@ mod tests {
                     "seed {seed}, {a} {b}"
                 );
             }
+        }
+    }
+
+    /// A body of two markers, one of them in pieces, has no three tracks to pose it: the
+    /// later piece joins its marker by the distance it keeps to the other marker. A track
+    /// at another place on the body, never seen with the first, keeps another distance to
+    /// it and does not join.
+    #[test]
+    fn a_two_marker_body_joins_its_pieces_by_the_distance_they_keep() {
+        for seed in 1..=3 {
+            // Parent markers 0 and 1, child 2–5; marker 1's later piece is 6.
+            let cut = cut_at_gap(
+                &skin_hinged_capture(&PARENT[..2], &CHILD, 30.0, 6.0, seed),
+                1,
+                120..300,
+            );
+            let clusters = [vec![0, 1, 6], vec![2, 3, 4, 5]];
+            assert_eq!(found(&cut, &clusters), vec![vec![1, 6]], "seed {seed}");
+            // Parent markers 0–2, marker 1 seen only before frame 120, marker 2 only from 300.
+            let three = skin_hinged_capture(&PARENT[..3], &CHILD, 30.0, 6.0, seed);
+            let n = three.markers();
+            let mut positions = three.positions().to_vec();
+            for (i, p) in positions.iter_mut().enumerate() {
+                let (f, m) = (i / n, i % n);
+                if (m == 1 && f >= 120) || (m == 2 && f < 300) {
+                    *p = [f64::NAN; 3];
+                }
+            }
+            let apart =
+                Trajectories::new(three.labels().to_vec(), 100.0, 1, three.frames(), positions)
+                    .expect("same shape");
+            let clusters = [vec![0, 1, 2], vec![3, 4, 5, 6]];
+            assert_eq!(
+                found(&apart, &clusters),
+                Vec::<Vec<usize>>::new(),
+                "seed {seed}"
+            );
         }
     }
 
