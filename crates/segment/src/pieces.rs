@@ -14,9 +14,9 @@
 //! body. Where no pose carries a piece across (the body's other markers hidden or in
 //! pieces over the same stretch), a track never seen with a member joins it when it keeps
 //! the distances the body's shape puts that member from ≥ 2 of the others, rigidly
-//! ([`kept_distances`]). A cluster no three of whose tracks pose it (two markers, one or
-//! both in pieces) joins a later piece to an earlier one by the distances it keeps to the
-//! partners seen rigidly with both ([`partner_distances`]). A piece with two candidate
+//! ([`kept_distances`]). A cluster of two markers' tracks (one or both in pieces, never
+//! more than two seen at once) joins a later piece to an earlier one by the distances it
+//! keeps to the partners seen rigidly with both ([`partner_distances`]). A piece with two candidate
 //! continuations, or continuing two pieces, joins none.
 //! Skin moves a marker in its body's frame slowly: on the hard preset's unlabeled captures
 //! (seeds 20001..20020, a throwaway print of every body's best candidate) the true
@@ -109,7 +109,13 @@ pub(crate) fn find_pieces(
     let mut by_distances: BTreeSet<(usize, usize)> = BTreeSet::new();
     for c in clusters.iter().filter(|c| c.len() >= 3) {
         let Some((members, PosedGroup { shape, poses })) = posable_body(traj, stats, c) else {
-            by_distances.extend(partner_distances(stats, c, &spans, spacing_mm, rigid));
+            // Only where the cluster is two markers' tracks: one partner's distance is a
+            // sphere of places, and a body of more markers has other tracks on it (c3d.org's
+            // Dance cut at gaps of 1.1–2.6 s, tests/it/unlabeled.rs: 3 → 5 wrong of 25).
+            let two_seen = |f: usize| c.iter().filter(|&&m| traj.get(f, m).is_some()).count();
+            if (0..frames).all(|f| two_seen(f) <= 2) {
+                by_distances.extend(partner_distances(stats, c, &spans, spacing_mm, rigid));
+            }
             continue;
         };
         // Every track's mean place in this body over its first and its last window.
@@ -264,10 +270,10 @@ fn kept_distances(
     out
 }
 
-/// Joins (earlier piece, later piece) of tracks of a cluster that no three of its tracks
-/// pose (two markers, one or both in pieces): the later piece, never seen with the earlier
-/// one, keeps to every partner seen rigidly with both (ρ within `rigid.1` over ≥ `rigid.0`
-/// frames; ≥ 1 partner) the earlier one's mean distance, RMS within [`MATCH_SHARE`] × the
+/// Joins (earlier piece, later piece) of tracks of a cluster of two markers' tracks (one or
+/// both in pieces, never more than two seen at once): the later piece, never seen with the
+/// earlier one, keeps to every partner seen rigidly with both (ρ within `rigid.1` over ≥
+/// `rigid.0` frames; ≥ 1 partner) the earlier one's mean distance, RMS within [`MATCH_SHARE`] × the
 /// nearest such distance (capped at `spacing_mm`) and within `rigid.1`; of several such
 /// later pieces, the nearest in time, unless two of them are seen together.
 fn partner_distances(
