@@ -4,6 +4,7 @@
 //! (`mocap-io.stitch`), and the skeleton is the labelled capture's.
 
 use std::collections::{BTreeMap, BTreeSet};
+use std::path::Path;
 
 use crate::support::{Scratch, xtask_ok};
 
@@ -190,6 +191,27 @@ fn occluded(
     .unwrap()
 }
 
+/// The capture at `path` read without stitching, hidden as `hide` hides it, cut at every gap
+/// into shuffled pieces named by `name` (see `synth::unlabeled`), written and read back
+/// with the reader's stitch: (the pieces, each piece's marker, the capture read back).
+fn cut_and_read_back(
+    tmp: &Scratch,
+    path: &Path,
+    hide: impl Fn(&mocap_io::Trajectories) -> mocap_io::Trajectories,
+    name: impl Fn(usize, &str, usize) -> String,
+) -> (mocap_io::Trajectories, Vec<usize>, mocap_io::Capture) {
+    let apart = mocap_io::ReadOptions {
+        stitch: false,
+        ..mocap_io::ReadOptions::default()
+    };
+    let labelled = mocap_io::read_capture(path, &apart).unwrap().trajectories;
+    let (pieces, marker_of) = synth::unlabeled(&hide(&labelled), 7, name);
+    let file = tmp.path("pieces.c3d");
+    mocap_io::write_c3d(&file, &pieces).unwrap();
+    let read = mocap_io::read_capture(&file, &mocap_io::ReadOptions::default()).unwrap();
+    (pieces, marker_of, read)
+}
+
 /// Joining pieces on real skin: real captures, each marker hidden 5–40 frames about every
 /// 2 s and cut at every gap, are joined back without a wrong join.
 #[test]
@@ -198,26 +220,18 @@ fn real_captures_cut_into_pieces_are_joined_without_a_wrong_join() {
         return;
     };
     let tmp = Scratch::new("unlabeled-real");
-    let apart = mocap_io::ReadOptions {
-        stitch: false,
-        ..mocap_io::ReadOptions::default()
-    };
     // (file, least share of the possible joins made: measured 36 of 40, 20 of 23, 21 of 26)
     for (path, least) in [
         ("c3d/cmu/02_01.c3d", 0.7),
         ("c3d/c3d.org/sample26/Walking_Hybrid_1_1.c3d", 0.6),
         ("c3d/c3d.org/sample00/Sample_Jump2.c3d", 0.55),
     ] {
-        let labelled = mocap_io::read_capture(&dir.join(path), &apart)
-            .unwrap()
-            .trajectories;
-        let (pieces, marker_of) =
-            synth::unlabeled(&occluded(&labelled, 2.0, (5, 41), 7), 7, |i, _, _| {
-                format!("*{i}")
-            });
-        let file = tmp.path("pieces.c3d");
-        mocap_io::write_c3d(&file, &pieces).unwrap();
-        let read = mocap_io::read_capture(&file, &mocap_io::ReadOptions::default()).unwrap();
+        let (pieces, marker_of, read) = cut_and_read_back(
+            &tmp,
+            &dir.join(path),
+            |t| occluded(t, 2.0, (5, 41), 7),
+            |i, _, _| format!("*{i}"),
+        );
         let piece = |label: &str| marker_of[label[1..].parse::<usize>().unwrap()];
         for joined in &read.info.stitched {
             let first = piece(&joined[0]);
@@ -247,21 +261,15 @@ fn a_real_capture_cut_past_the_stitch_is_joined_with_few_wrong_joins() {
         return;
     };
     let tmp = Scratch::new("unlabeled-long-gaps");
-    let apart = mocap_io::ReadOptions {
-        stitch: false,
-        ..mocap_io::ReadOptions::default()
-    };
-    let labelled = mocap_io::read_capture(&dir.join("c3d/c3d.org/sample13/Dance.c3d"), &apart)
-        .unwrap()
-        .trajectories;
-    let rate = labelled.frame_rate();
-    let gaps = ((1.1 * rate) as usize, (2.6 * rate) as usize);
-    let (pieces, _) = synth::unlabeled(&occluded(&labelled, 3.0, gaps, 11), 7, |_, l, k| {
-        format!("{l}~{k}")
-    });
-    let file = tmp.path("pieces.c3d");
-    mocap_io::write_c3d(&file, &pieces).unwrap();
-    let read = mocap_io::read_capture(&file, &mocap_io::ReadOptions::default()).unwrap();
+    let (_, _, read) = cut_and_read_back(
+        &tmp,
+        &dir.join("c3d/c3d.org/sample13/Dance.c3d"),
+        |t| {
+            let rate = t.frame_rate();
+            occluded(t, 3.0, ((1.1 * rate) as usize, (2.6 * rate) as usize), 11)
+        },
+        |_, label, k| format!("{label}~{k}"),
+    );
     let seg = segment::run(&read.trajectories, &segment::Params::default()).unwrap();
     let labels = read.trajectories.labels();
     let marker = |m: usize| {

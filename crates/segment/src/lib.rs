@@ -30,11 +30,11 @@
 //! one marker's trajectory the reader left apart (an unlabeled capture's tracks) are looked
 //! for: a body of ≥ 3 markers holding one carries its end to where the other starts, past
 //! any gap, and in a cluster of two markers the later piece keeps the earlier one's
-//! distance to the other (see `pieces`); any found are joined and the capture segmented again with each
-//! as one marker (up to four rounds), each piece then put in its marker's segment
-//! ([`Segmentation::pieces`], `join_pieces`). Then the joint
-//! test splits a cluster of ≥ 6 whose two best-fitting parts turn relative to each other
-//! beyond their own fits' rotation noise while one part's centroid moves in the other's
+//! distance to the other (see `pieces`); any found are joined and the capture segmented
+//! again with each as one marker (up to four rounds), each piece then put in its marker's
+//! segment ([`Segmentation::pieces`], `join_pieces`). Then the joint test splits a
+//! cluster of ≥ 6 whose two best-fitting parts turn relative to each other beyond their
+//! own fits' rotation noise while one part's centroid moves in the other's
 //! frame (`joint_rotation_travel_z`: a turn that carries no centroid is the parts' own
 //! spin, unless it is far beyond it, `joint_rotation_alone_z`), or where that centroid
 //! swings beyond what their fits allow (`joint_travel_z`: a part of three markers in line

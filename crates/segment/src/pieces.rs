@@ -16,8 +16,8 @@
 //! the distances the body's shape puts that member from ≥ 2 of the others, rigidly
 //! ([`kept_distances`]). A cluster of two markers' tracks (one or both in pieces, never
 //! more than two seen at once) joins a later piece to an earlier one by the distances it
-//! keeps to the partners seen rigidly with both ([`partner_distances`]). A piece with two candidate
-//! continuations, or continuing two pieces, joins none.
+//! keeps to the partners seen rigidly with both ([`partner_distances`]). A piece with two
+//! candidate continuations, or continuing two pieces, joins none.
 //! Skin moves a marker in its body's frame slowly: on the hard preset's unlabeled captures
 //! (seeds 20001..20020, a throwaway print of every body's best candidate) the true
 //! continuation started 0.18 (median) of the way to the nearest marker from where its piece
@@ -29,7 +29,8 @@
 //!
 //! It does not join pieces that share a frame, or pieces of a marker whose body of ≥ 3
 //! neither poses at both ends nor is seen with two of its markers along the other piece,
-//! or pieces of a two-marker body never seen with a common partner.
+//! or pieces of a two-marker body never seen with a common partner, or of a cluster that
+//! sees three tracks at once but no three pose.
 
 use std::collections::{BTreeMap, BTreeSet};
 
@@ -112,8 +113,8 @@ pub(crate) fn find_pieces(
             // Only where the cluster is two markers' tracks: one partner's distance is a
             // sphere of places, and a body of more markers has other tracks on it (c3d.org's
             // Dance cut at gaps of 1.1–2.6 s, tests/it/unlabeled.rs: 3 → 5 wrong of 25).
-            let two_seen = |f: usize| c.iter().filter(|&&m| traj.get(f, m).is_some()).count();
-            if (0..frames).all(|f| two_seen(f) <= 2) {
+            let seen_at = |f: usize| c.iter().filter(|&&m| traj.get(f, m).is_some()).count();
+            if (0..frames).all(|f| seen_at(f) <= 2) {
                 by_distances.extend(partner_distances(stats, c, &spans, spacing_mm, rigid));
             }
             continue;
@@ -273,9 +274,10 @@ fn kept_distances(
 /// Joins (earlier piece, later piece) of tracks of a cluster of two markers' tracks (one or
 /// both in pieces, never more than two seen at once): the later piece, never seen with the
 /// earlier one, keeps to every partner seen rigidly with both (ρ within `rigid.1` over ≥
-/// `rigid.0` frames; ≥ 1 partner) the earlier one's mean distance, RMS within [`MATCH_SHARE`] × the
-/// nearest such distance (capped at `spacing_mm`) and within `rigid.1`; of several such
-/// later pieces, the nearest in time, unless two of them are seen together.
+/// `rigid.0` frames; ≥ 1 partner) the earlier one's mean distance, RMS within
+/// [`MATCH_SHARE`] × the nearest such distance (capped at `spacing_mm`) and within
+/// `rigid.1`; of several such later pieces, the nearest in time, unless two of them are
+/// seen together.
 fn partner_distances(
     stats: &PairStats,
     cluster: &[usize],
