@@ -52,7 +52,7 @@ const MATCH_SHARE: f64 = 0.5;
 const RIVAL_FACTOR: f64 = 2.0;
 
 /// First and last frame a track is seen in.
-fn span(traj: &Trajectories, m: usize) -> Option<(usize, usize)> {
+pub(crate) fn span(traj: &Trajectories, m: usize) -> Option<(usize, usize)> {
     let first = (0..traj.frames()).find(|&f| traj.get(f, m).is_some())?;
     let last = (0..traj.frames())
         .rev()
@@ -256,19 +256,23 @@ fn kept_distances(
                 before.push((first_b - last_c, c));
             }
         }
-        // The nearest in time; but two fitting tracks seen together cannot both be the
-        // member, so then neither joins.
-        let nearest = |found: &[(usize, usize)]| {
-            let clash = found
-                .iter()
-                .any(|&(_, c)| found.iter().any(|&(_, d)| c != d && !apart(c, d)));
-            let first = found.iter().min().map(|&(_, c)| c);
-            first.filter(|_| !clash)
-        };
-        out.extend(nearest(&after).map(|c| (b, c)));
-        out.extend(nearest(&before).map(|c| (c, b)));
+        out.extend(nearest_in_time(&after, apart).map(|c| (b, c)));
+        out.extend(nearest_in_time(&before, apart).map(|c| (c, b)));
     }
     out
+}
+
+/// Of the tracks `found` to fit one piece (frames between them and it, track), the nearest
+/// in time; but two of them seen together (not `apart`) cannot both be it, so then none.
+fn nearest_in_time(
+    found: &[(usize, usize)],
+    apart: impl Fn(usize, usize) -> bool,
+) -> Option<usize> {
+    let clash = found
+        .iter()
+        .any(|&(_, c)| found.iter().any(|&(_, d)| c != d && !apart(c, d)));
+    let first = found.iter().min().map(|&(_, c)| c);
+    first.filter(|_| !clash)
 }
 
 /// Joins (earlier piece, later piece) of tracks of a cluster of two markers' tracks (one or
@@ -319,12 +323,7 @@ fn partner_distances(
                 after.push((first_c - last_b, c));
             }
         }
-        let clash = after
-            .iter()
-            .any(|&(_, c)| after.iter().any(|&(_, d)| c != d && !apart(c, d)));
-        if let Some(&(_, c)) = after.iter().min().filter(|_| !clash) {
-            out.push((b, c));
-        }
+        out.extend(nearest_in_time(&after, apart).map(|c| (b, c)));
     }
     out
 }

@@ -14,6 +14,7 @@
 
 use crate::glitch::distance;
 use crate::pairstats::PairStats;
+use crate::pieces::span;
 use crate::segmentation::UnassignedMarker;
 use mocap_io::Trajectories;
 
@@ -80,10 +81,7 @@ fn undecided_against(
     let own_group = &clusters[own];
     let own_rho = loosest_rho(stats, t, own_group, min_overlap).filter(|&r| r <= tol_mm)?;
     // Only the frames from its first sighting to its last can see it.
-    let first = (0..traj.frames()).find(|&f| traj.get(f, t).is_some())?;
-    let last = (first..traj.frames())
-        .rev()
-        .find(|&f| traj.get(f, t).is_some())?;
+    let (first, last) = span(traj, t)?;
     let seen = first..=last;
     (0..clusters.len()).filter(|&r| r != own).find(|&r| {
         let other = &clusters[r];
