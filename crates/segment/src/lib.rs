@@ -29,8 +29,9 @@
 //! own error) and moves where it is held clearly stiller (`reassign_ratio`). Then pieces of
 //! one marker's trajectory the reader left apart (an unlabeled capture's tracks) are looked
 //! for: a body of ≥ 3 markers holding one carries its end to where the other starts, past
-//! any gap, and in a cluster of two markers the later piece keeps the earlier one's
-//! distance to the other (see `pieces`); any found are joined and the capture segmented
+//! any gap, in a cluster of two markers the later piece keeps the earlier one's
+//! distance to the other, and where nothing else joins, a body hidden whole comes back
+//! as a body of its shape (see `pieces`); any found are joined and the capture segmented
 //! again with each as one marker (up to four rounds), each piece then put in its marker's
 //! segment ([`Segmentation::pieces`], `join_pieces`). Then the joint test splits a
 //! cluster of ≥ 6 whose two best-fitting parts turn relative to each other beyond their

@@ -17,7 +17,10 @@
 //! ([`kept_distances`]). A cluster of two markers' tracks (one or both in pieces, never
 //! more than two seen at once) joins a later piece to an earlier one by the distances it
 //! keeps to the partners seen rigidly with both ([`partner_distances`]). A piece with two
-//! candidate continuations, or continuing two pieces, joins none.
+//! candidate continuations, or continuing two pieces, joins none. Only where none of these
+//! joins anything, a body hidden whole for a while (every member's track ends before any
+//! of another body's starts) is that body again where its shape is, marker by marker
+//! ([`reappeared_bodies`]).
 //! Skin moves a marker in its body's frame slowly: on the hard preset's unlabeled captures
 //! (seeds 20001..20020, a throwaway print of every body's best candidate) the true
 //! continuation started 0.18 (median) of the way to the nearest marker from where its piece
@@ -30,7 +33,7 @@
 //! It does not join pieces that share a frame, or pieces of a marker whose body of ≥ 3
 //! neither poses at both ends nor is seen with two of its markers along the other piece,
 //! or pieces of a two-marker body never seen with a common partner, or of a cluster that
-//! sees three tracks at once but no three pose.
+//! sees three tracks at once but no three pose, or a body of two markers hidden whole.
 
 use std::collections::{BTreeMap, BTreeSet};
 
@@ -38,7 +41,7 @@ use mocap_io::Trajectories;
 
 use crate::glitch::{distance, runs};
 use crate::pairstats::PairStats;
-use crate::reassign::{Pose, PosedGroup, posed_group, stride_of};
+use crate::reassign::{Pose, PosedGroup, horn, posed_group, stride_of};
 use crate::segmentation::{
     Glitch, LabelSwap, Segmentation, UnassignedMarker, join_pieces, with_positions,
 };
@@ -108,6 +111,8 @@ pub(crate) fn find_pieces(
     // (earlier piece, later piece)
     let mut joins: BTreeSet<(usize, usize)> = BTreeSet::new();
     let mut by_distances: BTreeSet<(usize, usize)> = BTreeSet::new();
+    // Every posable body's members and shape, for bodies hidden whole for a while.
+    let mut bodies: Vec<(Vec<usize>, Vec<[f64; 3]>)> = Vec::new();
     for c in clusters.iter().filter(|c| c.len() >= 3) {
         let Some((members, PosedGroup { shape, poses })) = posable_body(traj, stats, c) else {
             // Only where the cluster is two markers' tracks: one partner's distance is a
@@ -170,6 +175,7 @@ pub(crate) fn find_pieces(
         by_distances.extend(kept_distances(
             stats, &members, &shape, &spans, spacing_mm, rigid,
         ));
+        bodies.push((members, shape));
     }
     // A pose carries a piece across where it can; distances only join what it left apart.
     for (a, b) in by_distances {
@@ -177,7 +183,18 @@ pub(crate) fn find_pieces(
             joins.insert((a, b));
         }
     }
-    chains(&joins)
+    let groups = chains(&joins);
+    if !groups.is_empty() {
+        return groups;
+    }
+    // A body's shape only once nothing else joins: matched while other pieces are apart, it
+    // sent a real capture's later rounds elsewhere (c3d.org's Dance cut at gaps of
+    // 1.1–2.6 s: right joins, but wrong groups 3 → 6 of 27 after them).
+    chains(
+        &reappeared_bodies(&bodies, &spans, spacing_mm, rigid.1)
+            .into_iter()
+            .collect(),
+    )
 }
 
 /// Joins (earlier piece, later piece) of a body's member with a track never seen with it
@@ -326,6 +343,180 @@ fn partner_distances(
         out.extend(nearest_in_time(&after, apart).map(|c| (b, c)));
     }
     out
+}
+
+/// Most members of a body whose shape is matched against another's (the maps tried grow as
+/// the factorial of the count).
+const MAX_SHAPE_MEMBERS: usize = 10;
+
+/// Two bodies whose shapes are one, the later seen only after the earlier.
+struct BodyMatch {
+    /// Frames between the earlier's last and the later's first.
+    gap: usize,
+    /// Index of the earlier body.
+    earlier: usize,
+    /// Index of the later body.
+    later: usize,
+    /// Matched members, (index in the earlier, index in the later).
+    pairs: Vec<(usize, usize)>,
+}
+
+/// Joins (earlier piece, later piece) between two posable bodies never seen together, the
+/// later starting after the earlier ends, whose shapes are one body's: all of one body's
+/// members hidden at once (an unlabeled capture starts a new track for each when they come
+/// back, and no pose or seen partner carries a piece across). The smaller body's members
+/// map one-to-one onto the other's so that a rotation and translation put its shape on the
+/// other's within [`MATCH_SHARE`] × the larger shape's closest two markers (capped at
+/// `spacing_mm`) and within twice `tolerance_mm` (a distance scattering within the
+/// tolerance has means over two stretches up to twice it apart), RMS, and no other map fits
+/// within `tolerance_mm` or within [`RIVAL_FACTOR`] times the best; ≥ 3 members each. A
+/// proper rotation tells a body of four or more from its mirror image (a left limb's
+/// cluster from a right one's). Of several such bodies on one side, the nearest in time,
+/// and only where each is the other's.
+fn reappeared_bodies(
+    bodies: &[(Vec<usize>, Vec<[f64; 3]>)],
+    spans: &[Option<(usize, usize)>],
+    spacing_mm: f64,
+    tolerance_mm: f64,
+) -> Vec<(usize, usize)> {
+    // Each body's first and last frame; None where a member has no span (a user's track).
+    let extent = |members: &[usize]| -> Option<(usize, usize)> {
+        let spans: Option<Vec<(usize, usize)>> = members.iter().map(|&m| spans[m]).collect();
+        let spans = spans?;
+        Some((
+            spans.iter().map(|s| s.0).min()?,
+            spans.iter().map(|s| s.1).max()?,
+        ))
+    };
+    let extents: Vec<Option<(usize, usize)>> = bodies.iter().map(|(m, _)| extent(m)).collect();
+    // Every fitting (earlier body, later body) with the frames between them.
+    let mut found: Vec<BodyMatch> = Vec::new();
+    for (a, (_, shape_a)) in bodies.iter().enumerate() {
+        for (b, (_, shape_b)) in bodies.iter().enumerate() {
+            let (Some((_, last_a)), Some((first_b, _))) = (extents[a], extents[b]) else {
+                continue;
+            };
+            if a == b || last_a >= first_b {
+                continue;
+            }
+            if let Some(pairs) = shape_match(shape_a, shape_b, spacing_mm, tolerance_mm) {
+                found.push(BodyMatch {
+                    gap: first_b - last_a,
+                    earlier: a,
+                    later: b,
+                    pairs,
+                });
+            }
+        }
+    }
+    let mut out = Vec::new();
+    for m in &found {
+        // Nearest in time on both sides; a tie is no answer.
+        let nearer = found.iter().any(|o| {
+            (o.earlier, o.later) != (m.earlier, m.later)
+                && (o.later == m.later || o.earlier == m.earlier)
+                && o.gap <= m.gap
+        });
+        if nearer {
+            continue;
+        }
+        out.extend(
+            m.pairs
+                .iter()
+                .map(|&(i, j)| (bodies[m.earlier].0[i], bodies[m.later].0[j])),
+        );
+    }
+    out
+}
+
+/// The one-to-one map of the smaller shape's points onto the larger's (pairs of indices
+/// into `a` and `b`) under which one rigid motion fits them best, by [`reappeared_bodies`]'s
+/// rule; `None` when none fits, or another map fits too nearly as well.
+fn shape_match(
+    a: &[[f64; 3]],
+    b: &[[f64; 3]],
+    spacing_mm: f64,
+    tolerance_mm: f64,
+) -> Option<Vec<(usize, usize)>> {
+    let (small, large, flipped) = if a.len() <= b.len() {
+        (a, b, false)
+    } else {
+        (b, a, true)
+    };
+    if small.len() < 3 || large.len() > MAX_SHAPE_MEMBERS {
+        return None;
+    }
+    let mut closest = spacing_mm;
+    for (i, p) in large.iter().enumerate() {
+        for q in &large[i + 1..] {
+            closest = closest.min(distance(*p, *q));
+        }
+    }
+    // A distance that scatters within the tolerance has means over two stretches of the
+    // capture up to twice it apart (skin swept by the joints, a snowman's bottom 2.05 mm
+    // RMS over a 2 mm tolerance).
+    let bound = (MATCH_SHARE * closest).min(2.0 * tolerance_mm);
+    // A rival that matters fits within the tolerance or RIVAL_FACTOR × the bound, RMS; a
+    // map with a pair of distances twice that apart cannot, and is not tried.
+    let prune = 2.0 * tolerance_mm.max(RIVAL_FACTOR * bound);
+    let mut best: Option<(f64, Vec<usize>)> = None;
+    let mut runner_up = f64::INFINITY;
+    let mut map: Vec<usize> = Vec::with_capacity(small.len());
+    let mut q: Vec<[f64; 3]> = Vec::with_capacity(small.len());
+    let mut visit = |map: &[usize]| {
+        q.clear();
+        q.extend(map.iter().map(|&j| large[j]));
+        let rms = (horn(small, &q).1 / small.len() as f64).sqrt();
+        match &best {
+            Some((b, _)) if rms >= *b => runner_up = runner_up.min(rms),
+            _ => {
+                if let Some((b, _)) = &best {
+                    runner_up = runner_up.min(*b);
+                }
+                best = Some((rms, map.to_vec()));
+            }
+        }
+    };
+    extend_map(small, large, prune, &mut map, &mut visit);
+    let (rms, map) = best?;
+    // A second map within the tolerance of a distance's scatter cannot be told from the
+    // best (c3d.org's Dance cut at gaps of 1.1–2.6 s: a near-isosceles triangle of three
+    // markers fit 1.02 mm RMS with two of them exchanged, 2.83 mm the right way).
+    (rms <= bound && runner_up > tolerance_mm.max(RIVAL_FACTOR * rms)).then(|| {
+        map.into_iter()
+            .enumerate()
+            .map(|(i, j)| if flipped { (j, i) } else { (i, j) })
+            .collect()
+    })
+}
+
+/// Every one-to-one map of `small`'s points onto `large`'s, extending `map`, whose pair
+/// distances agree within `prune`, each complete one given to `visit`.
+fn extend_map(
+    small: &[[f64; 3]],
+    large: &[[f64; 3]],
+    prune: f64,
+    map: &mut Vec<usize>,
+    visit: &mut impl FnMut(&[usize]),
+) {
+    let i = map.len();
+    if i == small.len() {
+        visit(map);
+        return;
+    }
+    for j in 0..large.len() {
+        if map.contains(&j) {
+            continue;
+        }
+        let agrees = map.iter().enumerate().all(|(k, &l)| {
+            (distance(small[i], small[k]) - distance(large[j], large[l])).abs() <= prune
+        });
+        if agrees {
+            map.push(j);
+            extend_map(small, large, prune, map, visit);
+            map.pop();
+        }
+    }
 }
 
 /// Fewest of a body's members a track must be seen with to join a member by its distances:
@@ -617,6 +808,55 @@ mod tests {
                 Vec::<Vec<usize>>::new(),
                 "seed {seed}"
             );
+        }
+    }
+
+    /// A body hidden whole (every child marker over frames 120..300) comes back as four new
+    /// tracks, a cluster never seen with the first: no pose and no seen partner carries a
+    /// piece across, but its shape is the first cluster's, and each track joins its marker.
+    #[test]
+    fn a_body_hidden_whole_joins_its_pieces_by_its_shape() {
+        for seed in 1..=3 {
+            let mut traj = skin_hinged_capture(&PARENT, &CHILD, 30.0, 6.0, seed);
+            for m in 4..8 {
+                traj = cut_at_gap(&traj, m, 120..300);
+            }
+            let clusters = [vec![0, 1, 2, 3], vec![4, 5, 6, 7], vec![8, 9, 10, 11]];
+            assert_eq!(
+                found(&traj, &clusters),
+                vec![vec![4, 8], vec![5, 9], vec![6, 10], vec![7, 11]],
+                "seed {seed}"
+            );
+        }
+    }
+
+    /// Two bodies on one hinge never seen together, the second seen only after the first:
+    /// a copy of the first's shape is it again and joins it marker by marker; its mirror
+    /// image keeps every distance but no rotation puts it on the first, and joins nothing.
+    #[test]
+    fn a_mirror_image_body_is_not_the_hidden_one() {
+        let mirror = CHILD.map(|[x, y, z]| [-x, y, z]);
+        for (later, joins) in [(CHILD, true), (mirror, false)] {
+            let both: Vec<[f64; 3]> = CHILD.iter().chain(&later).copied().collect();
+            let traj = skin_hinged_capture(&PARENT, &both, 30.0, 6.0, 1);
+            let n = traj.markers();
+            let mut positions = traj.positions().to_vec();
+            for (i, p) in positions.iter_mut().enumerate() {
+                let (f, m) = (i / n, i % n);
+                if ((4..8).contains(&m) && f >= 120) || ((8..12).contains(&m) && f < 300) {
+                    *p = [f64::NAN; 3];
+                }
+            }
+            let apart =
+                Trajectories::new(traj.labels().to_vec(), 100.0, 1, traj.frames(), positions)
+                    .expect("same shape");
+            let clusters = [vec![0, 1, 2, 3], vec![4, 5, 6, 7], vec![8, 9, 10, 11]];
+            let expected = if joins {
+                vec![vec![4, 8], vec![5, 9], vec![6, 10], vec![7, 11]]
+            } else {
+                Vec::new()
+            };
+            assert_eq!(found(&apart, &clusters), expected, "joins {joins}");
         }
     }
 
