@@ -21,8 +21,8 @@
 //! joins anything, a body hidden whole for a while (every member's track ends before any
 //! of another body's starts) is that body again where its shape is, marker by marker
 //! ([`reappeared_bodies`]); so are tracks of a body's own cluster that it could not be
-//! posed with, where they pose a body of its shape (most of its markers hidden at once,
-//! one seen throughout).
+//! posed with, where they pose a body of its shape (a segment hidden whole whose later
+//! tracks clustered with its earlier ones, or most of it hidden, one marker seen).
 //! Skin moves a marker in its body's frame slowly: on the hard preset's unlabeled captures
 //! (seeds 20001..20020, a throwaway print of every body's best candidate) the true
 //! continuation started 0.18 (median) of the way to the nearest marker from where its piece
@@ -181,8 +181,8 @@ pub(crate) fn find_pieces(
         ));
         // Tracks the body could not be posed with (never seen with some member): where
         // they pose a body of its shape, each never seen with the member it maps to, they
-        // are its markers come back (CMU 02_01's right foot, three of its four markers
-        // hidden 1.2 s, in tests/it/unlabeled.rs).
+        // are its markers come back (CMU 02_01's right foot hidden whole 1.2 s: its later
+        // tracks clustered with its earlier ones; tests/it/unlabeled.rs).
         let dropped: Vec<usize> = c.iter().copied().filter(|m| !members.contains(m)).collect();
         if dropped.len() >= 3
             && let Some(again) = posed_group(traj, &dropped)
@@ -457,7 +457,8 @@ fn reappeared_bodies(
 
 /// The one-to-one map of the smaller shape's points onto the larger's (pairs of indices
 /// into `a` and `b`) under which one rigid motion fits them best, by [`reappeared_bodies`]'s
-/// rule; `None` when none fits, or another map fits too nearly as well.
+/// rule, pairing only points `allowed(i in a, j in b)` lets be one marker; `None` when none
+/// fits, or another map fits too nearly as well.
 fn shape_match(
     a: &[[f64; 3]],
     b: &[[f64; 3]],
@@ -524,8 +525,9 @@ fn shape_match(
     })
 }
 
-/// Every one-to-one map of `small`'s points onto `large`'s, extending `map`, whose pair
-/// distances agree within `prune`, each complete one given to `visit`.
+/// Every one-to-one map of `small`'s points onto `large`'s, extending `map`, pairing only
+/// points `may_be(i in small, j in large)` allows, whose pair distances agree within
+/// `prune`, each complete one given to `visit`.
 fn extend_map(
     small: &[[f64; 3]],
     large: &[[f64; 3]],
