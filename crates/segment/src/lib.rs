@@ -999,7 +999,7 @@ fn join_rigid_lone_markers(
             .filter_map(|(k, c)| {
                 let (mut worst, mut seen) = (0.0f64, 0);
                 for &x in c {
-                    if stats.overlap[stats.at(m, x)] == 0 {
+                    if stats.apart(m, x) {
                         continue;
                     }
                     worst = worst.max(stats.rho(m, x, min_overlap)?);

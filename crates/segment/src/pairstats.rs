@@ -27,6 +27,12 @@ impl PairStats {
         i * self.n + j
     }
 
+    /// Whether the two tracks are never seen in one frame (pieces of one marker may be).
+    #[inline]
+    pub fn apart(&self, i: usize, j: usize) -> bool {
+        self.overlap[self.at(i, j)] == 0
+    }
+
     /// ρ of a pair in mm, or `None` when it was seen together in fewer than `min_overlap` frames.
     #[inline]
     pub fn rho(&self, i: usize, j: usize, min_overlap: usize) -> Option<f64> {

@@ -22,7 +22,8 @@
 //! of another body's starts) is that body again where its shape is, marker by marker
 //! ([`reappeared_bodies`]); so are tracks of a body's own cluster that it could not be
 //! posed with, where they pose a body of its shape (a segment hidden whole whose later
-//! tracks clustered with its earlier ones, or most of it hidden, one marker seen).
+//! tracks clustered with its earlier ones, or most of it hidden, one marker seen;
+//! [`come_back`]).
 //! Skin moves a marker in its body's frame slowly: on the hard preset's unlabeled captures
 //! (seeds 20001..20020, a throwaway print of every body's best candidate) the true
 //! continuation started 0.18 (median) of the way to the nearest marker from where its piece
@@ -113,10 +114,8 @@ pub(crate) fn find_pieces(
     // (earlier piece, later piece)
     let mut joins: BTreeSet<(usize, usize)> = BTreeSet::new();
     let mut by_distances: BTreeSet<(usize, usize)> = BTreeSet::new();
-    // Every posable body's members and shape, for bodies hidden whole for a while, and
-    // the joins of a body's markers come back as tracks in its own cluster.
-    let mut bodies: Vec<(Vec<usize>, Vec<[f64; 3]>)> = Vec::new();
-    let mut come_back: Vec<(usize, usize)> = Vec::new();
+    // Every posable body, for a body hidden whole for a while (the last resort below).
+    let mut bodies: Vec<Body> = Vec::new();
     for c in clusters.iter().filter(|c| c.len() >= 3) {
         let Some((members, PosedGroup { shape, poses })) = posable_body(traj, stats, c) else {
             // Only where the cluster is two markers' tracks: one partner's distance is a
@@ -143,7 +142,7 @@ pub(crate) fn find_pieces(
                 members
                     .iter()
                     .zip(&shape)
-                    .filter(|&(&m, _)| m != k && stats.overlap[stats.at(k, m)] > 0)
+                    .filter(|&(&m, _)| m != k && !stats.apart(k, m))
                     .map(|(_, s)| distance(*s, x))
                     .fold(spacing_mm, f64::min)
             };
@@ -179,29 +178,12 @@ pub(crate) fn find_pieces(
         by_distances.extend(kept_distances(
             stats, &members, &shape, &spans, spacing_mm, rigid,
         ));
-        // Tracks the body could not be posed with (never seen with some member): where
-        // they pose a body of its shape, each never seen with the member it maps to, they
-        // are its markers come back (CMU 02_01's right foot hidden whole 1.2 s: its later
-        // tracks clustered with its earlier ones; tests/it/unlabeled.rs).
         let dropped: Vec<usize> = c.iter().copied().filter(|m| !members.contains(m)).collect();
-        if dropped.len() >= 3
-            && let Some(again) = posed_group(traj, &dropped)
-        {
-            let apart = |i: usize, j: usize| stats.overlap[stats.at(members[i], dropped[j])] == 0;
-            let pairs = shape_match(&shape, &again.shape, spacing_mm, rigid.1, apart);
-            for (i, j) in pairs.into_iter().flatten() {
-                match (spans[members[i]], spans[dropped[j]]) {
-                    (Some((_, last)), Some((first, _))) if last < first => {
-                        come_back.push((members[i], dropped[j]));
-                    }
-                    (Some((first, _)), Some((_, last))) if last < first => {
-                        come_back.push((dropped[j], members[i]));
-                    }
-                    _ => {}
-                }
-            }
-        }
-        bodies.push((members, shape));
+        bodies.push(Body {
+            members,
+            shape,
+            dropped,
+        });
     }
     // A pose carries a piece across where it can; distances only join what it left apart.
     for (a, b) in by_distances {
@@ -217,7 +199,9 @@ pub(crate) fn find_pieces(
     // sent a real capture's later rounds elsewhere (c3d.org's Dance cut at gaps of
     // 1.1–2.6 s: right joins, but wrong groups 3 → 6 of 27 after them).
     let mut by_shape = reappeared_bodies(&bodies, &spans, spacing_mm, rigid.1);
-    by_shape.extend(come_back);
+    for body in &bodies {
+        by_shape.extend(come_back(traj, stats, body, &spans, spacing_mm, rigid.1));
+    }
     chains(&by_shape.into_iter().collect())
 }
 
@@ -244,7 +228,7 @@ fn kept_distances(
     let misfit = |c: usize, i: usize| -> Option<f64> {
         let (mut sum, mut count) = (0.0, 0usize);
         for (j, &x) in members.iter().enumerate() {
-            if j == i || stats.overlap[stats.at(c, x)] == 0 {
+            if j == i || stats.apart(c, x) {
                 continue;
             }
             let rho = stats.rho(c, x, min_overlap)?;
@@ -257,7 +241,7 @@ fn kept_distances(
         }
         (count >= DISTANCE_PARTNERS).then(|| (sum / count as f64).sqrt())
     };
-    let apart = |a: usize, b: usize| stats.overlap[stats.at(a, b)] == 0;
+    let apart = |a: usize, b: usize| stats.apart(a, b);
     let mut out = Vec::new();
     for (i, &b) in members.iter().enumerate() {
         let Some((first_b, last_b)) = spans[b] else {
@@ -330,7 +314,7 @@ fn partner_distances(
     spacing_mm: f64,
     (min_overlap, tolerance_mm): (usize, f64),
 ) -> Vec<(usize, usize)> {
-    let apart = |a: usize, b: usize| stats.overlap[stats.at(a, b)] == 0;
+    let apart = |a: usize, b: usize| stats.apart(a, b);
     let rigid = |a: usize, b: usize| {
         stats
             .rho(a, b, min_overlap)
@@ -369,6 +353,54 @@ fn partner_distances(
     out
 }
 
+/// A posable cluster: the members it is posed from, their shape, and the cluster's other
+/// tracks (never seen with some member).
+struct Body {
+    /// Tracks posed as one rigid body.
+    members: Vec<usize>,
+    /// Their reference shape, indexed like `members` (body-local, mm).
+    shape: Vec<[f64; 3]>,
+    /// The cluster's tracks the body could not be posed with.
+    dropped: Vec<usize>,
+}
+
+/// Joins (earlier piece, later piece) of a body's members with the cluster's tracks it
+/// could not be posed with, where those pose a body of its shape (by [`shape_match`]'s
+/// bounds), each never seen with the member it maps to: its markers come back (CMU
+/// 02_01's right foot hidden whole 1.2 s: its later tracks clustered with its earlier
+/// ones; tests/it/unlabeled.rs).
+fn come_back(
+    traj: &Trajectories,
+    stats: &PairStats,
+    body: &Body,
+    spans: &[Option<(usize, usize)>],
+    spacing_mm: f64,
+    tolerance_mm: f64,
+) -> Vec<(usize, usize)> {
+    let (members, dropped) = (&body.members, &body.dropped);
+    if dropped.len() < 3 {
+        return Vec::new();
+    }
+    let Some(again) = posed_group(traj, dropped) else {
+        return Vec::new();
+    };
+    let apart = |i: usize, j: usize| stats.apart(members[i], dropped[j]);
+    let pairs = shape_match(&body.shape, &again.shape, spacing_mm, tolerance_mm, apart);
+    let mut out = Vec::new();
+    for (i, j) in pairs.into_iter().flatten() {
+        match (spans[members[i]], spans[dropped[j]]) {
+            (Some((_, last)), Some((first, _))) if last < first => {
+                out.push((members[i], dropped[j]))
+            }
+            (Some((first, _)), Some((_, last))) if last < first => {
+                out.push((dropped[j], members[i]))
+            }
+            _ => {}
+        }
+    }
+    out
+}
+
 /// Most members of a body whose shape is matched against another's (the maps tried grow as
 /// the factorial of the count).
 const MAX_SHAPE_MEMBERS: usize = 10;
@@ -398,7 +430,7 @@ struct BodyMatch {
 /// cluster from a right one's). Of several such bodies on one side, the nearest in time,
 /// and only where each is the other's.
 fn reappeared_bodies(
-    bodies: &[(Vec<usize>, Vec<[f64; 3]>)],
+    bodies: &[Body],
     spans: &[Option<(usize, usize)>],
     spacing_mm: f64,
     tolerance_mm: f64,
@@ -412,20 +444,24 @@ fn reappeared_bodies(
             spans.iter().map(|s| s.1).max()?,
         ))
     };
-    let extents: Vec<Option<(usize, usize)>> = bodies.iter().map(|(m, _)| extent(m)).collect();
+    let extents: Vec<Option<(usize, usize)>> = bodies.iter().map(|b| extent(&b.members)).collect();
     // Every fitting (earlier body, later body) with the frames between them.
     let mut found: Vec<BodyMatch> = Vec::new();
-    for (a, (_, shape_a)) in bodies.iter().enumerate() {
-        for (b, (_, shape_b)) in bodies.iter().enumerate() {
+    for (a, body_a) in bodies.iter().enumerate() {
+        for (b, body_b) in bodies.iter().enumerate() {
             let (Some((_, last_a)), Some((first_b, _))) = (extents[a], extents[b]) else {
                 continue;
             };
             if a == b || last_a >= first_b {
                 continue;
             }
-            if let Some(pairs) =
-                shape_match(shape_a, shape_b, spacing_mm, tolerance_mm, |_, _| true)
-            {
+            if let Some(pairs) = shape_match(
+                &body_a.shape,
+                &body_b.shape,
+                spacing_mm,
+                tolerance_mm,
+                |_, _| true,
+            ) {
                 found.push(BodyMatch {
                     gap: first_b - last_a,
                     earlier: a,
@@ -449,7 +485,7 @@ fn reappeared_bodies(
         out.extend(
             m.pairs
                 .iter()
-                .map(|&(i, j)| (bodies[m.earlier].0[i], bodies[m.later].0[j])),
+                .map(|&(i, j)| (bodies[m.earlier].members[i], bodies[m.later].members[j])),
         );
     }
     out
@@ -574,11 +610,7 @@ fn posable_body(
         if let Some(posed) = posed_group(traj, &members) {
             return Some((members, posed));
         }
-        let apart = |m: usize| {
-            members
-                .iter()
-                .any(|&o| stats.overlap[stats.at(m, o)] == 0 && o != m)
-        };
+        let apart = |m: usize| members.iter().any(|&o| o != m && stats.apart(m, o));
         let drop = members
             .iter()
             .copied()
