@@ -761,15 +761,19 @@ pub(crate) fn spread_back(seg: &mut Segmentation, traj: &Trajectories, groups: &
         .into_iter()
         .map(|(marker, frames)| Glitch { marker, frames })
         .collect();
-    let mut swaps = BTreeMap::new();
+    // Swaps are undone in order (a marker can be in several): each maps to its pieces on
+    // its own, in its place.
+    let mut swaps = Vec::with_capacity(seg.swaps.len());
     for s in &seg.swaps {
         let [a, b] = s.markers;
-        by_owner(&mut swaps, &s.frames, |f| [owner(a, f), owner(b, f)]);
+        let mut held = BTreeMap::new();
+        by_owner(&mut held, &s.frames, |f| [owner(a, f), owner(b, f)]);
+        swaps.extend(
+            held.into_iter()
+                .map(|(markers, frames)| LabelSwap { markers, frames }),
+        );
     }
-    seg.swaps = swaps
-        .into_iter()
-        .map(|(markers, frames)| LabelSwap { markers, frames })
-        .collect();
+    seg.swaps = swaps;
     // Pieces an inner round joined, by their tracks here.
     let mut all: Vec<Vec<usize>> = groups.to_vec();
     for inner in std::mem::take(&mut seg.pieces) {

@@ -6,7 +6,7 @@ use mocap_io::{MISSING, Trajectories};
 use serde::{Deserialize, Serialize};
 
 /// Schema version of [`Segmentation`]; bump when its fields or the algorithm's output change.
-pub const SCHEMA_VERSION: u32 = 46;
+pub const SCHEMA_VERSION: u32 = 47;
 
 /// The rigid segments found in a capture.
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
@@ -31,8 +31,9 @@ pub struct Segmentation {
     pub eigenvalues: Vec<f64>,
     /// Cluster count spectral clustering chose (eigen-gap or forced), before the rigidity check; 0 for cliques.
     pub eigengap_segments: usize,
-    /// Pairs of markers whose trajectories the capture has exchanged for a while; later
-    /// stages read the trajectories through [`Segmentation::repaired`].
+    /// Pairs of markers whose trajectories the capture has exchanged for a while, undone in
+    /// this order (a marker can be in several); later stages read the trajectories
+    /// through [`Segmentation::repaired`].
     #[serde(default)]
     pub swaps: Vec<LabelSwap>,
     /// Markers' samples read as gaps because they left their steadiest partners (in the

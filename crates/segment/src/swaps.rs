@@ -19,14 +19,22 @@
 //! Every swap's window ends then move to where exchanging back joins both markers' paths
 //! again, and a swap whose undoing would leave a jump is no swap ([`joined_windows`]).
 //! Last, two markers that jump in one step each onto the other's path, and again later,
-//! are a swap whatever the clusters made of them ([`exchanges_by_jumps`]).
+//! are a swap whatever the clusters made of them ([`exchanges_by_jumps`]); so is one that
+//! jumps onto the path of a track that has just ended, or leaves its own to a track that
+//! starts soon after (an unlabeled capture's tracks end at every gap). Which frames are
+//! exchanged follows from where the labels can flip ([`exchanged_frames`]), and undoing
+//! them must leave both markers nearer their steadiest partners ([`steadier_undone`]).
 
 use mocap_io::Trajectories;
 use rayon::prelude::*;
 
 use crate::fitsplit::median;
 use crate::reassign::nearest_clusters;
-use crate::segmentation::LabelSwap;
+use crate::segmentation::{LabelSwap, untangle};
+
+/// Rounds of [`exchanges_by_jumps`] at most, each on the capture with the earlier rounds'
+/// exchanges undone.
+const EXCHANGE_ROUNDS: usize = 3;
 
 /// Most suspect pairs tested, those away together the most first (and as many lone
 /// suspects, those away the most first).
@@ -194,10 +202,64 @@ pub(crate) fn find_swaps(
     }
     // Last, exchanges the trajectories show by themselves, whatever the clusters made of
     // them (a swap can pull a marker into its partner's cluster, and then neither is a
-    // suspect: robotarm-messy-s9001).
-    let taken: Vec<usize> = found.iter().flat_map(|s| s.markers).collect();
-    found.extend(exchanges_by_jumps(traj, hold_mm, &taken));
+    // suspect: robotarm-messy-s9001), where undoing them brings both markers nearer their
+    // steadiest partners.
+    // They are looked for with the swaps found so far undone, and rounds of them again with
+    // those undone too: a marker exchanged with a partner seen in two tracks pairs with one
+    // track a round (snowman-messy-s20015's M024, exchanged with M029 over 326-397, whose
+    // track ends at 348 and goes on in another from 352; the distances found the second
+    // track's part). The swaps are undone in the order found.
+    let mut undone = match found.is_empty() {
+        true => std::borrow::Cow::Borrowed(traj),
+        false => std::borrow::Cow::Owned(untangle(traj, &found)),
+    };
+    for _ in 0..EXCHANGE_ROUNDS {
+        let more = exchanges_by_jumps(&undone, hold_mm, |swap| {
+            steadier_undone(&undone, swap, hold_mm, stride)
+        });
+        if more.is_empty() {
+            break;
+        }
+        undone = std::borrow::Cow::Owned(untangle(&undone, &more));
+        more.into_iter()
+            .for_each(|swap| add_in_order(&mut found, swap));
+    }
     found
+}
+
+/// Appends `swap` to `swaps` (undone in order), or adds its frames to the last swap that
+/// touches either of its markers when that is the same pair in frames of its own: the
+/// rest of an exchange a round found in part (snowman-messy-s10006: 220-240 by the
+/// distances, 169-219 by the jump at its entry).
+fn add_in_order(swaps: &mut Vec<LabelSwap>, swap: LabelSwap) {
+    let same_pair = |s: &LabelSwap| {
+        s.markers == swap.markers || s.markers == [swap.markers[1], swap.markers[0]]
+    };
+    let last = swaps
+        .iter_mut()
+        .rev()
+        .find(|s| s.markers.iter().any(|m| swap.markers.contains(m)));
+    match last {
+        Some(last)
+            if same_pair(last)
+                && !last
+                    .frames
+                    .iter()
+                    .any(|a| swap.frames.iter().any(|b| a[0] <= b[1] && b[0] <= a[1])) =>
+        {
+            let mut frames: Vec<[usize; 2]> = Vec::new();
+            let mut all = [last.frames.as_slice(), swap.frames.as_slice()].concat();
+            all.sort_unstable();
+            for w in all {
+                match frames.last_mut() {
+                    Some(prev) if w[0] <= prev[1] + 1 => prev[1] = prev[1].max(w[1]),
+                    _ => frames.push(w),
+                }
+            }
+            last.frames = frames;
+        }
+        _ => swaps.push(swap),
+    }
 }
 
 /// Label exchanges the trajectories show by themselves: two markers that jump in the same
@@ -207,13 +269,20 @@ pub(crate) fn find_swaps(
 /// two markers far apart does this (the generator's swaps: steps of 95-98 mm against
 /// medians near 10); skin and noise move markers smoothly, and a glitch moves one marker,
 /// not two onto each other's paths. An exchange where the two passed close shows no jump
-/// and is left to the distances ([`swap_test`]). Each exchange step flips the labels, and
-/// the labels are as recorded in most frames: with both markers seen throughout, the
-/// windows are the runs in the minority state; with gaps, where a step may hide, the
-/// steps pair up from the start. Windows hold under half of the capture, each at least
-/// [`MIN_SWAPPED_FRAMES`] long; markers in `taken` are left alone, and each marker is in
-/// at most one swap.
-fn exchanges_by_jumps(traj: &Trajectories, floor_mm: f64, taken: &[usize]) -> Vec<LabelSwap> {
+/// and is left to the distances ([`swap_test`]). An exchange step may also show on one
+/// side only, where the other marker's track ends or starts (an unlabeled capture cuts
+/// tracks at every gap): one marker jumps onto the path of a track that has just ended,
+/// or leaves its path to a track that starts soon after (robotarm-messy-s20006's M028
+/// carries link 1's marker while link 1's own track ends a frame before and the base
+/// marker's path goes on in a track starting 15 frames later). Which frames are exchanged
+/// is [`exchanged_frames`]'s choice, and an exchange is kept where `accept` takes it.
+/// Each marker is in at most one of them: the pairs with more steps seen on both sides
+/// first.
+fn exchanges_by_jumps(
+    traj: &Trajectories,
+    floor_mm: f64,
+    accept: impl Fn(&LabelSwap) -> bool,
+) -> Vec<LabelSwap> {
     let (frames, markers) = (traj.frames(), traj.markers());
     if frames < 2 {
         return Vec::new();
@@ -222,93 +291,288 @@ fn exchanges_by_jumps(traj: &Trajectories, floor_mm: f64, taken: &[usize]) -> Ve
     let bounds: Vec<f64> = (0..markers)
         .map(|m| jump_bound(traj, m, floor_mm))
         .collect();
-    // Each pair's exchange steps, in step order: both jump, each onto the other's path.
-    let mut exchanges: std::collections::BTreeMap<[usize; 2], Vec<usize>> =
+    // Each pair's exchange steps, in step order, and how many were seen on both sides.
+    let mut exchanges: std::collections::BTreeMap<[usize; 2], (Vec<usize>, usize)> =
         std::collections::BTreeMap::new();
     let mut jumping = Vec::new();
     for f in 0..frames - 1 {
         jumping.clear();
-        jumping.extend(
-            (0..markers)
-                .filter(|m| !taken.contains(m))
-                .filter(|&m| step(m, f).is_some_and(|d| d > bounds[m])),
-        );
+        jumping.extend((0..markers).filter(|&m| step(m, f).is_some_and(|d| d > bounds[m])));
         // One of the two must jump; the other may land within its bound when the two were
         // close (snowman-messy-s10005's exit: 54 and 35 mm steps, 44 mm apart, bounds 36
         // and 38 mm), but then the exchange must explain the steps better than no exchange.
         for &a in &jumping {
-            for b in (0..markers).filter(|&b| b != a && !taken.contains(&b)) {
+            for b in (0..markers).filter(|&b| b != a) {
                 if jumping.contains(&b) && b < a {
                     continue;
                 }
-                // a is seen across the step (it jumped); b is taken at its last sample up to
-                // f and its first from f + 1, across a gap of up to MAX_BRIDGE_FRAMES (an
-                // exchange can hide in one marker's gap, and a's jump places it), each
-                // frame bridged allowing a typical step more.
-                let crossed = || -> Option<bool> {
-                    let (pa, qa) = (traj.get(f, a)?, traj.get(f + 1, a)?);
-                    let (before, pb) = (f.saturating_sub(MAX_BRIDGE_FRAMES)..=f)
-                        .rev()
-                        .find_map(|g| Some((g, traj.get(g, b)?)))?;
-                    let (after, qb) = (f + 1..=(f + 1 + MAX_BRIDGE_FRAMES).min(frames - 1))
-                        .find_map(|g| Some((g, traj.get(g, b)?)))?;
-                    let per_frame = |m: usize| bounds[m] / JUMP_FACTOR;
-                    let (cross_a, cross_b) = (apart(pa, qb), apart(pb, qa));
-                    Some(
-                        cross_a <= bounds[a] + per_frame(a) * (after - f - 1) as f64
-                            && cross_b <= bounds[b] + per_frame(b) * (f - before) as f64
-                            && cross_a + cross_b < apart(pa, qa) + apart(pb, qb),
-                    )
-                };
-                if crossed() == Some(true) {
-                    exchanges.entry([a.min(b), a.max(b)]).or_default().push(f);
+                if let Some(both_sides) = exchange_step(traj, &bounds, f, a, b) {
+                    let (steps, seen_both) = exchanges.entry([a.min(b), a.max(b)]).or_default();
+                    steps.push(f);
+                    *seen_both += usize::from(both_sides);
                 }
             }
         }
     }
+    let mut pairs: Vec<([usize; 2], Vec<usize>, usize)> = exchanges
+        .into_iter()
+        .map(|(pair, (steps, seen_both))| (pair, steps, seen_both))
+        .collect();
+    pairs.sort_by(|x, y| {
+        y.2.cmp(&x.2)
+            .then(y.1.len().cmp(&x.1.len()))
+            .then(x.0.cmp(&y.0))
+    });
     let mut found: Vec<LabelSwap> = Vec::new();
-    for (pair, steps) in exchanges {
+    for (pair, steps, _) in pairs {
         if found
             .iter()
             .any(|s| s.markers.iter().any(|m| pair.contains(m)))
         {
             continue;
         }
-        // Each exchange step flips the labels, and the labels are as recorded in most
-        // frames. Where both markers are seen in every frame no exchange step can hide, so
-        // the runs between steps alternate and the minority's runs are the windows (a swap
-        // lasting to the capture's end has one step: robotarm-messy-s25). Otherwise steps
-        // pair up from the start, each pair a window, and a step left over says nothing
-        // (its partner may be in a gap: quadruped-messy-s52's exit is).
-        let length = |w: &[usize; 2]| w[1] + 1 - w[0];
-        let always_seen =
-            (0..frames).all(|f| traj.get(f, pair[0]).is_some() && traj.get(f, pair[1]).is_some());
-        let candidates: Vec<[usize; 2]> = if always_seen {
-            let mut runs: [Vec<[usize; 2]>; 2] = [Vec::new(), Vec::new()];
-            let mut first = 0;
-            for (k, &f) in steps.iter().chain([&(frames - 1)]).enumerate() {
-                runs[k % 2].push([first, f]);
-                first = f + 1;
-            }
-            let total = |r: &[[usize; 2]]| r.iter().map(length).sum::<usize>();
-            let minority = usize::from(total(&runs[1]) <= total(&runs[0]));
-            runs[minority].clone()
-        } else {
-            steps.chunks_exact(2).map(|w| [w[0] + 1, w[1]]).collect()
-        };
-        let swapped: usize = candidates.iter().map(length).sum();
-        let windows: Vec<[usize; 2]> = candidates
-            .into_iter()
-            .filter(|w| length(w) >= MIN_SWAPPED_FRAMES)
-            .collect();
-        if !windows.is_empty() && 2 * swapped < frames {
-            found.push(LabelSwap {
+        if let Some(windows) = exchanged_frames(traj, &bounds, pair, &steps) {
+            let swap = LabelSwap {
                 markers: pair,
                 frames: windows,
-            });
+            };
+            if accept(&swap) {
+                found.push(swap);
+            }
         }
     }
+    found.sort_by_key(|s| s.markers);
     found
+}
+
+/// Whether `a`, seen at frames `f` and `f + 1` and jumping between them, exchanges with
+/// `b` in that step: `Some(true)` when `b` is seen on both sides (taken at its last sample
+/// up to `f` and its first from `f + 1`, across a gap of up to [`MAX_BRIDGE_FRAMES`]: an
+/// exchange can hide in one marker's gap, and a's jump places it) and each lands where the
+/// other's path goes on; `Some(false)` when `b` is seen on one side only (its track ends
+/// or starts there) and that side's path goes on in `a`'s; each frame bridged allows a
+/// typical step more, and the exchange must explain the steps better than none.
+fn exchange_step(
+    traj: &Trajectories,
+    bounds: &[f64],
+    f: usize,
+    a: usize,
+    b: usize,
+) -> Option<bool> {
+    let frames = traj.frames();
+    let (pa, qa) = (traj.get(f, a)?, traj.get(f + 1, a)?);
+    let before = (f.saturating_sub(MAX_BRIDGE_FRAMES)..=f)
+        .rev()
+        .find_map(|g| Some((g, traj.get(g, b)?)));
+    let after = (f + 1..=(f + 1 + MAX_BRIDGE_FRAMES).min(frames - 1))
+        .find_map(|g| Some((g, traj.get(g, b)?)));
+    let reach = |m: usize, bridged: usize| bounds[m] * (1.0 + bridged as f64 / JUMP_FACTOR);
+    let own = apart(pa, qa);
+    match (before, after) {
+        (Some((before, pb)), Some((after, qb))) => {
+            let (cross_a, cross_b) = (apart(pa, qb), apart(pb, qa));
+            (cross_a <= reach(a, after - f - 1)
+                && cross_b <= reach(b, f - before)
+                && cross_a + cross_b < own + apart(pb, qb))
+            .then_some(true)
+        }
+        // b's track ends: a lands on its path.
+        (Some((before, pb)), None) => {
+            let cross = apart(pb, qa);
+            (cross <= reach(b, f - before) && cross < own).then_some(false)
+        }
+        // b's track starts: a's path goes on in it.
+        (None, Some((after, qb))) => {
+            let cross = apart(pa, qb);
+            (cross <= reach(a, after - f - 1) && cross < own).then_some(false)
+        }
+        (None, None) => None,
+    }
+}
+
+/// How the labels of a pair may change between frames f and f + 1.
+#[derive(Clone, Copy, PartialEq, Eq)]
+enum Step {
+    /// An exchange step: the labels flip.
+    Flips,
+    /// A marker runs on without a jump: the labels stay.
+    Holds,
+    /// Neither marker runs on unbroken (gaps, a track's end or start): a flip may hide
+    /// here; `jump` when one marker is seen on both sides and jumps (its partner unseen
+    /// on one side, so no exchange could be checked): labels that stay keep the jump.
+    Open { jump: bool },
+}
+
+/// The frames where `pair`'s labels hold each other's marker, given their exchange
+/// `steps`: each exchange step flips the labels, a step where either marker runs on
+/// without a jump keeps them, and across a stretch where neither does (both in gaps, or
+/// tracks ending and starting) they flip when the markers' last samples before it run on in
+/// each other's first after it and not in their own (within [`MAX_BRIDGE_FRAMES`], a
+/// typical step more a frame), stay when the reverse, and are free otherwise. Of the
+/// labellings that obey these, the one with the fewest frames exchanged where either
+/// marker is seen (the labels are as recorded in most frames: with both seen throughout,
+/// the minority's runs). `None` when that is half of those frames or more, or no window is
+/// [`MIN_SWAPPED_FRAMES`] long.
+fn exchanged_frames(
+    traj: &Trajectories,
+    bounds: &[f64],
+    [a, b]: [usize; 2],
+    steps: &[usize],
+) -> Option<Vec<[usize; 2]>> {
+    let frames = traj.frames();
+    let runs_on = |m: usize, f: usize| matches!((traj.get(f, m), traj.get(f + 1, m)), (Some(p), Some(q)) if apart(p, q) <= bounds[m]);
+    let mut kinds: Vec<Step> = (0..frames - 1)
+        .map(|f| {
+            if steps.binary_search(&f).is_ok() {
+                Step::Flips
+            } else if runs_on(a, f) || runs_on(b, f) {
+                Step::Holds
+            } else {
+                let seen_across =
+                    |m: usize| traj.get(f, m).is_some() && traj.get(f + 1, m).is_some();
+                Step::Open {
+                    jump: seen_across(a) || seen_across(b),
+                }
+            }
+        })
+        .collect();
+    let reach = |m: usize, bridged: usize| bounds[m] * (1.0 + bridged as f64 / JUMP_FACTOR);
+    let mut f = 0;
+    while f < kinds.len() {
+        if !matches!(kinds[f], Step::Open { .. }) {
+            f += 1;
+            continue;
+        }
+        let first = f;
+        while f < kinds.len() && matches!(kinds[f], Step::Open { .. }) {
+            f += 1;
+        }
+        // Open steps first..f: each marker's last sample up to `first` and first from `f`.
+        let last = |m: usize| {
+            (first.saturating_sub(MAX_BRIDGE_FRAMES)..=first)
+                .rev()
+                .find_map(|g| Some((g, traj.get(g, m)?)))
+        };
+        let next = |m: usize| {
+            (f..=(f + MAX_BRIDGE_FRAMES).min(frames - 1)).find_map(|g| Some((g, traj.get(g, m)?)))
+        };
+        if let (Some(la), Some(lb), Some(na), Some(nb)) = (last(a), last(b), next(a), next(b)) {
+            let goes_on = |m: usize, (g, p): (usize, [f64; 3]), (h, q): (usize, [f64; 3])| {
+                apart(p, q) <= reach(m, h - g - 1)
+            };
+            let straight = goes_on(a, la, na) && goes_on(b, lb, nb);
+            let crossed = goes_on(a, la, nb) && goes_on(b, lb, na);
+            if straight != crossed {
+                kinds[first] = if crossed { Step::Flips } else { Step::Holds };
+                kinds[first + 1..f].fill(Step::Holds);
+            }
+        }
+    }
+    // Fewest frames exchanged with a marker seen, frame by frame over the two labellings;
+    // a jump kept costs more than any number of frames.
+    let seen = |f: usize| traj.get(f, a).is_some() || traj.get(f, b).is_some();
+    let jump_kept = frames;
+    let mut cost = [0usize, usize::from(seen(0))];
+    // For each frame after the first and each state there, the state the frame before.
+    let mut came_from: Vec<[u8; 2]> = Vec::with_capacity(frames - 1);
+    for f in 1..frames {
+        let mut from = [0u8; 2];
+        let mut next = [0usize; 2];
+        for s in 0..2 {
+            let (prev, extra) = match kinds[f - 1] {
+                Step::Flips => (1 - s, 0),
+                Step::Holds => (s, 0),
+                Step::Open { jump } => {
+                    let stay = cost[s] + if jump { jump_kept } else { 0 };
+                    if cost[1 - s] < stay {
+                        (1 - s, 0)
+                    } else {
+                        (s, stay - cost[s])
+                    }
+                }
+            };
+            from[s] = prev as u8;
+            next[s] = cost[prev] + extra + usize::from(s == 1 && seen(f));
+        }
+        came_from.push(from);
+        cost = next;
+    }
+    let mut state = usize::from(cost[1] < cost[0]);
+    let mut exchanged = vec![false; frames];
+    for f in (0..frames).rev() {
+        exchanged[f] = state == 1;
+        if f > 0 {
+            state = usize::from(came_from[f - 1][state]);
+        }
+    }
+    let mut windows: Vec<[usize; 2]> = Vec::new();
+    for f in (0..frames).filter(|&f| exchanged[f]) {
+        match windows.last_mut() {
+            Some(w) if w[1] + 1 == f => w[1] = f,
+            _ => windows.push([f, f]),
+        }
+    }
+    let swapped = (0..frames).filter(|&f| exchanged[f] && seen(f)).count();
+    windows.retain(|w| w[1] + 1 - w[0] >= MIN_SWAPPED_FRAMES);
+    let seen_frames = (0..frames).filter(|&f| seen(f)).count();
+    (!windows.is_empty() && 2 * swapped < seen_frames).then_some(windows)
+}
+
+/// Whether undoing `swap` leaves its two markers off their usual distances to their
+/// steadiest partners in fewer frames than the capture as recorded ([`frames_off`], each
+/// judged in the trajectories it is in). Where only one end of an exchange jumps (the
+/// other where the two passed close, which no jump shows), the labellings on either side
+/// of the jump both join the paths; undoing the wrong side moves a marker off its segment
+/// for longer (quadruped-messy-s20007: exchanged over 325-396, entered 13-16 mm apart,
+/// left with a 37 mm jump; the frames after the jump, 397-479, are no swap).
+fn steadier_undone(traj: &Trajectories, swap: &LabelSwap, hold_mm: f64, stride: usize) -> bool {
+    let off = |t: &Trajectories| -> usize {
+        swap.markers
+            .iter()
+            .map(|&m| frames_off(t, m, &swap.markers, hold_mm, stride))
+            .sum()
+    };
+    off(&untangle(traj, std::slice::from_ref(swap))) < off(traj)
+}
+
+/// Partners a marker's distances are judged on in [`frames_off`].
+const STEADY_PARTNERS: usize = 3;
+
+/// Strided frames where marker `m` is more than `hold_mm` (RMS) off its usual distances to
+/// its [`STEADY_PARTNERS`] steadiest partners: the markers (none of `exclude`) seen with it
+/// in at least half of its frames whose distance to it deviates least from its median
+/// (median absolute deviation: the partners of what `m` carries in most frames).
+fn frames_off(
+    traj: &Trajectories,
+    m: usize,
+    exclude: &[usize],
+    hold_mm: f64,
+    stride: usize,
+) -> usize {
+    let frames = || (0..traj.frames()).step_by(stride);
+    let seen = frames().filter(|&f| traj.get(f, m).is_some()).count();
+    let mut steadiness: Vec<(f64, usize)> = (0..traj.markers())
+        .filter(|h| !exclude.contains(h))
+        .filter_map(|h| {
+            let mut d: Vec<f64> = frames().filter_map(|f| distance(traj, f, m, h)).collect();
+            if d.is_empty() || 2 * d.len() < seen {
+                return None;
+            }
+            let usual = median(&mut d);
+            let mut deviation: Vec<f64> = d.iter().map(|x| (x - usual).abs()).collect();
+            Some((median(&mut deviation), h))
+        })
+        .collect();
+    steadiness.sort_by(|x, y| x.0.total_cmp(&y.0).then(x.1.cmp(&y.1)));
+    let partners: Vec<usize> = steadiness
+        .iter()
+        .take(STEADY_PARTNERS)
+        .map(|&(_, h)| h)
+        .collect();
+    let usual = Distances::new(traj, m, &partners, stride);
+    frames()
+        .filter(|&f| usual.change(traj, f, m).is_some_and(|c| c > hold_mm))
+        .count()
 }
 
 /// Whether one of `markers` jumps ([`JUMP_FACTOR`] × its median step, and more than
@@ -738,6 +1002,12 @@ mod tests {
         Trajectories::new(vec!["A".into(), "B".into()], 100.0, 1, frames, positions).expect("valid")
     }
 
+    /// [`exchanges_by_jumps`] with every exchange accepted (the tests' captures have no
+    /// partners to judge them on).
+    fn exchanges_by_jumps_all(traj: &Trajectories, floor_mm: f64) -> Vec<LabelSwap> {
+        exchanges_by_jumps(traj, floor_mm, |_| true)
+    }
+
     #[test]
     fn undoing_a_swap_must_join_both_paths_again() {
         let far = |_| 30.0;
@@ -767,32 +1037,125 @@ mod tests {
     #[test]
     fn two_markers_jumping_onto_each_others_paths_are_an_exchange() {
         let far = |_| 30.0;
-        let found = exchanges_by_jumps(&exchange(far, 40..60, 0..0), 10.0, &[]);
+        let found = exchanges_by_jumps_all(&exchange(far, 40..60, 0..0), 10.0);
         assert_eq!(found.len(), 1);
         assert_eq!(found[0].markers, [0, 1]);
         assert_eq!(found[0].frames, vec![[40, 59]]);
-        // A marker already in a swap is left alone.
-        assert!(exchanges_by_jumps(&exchange(far, 40..60, 0..0), 10.0, &[1]).is_empty());
         // Smooth paths, and one marker jumping by itself (a glitch), are no exchange.
-        assert!(exchanges_by_jumps(&exchange(far, 0..0, 0..0), 10.0, &[]).is_empty());
-        assert!(exchanges_by_jumps(&pair(true), 10.0, &[]).is_empty());
+        assert!(exchanges_by_jumps_all(&exchange(far, 0..0, 0..0), 10.0).is_empty());
+        assert!(exchanges_by_jumps_all(&pair(true), 10.0).is_empty());
         // Exchanged for most of the capture: the minority, before and after, is the swap.
-        let found = exchanges_by_jumps(&exchange(far, 10..90, 0..0), 10.0, &[]);
+        let found = exchanges_by_jumps_all(&exchange(far, 10..90, 0..0), 10.0);
         assert_eq!(found[0].frames, vec![[0, 9], [90, 99]]);
         // An exchange lasting to the end has one exchange step ...
-        let found = exchanges_by_jumps(&exchange(far, 70..100, 0..0), 10.0, &[]);
+        let found = exchanges_by_jumps_all(&exchange(far, 70..100, 0..0), 10.0);
         assert_eq!(found[0].frames, vec![[70, 99]]);
         // The second label unseen across the exchange's first step: the first's jump
         // places it.
         let bridged = exchange_with_gap(far, 40..60, 0..0, 35..45);
         assert_eq!(
-            exchanges_by_jumps(&bridged, 10.0, &[])[0].frames,
+            exchanges_by_jumps_all(&bridged, 10.0)[0].frames,
             vec![[40, 59]]
         );
-        // ... which says nothing when the exchange's other end may hide in a gap.
-        assert!(exchanges_by_jumps(&exchange(far, 70..85, 85..90), 10.0, &[]).is_empty());
+        // An exit hidden in a gap of both: it is there when exchanging back joins both
+        // paths across the gap, and not when they run on as recorded.
+        let hidden_exit = exchanges_by_jumps_all(&exchange(far, 70..85, 85..90), 10.0);
+        assert_eq!(hidden_exit[0].frames, vec![[70, 84]]);
+        let no_exit = exchanges_by_jumps_all(&exchange(far, 70..100, 85..90), 10.0);
+        assert_eq!(no_exit[0].frames, vec![[70, 99]]);
         // ... and half the capture or more is not a minority.
-        assert!(exchanges_by_jumps(&exchange(far, 50..100, 0..0), 10.0, &[]).is_empty());
+        assert!(exchanges_by_jumps_all(&exchange(far, 50..100, 0..0), 10.0).is_empty());
+    }
+
+    #[test]
+    fn an_exchange_shows_where_a_track_ends_or_starts() {
+        let far = |_| 30.0;
+        // The second label unseen from before the exchange to after it, longer than a
+        // bridge: the first jumps onto its path as its track ends, and back onto its own
+        // as the second's track starts again.
+        let long_gap = exchange_with_gap(far, 40..60, 0..0, 38..65);
+        let found = exchanges_by_jumps_all(&long_gap, 10.0);
+        assert_eq!(found.len(), 1);
+        assert_eq!(found[0].frames, vec![[40, 59]]);
+        // An exchange to the end with a track that starts late: the first label runs on
+        // unbroken before, so the exchange is the frames after the step, not before.
+        let late = exchange_with_gap(far, 70..100, 0..0, 0..50);
+        assert_eq!(
+            exchanges_by_jumps_all(&late, 10.0)[0].frames,
+            vec![[70, 99]]
+        );
+        // The exit where the second label is in a gap to the end: the first's jump back
+        // ends the exchange, though the frames before the entry are fewer.
+        let exit_unseen = exchange_with_gap(far, 30..75, 0..0, 50..100);
+        assert_eq!(
+            exchanges_by_jumps_all(&exit_unseen, 10.0)[0].frames,
+            vec![[30, 74]]
+        );
+        // Both markers jump away and back while the second's track ends, the first landing
+        // off the second's path: no exchange.
+        let moved = |f: usize| if (40..60).contains(&f) { 90.0 } else { 30.0 };
+        let glitch = exchange_with_gap(moved, 0..0, 0..0, 40..100);
+        assert!(exchanges_by_jumps_all(&glitch, 10.0).is_empty());
+    }
+
+    #[test]
+    fn the_rest_of_an_exchange_joins_its_swap_in_order() {
+        let swap = |markers: [usize; 2], frames: [usize; 2]| LabelSwap {
+            markers,
+            frames: vec![frames],
+        };
+        let mut swaps = vec![swap([3, 5], [220, 240])];
+        add_in_order(&mut swaps, swap([5, 3], [169, 219]));
+        assert_eq!(swaps, vec![swap([3, 5], [169, 240])]);
+        // Frames already exchanged are no rest of it: exchanging them again undoes them.
+        add_in_order(&mut swaps, swap([3, 5], [200, 260]));
+        assert_eq!(swaps.len(), 2);
+        // After another swap of one of its markers, it keeps its place in the order.
+        let mut swaps = vec![swap([3, 5], [220, 240]), swap([5, 7], [300, 320])];
+        add_in_order(&mut swaps, swap([3, 5], [100, 150]));
+        assert_eq!(swaps.len(), 3);
+    }
+
+    /// Two bodies of four markers, 4 mm a frame along x, the second (markers 4-7) swinging
+    /// 40 mm in y against the first; markers 0 and 4 exchanged in `exchanged`.
+    fn two_bodies(exchanged: std::ops::Range<usize>) -> Trajectories {
+        let shape = [
+            [0.0, 0.0, 0.0],
+            [20.0, 0.0, 10.0],
+            [10.0, 15.0, -10.0],
+            [-5.0, 10.0, 20.0],
+        ];
+        let frames = 100;
+        let mut positions = Vec::with_capacity(8 * frames);
+        for f in 0..frames {
+            let x = 4.0 * f as f64;
+            let swing = 40.0 * (std::f64::consts::TAU * f as f64 / 50.0).sin();
+            let mut row: Vec<[f64; 3]> = [(50.0, 0.0), (-50.0, swing)]
+                .iter()
+                .flat_map(|&(y, s)| shape.iter().map(move |p| [x + p[0], y + s + p[1], p[2]]))
+                .collect();
+            if exchanged.contains(&f) {
+                row.swap(0, 4);
+            }
+            positions.extend(row);
+        }
+        let labels = (0..8).map(|m| format!("M{m}")).collect();
+        Trajectories::new(labels, 100.0, 1, frames, positions).expect("valid")
+    }
+
+    #[test]
+    fn undoing_the_wrong_side_of_an_exchange_is_refused() {
+        let swapped = two_bodies(40..60);
+        let swap = |frames: [usize; 2]| LabelSwap {
+            markers: [0, 4],
+            frames: vec![frames],
+        };
+        assert!(steadier_undone(&swapped, &swap([40, 59]), 5.0, 1));
+        // The frames after the exchange (as if its entry had shown no jump): undoing them
+        // moves both markers off their bodies for longer.
+        assert!(!steadier_undone(&swapped, &swap([60, 99]), 5.0, 1));
+        // Nothing exchanged: undoing anything moves markers off their bodies.
+        assert!(!steadier_undone(&two_bodies(0..0), &swap([40, 59]), 5.0, 1));
     }
 
     #[test]

@@ -966,6 +966,60 @@ fn label_swaps_under_skin_noise_and_gaps_are_never_wrong() {
     );
 }
 
+/// An unlabeled capture (each marker cut at its gaps into tracks, shuffled as `cargo xtask
+/// eval --unlabeled` does, the reader's stitch joining what it can) whose label exchange
+/// begins or ends where a track ends or starts: undone, the segments are the truth's, one
+/// for each true segment (each named by the marker most of its tracks were cut from).
+/// robotarm-messy-s20006: the exchange's entry where link 1's track ends, its exit where
+/// the base marker's next track starts; snake-messy-s20009: an exchange to the capture's
+/// end with a track that starts 30 frames before it; snowman-messy-s20015: an exchange
+/// across two of M029's tracks, undone in two rounds.
+#[test]
+fn exchanges_where_unlabeled_tracks_end_or_start_are_undone() {
+    for (subject, seed) in [
+        (synth::Subject::Robotarm, 20006),
+        (synth::Subject::Snake, 20009),
+        (synth::Subject::Snowman, 20015),
+    ] {
+        let trial = eval_trial(subject, synth::Preset::Messy, seed);
+        let (cut, marker_of_piece) =
+            synth::unlabeled(&trial.trajectories, seed, |i, _, _| i.to_string());
+        let read = mocap_io::stitch(mocap_io::Capture {
+            format: mocap_io::Format::C3d,
+            trajectories: cut,
+            info: mocap_io::CaptureInfo::default(),
+        });
+        let traj = &read.trajectories;
+        let seg = run(traj, &Params::default()).expect("segments");
+        assert!(!seg.swaps.is_empty(), "{}: no swap", trial.truth.name);
+        // A track is its first piece's marker; a true segment, the index of its markers'.
+        let true_segment = |track: usize| {
+            let piece: usize = traj.labels()[track].parse().expect("a piece's index");
+            let label = &trial.trajectories.labels()[marker_of_piece[piece]];
+            trial
+                .truth
+                .segments
+                .iter()
+                .position(|s| s.markers.contains(label))
+                .expect("every marker is on a true segment")
+        };
+        let mut named: Vec<usize> = seg
+            .segments
+            .iter()
+            .map(|s| {
+                let mut votes = vec![0usize; trial.truth.segments.len()];
+                s.markers.iter().for_each(|&m| votes[true_segment(m)] += 1);
+                (0..votes.len())
+                    .max_by_key(|&t| (votes[t], usize::MAX - t))
+                    .unwrap_or(0)
+            })
+            .collect();
+        named.sort_unstable();
+        let every: Vec<usize> = (0..trial.truth.segments.len()).collect();
+        assert_eq!(named, every, "{}: {:?}", trial.truth.name, seg.swaps);
+    }
+}
+
 /// Undoing a swap exchanges the two trajectories back in its frames only.
 #[test]
 fn untangle_exchanges_the_swapped_frames_back() {
