@@ -29,6 +29,7 @@ use mocap_io::Trajectories;
 use rayon::prelude::*;
 
 use crate::fitsplit::median;
+use crate::glitch::runs;
 use crate::reassign::nearest_clusters;
 use crate::segmentation::{LabelSwap, untangle};
 
@@ -203,50 +204,60 @@ pub(crate) fn find_swaps(
     // Last, exchanges the trajectories show by themselves, whatever the clusters made of
     // them (a swap can pull a marker into its partner's cluster, and then neither is a
     // suspect: robotarm-messy-s9001), where undoing them brings both markers nearer their
-    // steadiest partners.
-    // They are looked for with the swaps found so far undone, and rounds of them again with
-    // those undone too: a marker exchanged with a partner seen in two tracks pairs with one
-    // track a round (snowman-messy-s20015's M024, exchanged with M029 over 326-397, whose
-    // track ends at 348 and goes on in another from 352; the distances found the second
-    // track's part). The swaps are undone in the order found.
-    let mut undone = match found.is_empty() {
-        true => std::borrow::Cow::Borrowed(traj),
-        false => std::borrow::Cow::Owned(untangle(traj, &found)),
+    // steadiest partners. They are looked for with the swaps found so far undone, and in
+    // rounds again with those undone too: a marker exchanged with a partner seen in two
+    // tracks pairs with one track a round (snowman-messy-s20015's M024, exchanged with
+    // M029 over 326-397, whose track ends at 348 and goes on in another from 352; the
+    // distances found the second track's part). The swaps are undone in the order found.
+    let mut undone = if found.is_empty() {
+        std::borrow::Cow::Borrowed(traj)
+    } else {
+        std::borrow::Cow::Owned(untangle(traj, &found))
     };
     for _ in 0..EXCHANGE_ROUNDS {
         let more = exchanges_by_jumps(&undone, hold_mm, |swap| {
-            steadier_undone(&undone, swap, hold_mm, stride)
+            !exchanged_again(&found, swap) && steadier_undone(&undone, swap, hold_mm, stride)
         });
         if more.is_empty() {
             break;
         }
         undone = std::borrow::Cow::Owned(untangle(&undone, &more));
-        more.into_iter()
-            .for_each(|swap| add_in_order(&mut found, swap));
+        for swap in more {
+            add_in_order(&mut found, swap);
+        }
     }
     found
 }
 
+/// Whether `swap` exchanges again frames an earlier swap of the same two markers
+/// exchanged: that puts them back as recorded (random-messy-s10026, exchanged over 14-85,
+/// passing close at its middle: the distances found 14-48, and a lone jump at 85 in what
+/// that left made 0-85 the exchange, its frames near the close pass no farther off their
+/// partners either way).
+fn exchanged_again(swaps: &[LabelSwap], swap: &LabelSwap) -> bool {
+    swaps.iter().filter(|s| same_pair(s, swap)).any(|s| {
+        s.frames
+            .iter()
+            .any(|a| swap.frames.iter().any(|b| a[0] <= b[1] && b[0] <= a[1]))
+    })
+}
+
+/// Whether two swaps exchange the same two markers.
+fn same_pair(x: &LabelSwap, y: &LabelSwap) -> bool {
+    x.markers == y.markers || x.markers == [y.markers[1], y.markers[0]]
+}
+
 /// Appends `swap` to `swaps` (undone in order), or adds its frames to the last swap that
-/// touches either of its markers when that is the same pair in frames of its own: the
-/// rest of an exchange a round found in part (snowman-messy-s10006: 220-240 by the
-/// distances, 169-219 by the jump at its entry).
+/// touches either of its markers when that is the same pair (in other frames: see
+/// [`exchanged_again`]): the rest of an exchange a round found in part
+/// (snowman-messy-s10006: 220-240 by the distances, 169-219 by the jump at its entry).
 fn add_in_order(swaps: &mut Vec<LabelSwap>, swap: LabelSwap) {
-    let same_pair = |s: &LabelSwap| {
-        s.markers == swap.markers || s.markers == [swap.markers[1], swap.markers[0]]
-    };
     let last = swaps
         .iter_mut()
         .rev()
         .find(|s| s.markers.iter().any(|m| swap.markers.contains(m)));
     match last {
-        Some(last)
-            if same_pair(last)
-                && !last
-                    .frames
-                    .iter()
-                    .any(|a| swap.frames.iter().any(|b| a[0] <= b[1] && b[0] <= a[1])) =>
-        {
+        Some(last) if same_pair(last, &swap) => {
             let mut frames: Vec<[usize; 2]> = Vec::new();
             let mut all = [last.frames.as_slice(), swap.frames.as_slice()].concat();
             all.sort_unstable();
@@ -420,7 +431,10 @@ fn exchanged_frames(
     steps: &[usize],
 ) -> Option<Vec<[usize; 2]>> {
     let frames = traj.frames();
-    let runs_on = |m: usize, f: usize| matches!((traj.get(f, m), traj.get(f + 1, m)), (Some(p), Some(q)) if apart(p, q) <= bounds[m]);
+    let runs_on = |m: usize, f: usize| match (traj.get(f, m), traj.get(f + 1, m)) {
+        (Some(p), Some(q)) => apart(p, q) <= bounds[m],
+        _ => false,
+    };
     let mut kinds: Vec<Step> = (0..frames - 1)
         .map(|f| {
             if steps.binary_search(&f).is_ok() {
@@ -505,13 +519,7 @@ fn exchanged_frames(
             state = usize::from(came_from[f - 1][state]);
         }
     }
-    let mut windows: Vec<[usize; 2]> = Vec::new();
-    for f in (0..frames).filter(|&f| exchanged[f]) {
-        match windows.last_mut() {
-            Some(w) if w[1] + 1 == f => w[1] = f,
-            _ => windows.push([f, f]),
-        }
-    }
+    let mut windows = runs(&(0..frames).filter(|&f| exchanged[f]).collect::<Vec<_>>());
     let swapped = (0..frames).filter(|&f| exchanged[f] && seen(f)).count();
     windows.retain(|w| w[1] + 1 - w[0] >= MIN_SWAPPED_FRAMES);
     let seen_frames = (0..frames).filter(|&f| seen(f)).count();
@@ -1108,8 +1116,9 @@ mod tests {
         add_in_order(&mut swaps, swap([5, 3], [169, 219]));
         assert_eq!(swaps, vec![swap([3, 5], [169, 240])]);
         // Frames already exchanged are no rest of it: exchanging them again undoes them.
-        add_in_order(&mut swaps, swap([3, 5], [200, 260]));
-        assert_eq!(swaps.len(), 2);
+        assert!(exchanged_again(&swaps, &swap([5, 3], [200, 260])));
+        assert!(!exchanged_again(&swaps, &swap([5, 3], [241, 260])));
+        assert!(!exchanged_again(&swaps, &swap([5, 7], [200, 260])));
         // After another swap of one of its markers, it keeps its place in the order.
         let mut swaps = vec![swap([3, 5], [220, 240]), swap([5, 7], [300, 320])];
         add_in_order(&mut swaps, swap([3, 5], [100, 150]));
