@@ -62,6 +62,11 @@ const JUMP_FACTOR: f64 = 4.0;
 /// the other's jump: the generator's short holes last up to 20 frames.
 const MAX_BRIDGE_FRAMES: usize = 20;
 
+/// Two markers that both move more than their bound over this, neither jumping, exchange
+/// in a step where landing on each other's paths explains the steps this many times
+/// better than running on ([`exchanges_by_jumps`]).
+const EXCHANGE_GAIN: f64 = 2.0;
+
 /// Frames searched on each side of a window's end for [`JUMP_FACTOR`]'s jump.
 const JUMP_SLACK_FRAMES: usize = 2;
 
@@ -221,10 +226,10 @@ pub(crate) fn find_swaps(
         if more.is_empty() {
             break;
         }
-        undone = std::borrow::Cow::Owned(untangle(&undone, &more));
         for swap in more {
-            add_in_order(&mut found, swap);
+            add_in_order(&mut found, swap, traj.frames());
         }
+        undone = std::borrow::Cow::Owned(untangle(traj, &found));
     }
     found
 }
@@ -251,25 +256,29 @@ fn same_pair(x: &LabelSwap, y: &LabelSwap) -> bool {
 /// touches either of its markers when that is the same pair (in other frames: see
 /// [`exchanged_again`]): the rest of an exchange a round found in part
 /// (snowman-messy-s10006: 220-240 by the distances, 169-219 by the jump at its entry).
-fn add_in_order(swaps: &mut Vec<LabelSwap>, swap: LabelSwap) {
-    let last = swaps
-        .iter_mut()
-        .rev()
-        .find(|s| s.markers.iter().any(|m| swap.markers.contains(m)));
-    match last {
-        Some(last) if same_pair(last, &swap) => {
-            let mut frames: Vec<[usize; 2]> = Vec::new();
-            let mut all = [last.frames.as_slice(), swap.frames.as_slice()].concat();
-            all.sort_unstable();
-            for w in all {
-                match frames.last_mut() {
-                    Some(prev) if w[0] <= prev[1] + 1 => prev[1] = prev[1].max(w[1]),
-                    _ => frames.push(w),
-                }
-            }
-            last.frames = frames;
-        }
-        _ => swaps.push(swap),
+/// Frames of one pair exchanged in most of the capture's `frames` are the others
+/// exchanged, the two labels read the other way round, and are kept so (labels are as
+/// recorded in most frames); all of them is no swap (hexapod-hard-s30045 at 2-3 markers
+/// per segment: the distances took 17-341 for an exchange, a round the rest).
+fn add_in_order(swaps: &mut Vec<LabelSwap>, swap: LabelSwap, frames: usize) {
+    let Some(at) = swaps
+        .iter()
+        .rposition(|s| s.markers.iter().any(|m| swap.markers.contains(m)))
+        .filter(|&at| same_pair(&swaps[at], &swap))
+    else {
+        swaps.push(swap);
+        return;
+    };
+    let mut exchanged = vec![false; frames];
+    for &[first, last] in swaps[at].frames.iter().chain(&swap.frames) {
+        exchanged[first.min(frames)..(last + 1).min(frames)].fill(true);
+    }
+    let most = 2 * exchanged.iter().filter(|&&x| x).count() > frames;
+    let kept: Vec<usize> = (0..frames).filter(|&f| exchanged[f] != most).collect();
+    if kept.is_empty() {
+        swaps.remove(at);
+    } else {
+        swaps[at].frames = runs(&kept);
     }
 }
 
@@ -279,16 +288,18 @@ fn add_in_order(swaps: &mut Vec<LabelSwap>, swap: LabelSwap) {
 /// jump. A jump is a step beyond [`jump_bound`]. A tracker that confused
 /// two markers far apart does this (the generator's swaps: steps of 95-98 mm against
 /// medians near 10); skin and noise move markers smoothly, and a glitch moves one marker,
-/// not two onto each other's paths. An exchange where the two passed close shows no jump
-/// and is left to the distances ([`swap_test`]). An exchange step may also show on one
-/// side only, where the other marker's track ends or starts (an unlabeled capture cuts
-/// tracks at every gap): one marker jumps onto the path of a track that has just ended,
-/// or leaves its path to a track that starts soon after (robotarm-messy-s20006's M028
-/// carries link 1's marker while link 1's own track ends a frame before and the base
-/// marker's path goes on in a track starting 15 frames later). Which frames are exchanged
-/// is [`exchanged_frames`]'s choice, and an exchange is kept where `accept` takes it.
-/// Each marker is in at most one of them: the pairs with more steps seen on both sides
-/// first.
+/// not two onto each other's paths. Two markers that both move fast (over half their
+/// bound) exchange too where each lands within its bound on the other's path and that
+/// explains the steps [`EXCHANGE_GAIN`] times better than running on. An exchange where
+/// the two passed close shows no jump and is left to the distances ([`swap_test`]). An
+/// exchange step may also show on one side only, where the other marker's track ends or
+/// starts (an unlabeled capture cuts tracks at every gap): one marker jumps onto the path
+/// of a track that has just ended, or leaves its path to a track that starts soon after
+/// (robotarm-messy-s20006's M028 carries link 1's marker while link 1's own track ends a
+/// frame before and the base marker's path goes on in a track starting 15 frames later).
+/// Which frames are exchanged is [`exchanged_frames`]'s choice, and an exchange is kept
+/// where `accept` takes it. Each marker is in at most one of them: the pairs with more
+/// steps seen on both sides first.
 fn exchanges_by_jumps(
     traj: &Trajectories,
     floor_mm: f64,
@@ -305,10 +316,39 @@ fn exchanges_by_jumps(
     // Each pair's exchange steps, in step order, and how many were seen on both sides.
     let mut exchanges: std::collections::BTreeMap<[usize; 2], (Vec<usize>, usize)> =
         std::collections::BTreeMap::new();
-    let mut jumping = Vec::new();
+    let (mut jumping, mut fast) = (Vec::new(), Vec::new());
     for f in 0..frames - 1 {
         jumping.clear();
         jumping.extend((0..markers).filter(|&m| step(m, f).is_some_and(|d| d > bounds[m])));
+        // Neither need jump where both move fast and the exchange explains the steps
+        // EXCHANGE_GAIN times better than none, each landing within its bound of the other's
+        // path (snowman-messy-s20020's entry: steps of 49.5 and 36.5 mm against bounds of 50
+        // and 49, crossed 10.0 and 10.5 mm).
+        fast.clear();
+        fast.extend((0..markers).filter(|&m| {
+            step(m, f).is_some_and(|d| d <= bounds[m] && EXCHANGE_GAIN * d > bounds[m])
+        }));
+        for (i, &a) in fast.iter().enumerate() {
+            for &b in &fast[i + 1..] {
+                let (Some(pa), Some(qa), Some(pb), Some(qb)) = (
+                    traj.get(f, a),
+                    traj.get(f + 1, a),
+                    traj.get(f, b),
+                    traj.get(f + 1, b),
+                ) else {
+                    continue;
+                };
+                let (cross_a, cross_b) = (apart(pa, qb), apart(pb, qa));
+                if cross_a <= bounds[a]
+                    && cross_b <= bounds[b]
+                    && EXCHANGE_GAIN * (cross_a + cross_b) <= apart(pa, qa) + apart(pb, qb)
+                {
+                    let (steps, seen_both) = exchanges.entry([a, b]).or_default();
+                    steps.push(f);
+                    *seen_both += 1;
+                }
+            }
+        }
         // One of the two must jump; the other may land within its bound when the two were
         // close (snowman-messy-s10005's exit: 54 and 35 mm steps, 44 mm apart, bounds 36
         // and 38 mm), but then the exchange must explain the steps better than no exchange.
@@ -1049,6 +1089,11 @@ mod tests {
         assert_eq!(found.len(), 1);
         assert_eq!(found[0].markers, [0, 1]);
         assert_eq!(found[0].frames, vec![[40, 59]]);
+        // 12 mm apart, neither jumps (steps of 12.6 mm, bounds of 16) but each lands 4 mm
+        // from the other's path: an exchange; running side by side, none.
+        let close = exchanges_by_jumps_all(&exchange(|_| 6.0, 40..60, 0..0), 10.0);
+        assert_eq!(close[0].frames, vec![[40, 59]]);
+        assert!(exchanges_by_jumps_all(&exchange(|_| 6.0, 0..0, 0..0), 10.0).is_empty());
         // Smooth paths, and one marker jumping by itself (a glitch), are no exchange.
         assert!(exchanges_by_jumps_all(&exchange(far, 0..0, 0..0), 10.0).is_empty());
         assert!(exchanges_by_jumps_all(&pair(true), 10.0).is_empty());
@@ -1113,7 +1158,7 @@ mod tests {
             frames: vec![frames],
         };
         let mut swaps = vec![swap([3, 5], [220, 240])];
-        add_in_order(&mut swaps, swap([5, 3], [169, 219]));
+        add_in_order(&mut swaps, swap([5, 3], [169, 219]), 480);
         assert_eq!(swaps, vec![swap([3, 5], [169, 240])]);
         // Frames already exchanged are no rest of it: exchanging them again undoes them.
         assert!(exchanged_again(&swaps, &swap([5, 3], [200, 260])));
@@ -1121,8 +1166,26 @@ mod tests {
         assert!(!exchanged_again(&swaps, &swap([5, 7], [200, 260])));
         // After another swap of one of its markers, it keeps its place in the order.
         let mut swaps = vec![swap([3, 5], [220, 240]), swap([5, 7], [300, 320])];
-        add_in_order(&mut swaps, swap([3, 5], [100, 150]));
+        add_in_order(&mut swaps, swap([3, 5], [100, 150]), 480);
         assert_eq!(swaps.len(), 3);
+        // The rest of the capture: the two labels read the other way round, no swap.
+        let mut swaps = vec![swap([3, 5], [17, 341])];
+        let rest = LabelSwap {
+            markers: [3, 5],
+            frames: vec![[0, 16], [342, 479]],
+        };
+        add_in_order(&mut swaps, rest, 480);
+        assert!(swaps.is_empty());
+        // Most of it: the frames left out are the swap.
+        let mut swaps = vec![swap([3, 5], [17, 341])];
+        add_in_order(&mut swaps, swap([3, 5], [342, 400]), 480);
+        assert_eq!(
+            swaps,
+            vec![LabelSwap {
+                markers: [3, 5],
+                frames: vec![[0, 16], [401, 479]]
+            }]
+        );
     }
 
     /// Two bodies of four markers, 4 mm a frame along x, the second (markers 4-7) swinging
