@@ -968,18 +968,20 @@ fn label_swaps_under_skin_noise_and_gaps_are_never_wrong() {
 
 /// An unlabeled capture (each marker cut at its gaps into tracks, shuffled as `cargo xtask
 /// eval --unlabeled` does, the reader's stitch joining what it can) whose label exchange
-/// begins or ends where a track ends or starts: undone, the segments are the truth's, one
-/// for each true segment (each named by the marker most of its tracks were cut from).
-/// robotarm-messy-s20006: the exchange's entry where link 1's track ends, its exit where
+/// begins or ends where a track ends or starts, or shows no jump: undone, the segments are
+/// the truth's, one for each true segment (each named by the marker most of its tracks
+/// were cut from). robotarm-messy-s20006: the exchange's entry where link 1's track ends, its exit where
 /// the base marker's next track starts; snake-messy-s20009: an exchange to the capture's
 /// end with a track that starts 30 frames before it; snowman-messy-s20015: an exchange
-/// across two of M029's tracks, undone in two rounds.
+/// across two of M029's tracks, undone in two rounds; snowman-messy-s20020: an exchange
+/// whose steps are fast but no jumps.
 #[test]
-fn exchanges_where_unlabeled_tracks_end_or_start_are_undone() {
+fn label_exchanges_in_unlabeled_captures_are_undone() {
     for (subject, seed) in [
         (synth::Subject::Robotarm, 20006),
         (synth::Subject::Snake, 20009),
         (synth::Subject::Snowman, 20015),
+        (synth::Subject::Snowman, 20020),
     ] {
         let trial = eval_trial(subject, synth::Preset::Messy, seed);
         let (cut, marker_of_piece) =
