@@ -62,9 +62,9 @@ const JUMP_FACTOR: f64 = 4.0;
 /// the other's jump: the generator's short holes last up to 20 frames.
 const MAX_BRIDGE_FRAMES: usize = 20;
 
-/// Two markers that both move more than their bound over this, neither jumping, exchange
-/// in a step where landing on each other's paths explains the steps this many times
-/// better than running on ([`exchanges_by_jumps`]).
+/// Two markers that both step more than their jump bound divided by this, neither
+/// jumping, exchange in a step where landing on each other's paths explains the steps
+/// this many times better than running on ([`exchanges_by_jumps`]).
 const EXCHANGE_GAIN: f64 = 2.0;
 
 /// Frames searched on each side of a window's end for [`JUMP_FACTOR`]'s jump.
@@ -288,9 +288,9 @@ fn add_in_order(swaps: &mut Vec<LabelSwap>, swap: LabelSwap, frames: usize) {
 /// jump. A jump is a step beyond [`jump_bound`]. A tracker that confused
 /// two markers far apart does this (the generator's swaps: steps of 95-98 mm against
 /// medians near 10); skin and noise move markers smoothly, and a glitch moves one marker,
-/// not two onto each other's paths. Two markers that both move fast (over half their
-/// bound) exchange too where each lands within its bound on the other's path and that
-/// explains the steps [`EXCHANGE_GAIN`] times better than running on. An exchange where
+/// not two onto each other's paths. Two markers that both move fast (over their bound
+/// divided by [`EXCHANGE_GAIN`]) exchange too where each lands within its bound on the
+/// other's path and that explains the steps that many times better than running on. An exchange where
 /// the two passed close shows no jump and is left to the distances ([`swap_test`]). An
 /// exchange step may also show on one side only, where the other marker's track ends or
 /// starts (an unlabeled capture cuts tracks at every gap): one marker jumps onto the path
@@ -410,14 +410,9 @@ fn exchange_step(
     a: usize,
     b: usize,
 ) -> Option<bool> {
-    let frames = traj.frames();
     let (pa, qa) = (traj.get(f, a)?, traj.get(f + 1, a)?);
-    let before = (f.saturating_sub(MAX_BRIDGE_FRAMES)..=f)
-        .rev()
-        .find_map(|g| Some((g, traj.get(g, b)?)));
-    let after = (f + 1..=(f + 1 + MAX_BRIDGE_FRAMES).min(frames - 1))
-        .find_map(|g| Some((g, traj.get(g, b)?)));
-    let reach = |m: usize, bridged: usize| bounds[m] * (1.0 + bridged as f64 / JUMP_FACTOR);
+    let (before, after) = (last_seen(traj, b, f), first_seen(traj, b, f + 1));
+    let reach = |m: usize, bridged: usize| bridged_bound(bounds[m], bridged);
     let own = apart(pa, qa);
     match (before, after) {
         (Some((before, pb)), Some((after, qb))) => {
@@ -439,6 +434,27 @@ fn exchange_step(
         }
         (None, None) => None,
     }
+}
+
+/// Marker `m`'s last sample (frame, position) at or before frame `at`, at most
+/// [`MAX_BRIDGE_FRAMES`] before it.
+fn last_seen(traj: &Trajectories, m: usize, at: usize) -> Option<(usize, [f64; 3])> {
+    (at.saturating_sub(MAX_BRIDGE_FRAMES)..=at)
+        .rev()
+        .find_map(|g| Some((g, traj.get(g, m)?)))
+}
+
+/// Marker `m`'s first sample (frame, position) at or after frame `from`, at most
+/// [`MAX_BRIDGE_FRAMES`] after it.
+fn first_seen(traj: &Trajectories, m: usize, from: usize) -> Option<(usize, [f64; 3])> {
+    let last = (from + MAX_BRIDGE_FRAMES).min(traj.frames().saturating_sub(1));
+    (from..=last).find_map(|g| Some((g, traj.get(g, m)?)))
+}
+
+/// A marker's jump bound `bound` over a step that bridges `bridged` unseen frames: a
+/// typical step more for each (the bound is [`JUMP_FACTOR`] typical steps).
+fn bridged_bound(bound: f64, bridged: usize) -> f64 {
+    bound * (1.0 + bridged as f64 / JUMP_FACTOR)
 }
 
 /// How the labels of a pair may change between frames f and f + 1.
@@ -490,7 +506,7 @@ fn exchanged_frames(
             }
         })
         .collect();
-    let reach = |m: usize, bridged: usize| bounds[m] * (1.0 + bridged as f64 / JUMP_FACTOR);
+    let reach = |m: usize, bridged: usize| bridged_bound(bounds[m], bridged);
     let mut f = 0;
     while f < kinds.len() {
         if !matches!(kinds[f], Step::Open { .. }) {
@@ -502,14 +518,7 @@ fn exchanged_frames(
             f += 1;
         }
         // Open steps first..f: each marker's last sample up to `first` and first from `f`.
-        let last = |m: usize| {
-            (first.saturating_sub(MAX_BRIDGE_FRAMES)..=first)
-                .rev()
-                .find_map(|g| Some((g, traj.get(g, m)?)))
-        };
-        let next = |m: usize| {
-            (f..=(f + MAX_BRIDGE_FRAMES).min(frames - 1)).find_map(|g| Some((g, traj.get(g, m)?)))
-        };
+        let (last, next) = (|m| last_seen(traj, m, first), |m| first_seen(traj, m, f));
         if let (Some(la), Some(lb), Some(na), Some(nb)) = (last(a), last(b), next(a), next(b)) {
             let goes_on = |m: usize, (g, p): (usize, [f64; 3]), (h, q): (usize, [f64; 3])| {
                 apart(p, q) <= reach(m, h - g - 1)

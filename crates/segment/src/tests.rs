@@ -970,11 +970,11 @@ fn label_swaps_under_skin_noise_and_gaps_are_never_wrong() {
 /// eval --unlabeled` does, the reader's stitch joining what it can) whose label exchange
 /// begins or ends where a track ends or starts, or shows no jump: undone, the segments are
 /// the truth's, one for each true segment (each named by the marker most of its tracks
-/// were cut from). robotarm-messy-s20006: the exchange's entry where link 1's track ends, its exit where
-/// the base marker's next track starts; snake-messy-s20009: an exchange to the capture's
-/// end with a track that starts 30 frames before it; snowman-messy-s20015: an exchange
-/// across two of M029's tracks, undone in two rounds; snowman-messy-s20020: an exchange
-/// whose steps are fast but no jumps.
+/// were cut from). robotarm-messy-s20006: the exchange's entry where link 1's track ends,
+/// its exit where the base marker's next track starts; snake-messy-s20009: an exchange to
+/// the capture's end with a track that starts 30 frames before it; snowman-messy-s20015:
+/// an exchange across two of M029's tracks, undone in two rounds; snowman-messy-s20020:
+/// an exchange whose steps are fast but no jumps.
 #[test]
 fn label_exchanges_in_unlabeled_captures_are_undone() {
     for (subject, seed) in [
