@@ -92,7 +92,8 @@ pub struct SkeletonJson {
     /// Remarks from the topology stage, in words.
     pub notes: Vec<String>,
     /// Pairs of markers whose trajectories the capture had exchanged for a while (a
-    /// tracker confusing markers that pass close); every stage used them swapped back.
+    /// tracker confusing markers that pass close); every stage used them swapped back, in
+    /// this order (a marker can be in several: its partner seen in two tracks).
     #[serde(default)]
     pub label_swaps: Vec<LabelSwapJson>,
     /// The parameters the run set away from their defaults (`--set`), as `stage.param` →
