@@ -794,7 +794,7 @@ pub(crate) fn spread_back(seg: &mut Segmentation, traj: &Trajectories, groups: &
 mod tests {
     use super::{find_pieces, joined, kept_distances, posable_body, span, spread_back};
     use crate::pairstats::pair_stats;
-    use crate::segmentation::{Glitch, LabelSwap};
+    use crate::segmentation::{Glitch, LabelSwap, with_positions};
     use crate::testscene::{CHILD, PARENT, cut_at_gap, skin_hinged_capture};
     use crate::{Params, run};
     use mocap_io::Trajectories;
@@ -956,9 +956,7 @@ mod tests {
                     *p = [f64::NAN; 3];
                 }
             }
-            let apart =
-                Trajectories::new(traj.labels().to_vec(), 100.0, 1, traj.frames(), positions)
-                    .expect("same shape");
+            let apart = with_positions(&traj, positions);
             let clusters = [vec![0, 1, 2, 3], vec![4, 5, 6, 7], vec![8, 9, 10, 11]];
             let expected = if joins {
                 vec![vec![4, 8], vec![5, 9], vec![6, 10], vec![7, 11]]

@@ -316,17 +316,25 @@ fn exchanges_by_jumps(
     // Each pair's exchange steps, in step order, and how many were seen on both sides.
     let mut exchanges: std::collections::BTreeMap<[usize; 2], (Vec<usize>, usize)> =
         std::collections::BTreeMap::new();
-    let (mut jumping, mut fast) = (Vec::new(), Vec::new());
+    let mut record = |pair: [usize; 2], f: usize, both_sides: bool| {
+        let (steps, seen_both) = exchanges.entry(pair).or_default();
+        steps.push(f);
+        *seen_both += usize::from(both_sides);
+    };
+    let (mut moved, mut jumping, mut fast) = (Vec::new(), Vec::new(), Vec::new());
     for f in 0..frames - 1 {
+        // Each marker's step f → f + 1, once: both kinds of exchange read it.
+        moved.clear();
+        moved.extend((0..markers).map(|m| step(m, f)));
         jumping.clear();
-        jumping.extend((0..markers).filter(|&m| step(m, f).is_some_and(|d| d > bounds[m])));
+        jumping.extend((0..markers).filter(|&m| moved[m].is_some_and(|d| d > bounds[m])));
         // Neither need jump where both move fast and the exchange explains the steps
         // EXCHANGE_GAIN times better than none, each landing within its bound of the other's
         // path (snowman-messy-s20020's entry: steps of 49.5 and 36.5 mm against bounds of 50
         // and 49, crossed 10.0 and 10.5 mm).
         fast.clear();
         fast.extend((0..markers).filter(|&m| {
-            step(m, f).is_some_and(|d| d <= bounds[m] && EXCHANGE_GAIN * d > bounds[m])
+            moved[m].is_some_and(|d| d <= bounds[m] && EXCHANGE_GAIN * d > bounds[m])
         }));
         for (i, &a) in fast.iter().enumerate() {
             for &b in &fast[i + 1..] {
@@ -343,9 +351,7 @@ fn exchanges_by_jumps(
                     && cross_b <= bounds[b]
                     && EXCHANGE_GAIN * (cross_a + cross_b) <= apart(pa, qa) + apart(pb, qb)
                 {
-                    let (steps, seen_both) = exchanges.entry([a, b]).or_default();
-                    steps.push(f);
-                    *seen_both += 1;
+                    record([a, b], f, true);
                 }
             }
         }
@@ -358,9 +364,7 @@ fn exchanges_by_jumps(
                     continue;
                 }
                 if let Some(both_sides) = exchange_step(traj, &bounds, f, a, b) {
-                    let (steps, seen_both) = exchanges.entry([a.min(b), a.max(b)]).or_default();
-                    steps.push(f);
-                    *seen_both += usize::from(both_sides);
+                    record([a.min(b), a.max(b)], f, both_sides);
                 }
             }
         }
