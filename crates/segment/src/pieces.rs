@@ -28,9 +28,9 @@
 //! (seeds 20001..20020, a throwaway print of every body's best candidate) the true
 //! continuation started 0.18 (median) of the way to the nearest marker from where its piece
 //! ended, a wrong best candidate 4.7; over seeds 20001..20050 and 30001..30050 one of the
-//! 1885 groups the poses join is wrong, and with the distances 7 of 2483, each a marker's
-//! piece taken for another marker's of the same segment (at 2–3 markers per segment, 25
-//! of 1245, 5 of them across a joint: a cluster of two segments' few markers passes for a
+//! 1885 groups the poses join is wrong, and with the distances 6 of 2500, each a marker's
+//! piece taken for another marker's of the same segment (at 2–3 markers per segment, 22
+//! of 1799, some across a joint: a cluster of two segments' few markers passes for a
 //! body there).
 //!
 //! It does not join pieces that share a frame, or pieces of a marker whose body of ≥ 3
@@ -175,10 +175,15 @@ pub(crate) fn find_pieces(
                 }
             }
         }
-        by_distances.extend(kept_distances(
-            stats, &members, &shape, &spans, spacing_mm, rigid,
-        ));
         let dropped: Vec<usize> = c.iter().copied().filter(|m| !members.contains(m)).collect();
+        by_distances.extend(kept_distances(
+            stats,
+            (&members, &shape),
+            &dropped,
+            &spans,
+            spacing_mm,
+            rigid,
+        ));
         bodies.push(Body {
             members,
             shape,
@@ -212,14 +217,17 @@ pub(crate) fn find_pieces(
 /// with (ρ within `rigid.1` over ≥ `rigid.0` frames; fewer frames rule it out) and at the
 /// distances the shape puts the member from them (RMS within [`MATCH_SHARE`] × the
 /// member's distance to its nearest neighbour in the shape, capped at `spacing_mm`), no
-/// other member as near within [`RIVAL_FACTOR`] times; of several such tracks on one side
-/// of the member, the nearest in time, unless two of them are seen together (W unlabeled,
-/// `--markers 2:3`: wrong joins 28 → 25 of about 1250, across a joint 8 → 5, trees the
-/// same).
+/// other member as near within [`RIVAL_FACTOR`] times, and no track of `others` (the
+/// cluster's tracks outside the body) seen with the member and never with the track, on
+/// the far side of it in time, as near to its distances to the members; of several such
+/// tracks on one side of the member, the nearest in time, unless two of them are seen
+/// together (W unlabeled, `--markers 2:3`: wrong joins 28 → 25 of about 1250, across a
+/// joint 8 → 5, trees the same; the rival outside the body: wrong groups 8 → 6 of 2500 on
+/// W unlabeled, 24 → 22 of 1801 at `--markers 2:3`).
 fn kept_distances(
     stats: &PairStats,
-    members: &[usize],
-    shape: &[[f64; 3]],
+    (members, shape): (&[usize], &[[f64; 3]]),
+    others: &[usize],
     spans: &[Option<(usize, usize)>],
     spacing_mm: f64,
     (min_overlap, tolerance_mm): (usize, f64),
@@ -271,7 +279,25 @@ fn kept_distances(
                 .filter(|&(j, &o)| j != i && apart(o, c))
                 .filter_map(|(j, _)| misfit(c, j))
                 .any(|other| other < RIVAL_FACTOR * fit);
-            if fit > MATCH_SHARE * scale || rival {
+            // A track of the cluster seen with the member (so another marker) that could be
+            // c's own marker before (after) it, keeping c's distances as well: c may be its
+            // piece as much as the member's (human-hard-s30001 unlabeled: r_upperarm's M077
+            // ends at 207, M018 at 239, M077's later piece from 271 was taken for M018's).
+            let piece_rival = others
+                .iter()
+                .filter(|&&d| d != c && apart(d, c) && !apart(d, b))
+                .filter(|&&d| {
+                    spans[d].is_some_and(|(first_d, last_d)| {
+                        if first_c > last_b {
+                            last_d < first_c
+                        } else {
+                            first_d > last_c
+                        }
+                    })
+                })
+                .filter_map(|&d| kept_misfit(stats, members, (c, d), min_overlap, tolerance_mm))
+                .any(|other| other < RIVAL_FACTOR * fit);
+            if fit > MATCH_SHARE * scale || rival || piece_rival {
                 continue;
             }
             // (frames between the two, track)
@@ -285,6 +311,29 @@ fn kept_distances(
         out.extend(nearest_in_time(&before, apart).map(|c| (c, b)));
     }
     out
+}
+
+/// RMS difference of two tracks' mean distances to the `partners` seen rigidly with both
+/// (ρ within `tolerance_mm` over ≥ `min_overlap` frames), when ≥ [`DISTANCE_PARTNERS`] are.
+fn kept_misfit(
+    stats: &PairStats,
+    partners: &[usize],
+    (a, b): (usize, usize),
+    min_overlap: usize,
+    tolerance_mm: f64,
+) -> Option<f64> {
+    let rigid = |p: usize, x: usize| {
+        stats
+            .rho(p, x, min_overlap)
+            .is_some_and(|rho| rho <= tolerance_mm)
+    };
+    let (mut sum, mut count) = (0.0, 0usize);
+    for &x in partners.iter().filter(|&&x| rigid(a, x) && rigid(b, x)) {
+        let d = stats.mean[stats.at(a, x)] - stats.mean[stats.at(b, x)];
+        sum += d * d;
+        count += 1;
+    }
+    (count >= DISTANCE_PARTNERS).then(|| (sum / count as f64).sqrt())
 }
 
 /// Of the tracks `found` to fit one piece (frames between them and it, track), the nearest
@@ -995,10 +1044,64 @@ mod tests {
                     posable_body(traj, &stats, &[0, 1, 2, 3]).expect("a posable body");
                 let spans: Vec<_> = (0..traj.markers()).map(|m| span(traj, m)).collect();
                 let spacing = traj.marker_spacing_mm().expect("a spacing");
-                kept_distances(&stats, &members, &posed.shape, &spans, spacing, (24, 10.0))
+                kept_distances(
+                    &stats,
+                    (&members, &posed.shape),
+                    &[],
+                    &spans,
+                    spacing,
+                    (24, 10.0),
+                )
             };
             assert_eq!(joins(&cut), vec![(1, 8)], "seed {seed}");
             assert_eq!(joins(&traj), Vec::new(), "seed {seed}");
+        }
+    }
+
+    /// Another marker of the cluster, seen with marker 1 and gone before 1's later piece
+    /// starts, that sits where the piece keeps its distances could be the piece's own
+    /// marker: then the piece joins neither; sitting elsewhere on the body, it is no rival.
+    #[test]
+    fn a_piece_another_marker_could_have_left_does_not_join() {
+        for seed in 1..=3 {
+            let cut = cut_at_gap(
+                &skin_hinged_capture(&PARENT, &CHILD, 30.0, 6.0, seed),
+                1,
+                120..260,
+            );
+            for (share, joined) in [(0.02, false), (0.6, true)] {
+                let n = cut.markers();
+                let mut labels = cut.labels().to_vec();
+                labels.push("other".to_owned());
+                let mut positions = Vec::with_capacity(cut.frames() * (n + 1));
+                for f in 0..cut.frames() {
+                    let frame = cut.frame(f);
+                    positions.extend_from_slice(frame);
+                    // On the body, `share` of the way from marker 1 away from marker 3;
+                    // seen until frame 100.
+                    let (one, three) = (frame[1], frame[3]);
+                    let other: [f64; 3] =
+                        std::array::from_fn(|i| one[i] + share * (one[i] - three[i]));
+                    positions.push(if f < 100 { other } else { [f64::NAN; 3] });
+                }
+                let traj = Trajectories::new(labels, cut.frame_rate(), 1, cut.frames(), positions)
+                    .expect("capture with another marker");
+                let stats = pair_stats(&traj);
+                let (members, posed) =
+                    posable_body(&traj, &stats, &[0, 1, 2, 3]).expect("a posable body");
+                let spans: Vec<_> = (0..traj.markers()).map(|m| span(&traj, m)).collect();
+                let spacing = traj.marker_spacing_mm().expect("a spacing");
+                let joins = kept_distances(
+                    &stats,
+                    (&members, &posed.shape),
+                    &[9],
+                    &spans,
+                    spacing,
+                    (24, 10.0),
+                );
+                let expected = if joined { vec![(1, 8)] } else { Vec::new() };
+                assert_eq!(joins, expected, "seed {seed}, share {share}");
+            }
         }
     }
 
