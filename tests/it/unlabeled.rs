@@ -230,7 +230,7 @@ fn real_captures_cut_into_pieces_are_joined_without_a_wrong_join() {
         return;
     };
     let tmp = Scratch::new("unlabeled-real");
-    // (file, least share of the possible joins made: measured 36 of 40, 20 of 23, 21 of 26)
+    // (file, least share of the possible joins made: measured 36 of 40, 22 of 23, 21 of 26)
     for (path, least) in [
         ("c3d/cmu/02_01.c3d", 0.7),
         ("c3d/c3d.org/sample26/Walking_Hybrid_1_1.c3d", 0.6),
