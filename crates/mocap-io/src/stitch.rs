@@ -18,8 +18,11 @@
 //! gap, the true continuation landed 5 mm away (median), the nearest wrong one 39 mm, at
 //! 46 mm marker spacing.
 //!
-//! Where the carry cannot judge a pair (fewer than three steady neighbours at either end:
-//! a segment of two or three markers, one of them hidden), a gap of up to
+//! Where the carry leaves a piece apart (fewer than three steady neighbours at either end,
+//! a segment of two or three markers with one hidden; or neighbours steady over the window
+//! that turn apart across the gap, at two or three markers per segment often across a
+//! joint: snowman-hard-s20032 at `--markers 2:3`, carried 69 mm off, its own motion
+//! 1.5 mm), a gap of up to
 //! [`BRIDGE_SECONDS`] is bridged by the pieces' own motion: a straight line in time over
 //! each one's [`MOTION_SECONDS`] at the gap, relative to the neighbour steadiest with both
 //! (absolute when none is), must meet the other's at the gap's middle within the same
@@ -27,7 +30,8 @@
 //! that, each the other's best. Lines from both sides meeting in the middle miss by the
 //! motion's change of acceleration only, not by the acceleration itself; relative to a
 //! neighbour on the segment that is its turning alone (the hard preset unlabeled at 2–3
-//! markers per segment, seeds 20001..20010, pairs each the other's best: relative lines
+//! markers per segment, seeds 20001..20010, pairs the carry could not judge, each the
+//! other's best: relative lines
 //! joined 46 of one marker and refused 1, absolute lines joined 34 and refused 31; both
 //! refused the 6 pairs of two markers).
 //!
@@ -150,14 +154,7 @@ fn continuations(t: &Trajectories) -> Vec<Option<usize>> {
     for (a, continued_by) in next.iter_mut().enumerate() {
         *continued_by = choices.clear_best(a, &spans, &nearest);
     }
-    bridge_by_motion(
-        t,
-        &spans,
-        (&ending, &starting),
-        &carried,
-        &nearest,
-        &mut next,
-    );
+    bridge_by_motion(t, &spans, (&ending, &starting), &nearest, &mut next);
     next
 }
 
@@ -224,14 +221,13 @@ impl EndMotion {
 /// neighbour (see [`steady_neighbours`]).
 type SteadyNeighbours = [Vec<(usize, f64)>];
 
-/// Joins, into `next`, pieces the carry could not judge across a gap of up to
+/// Joins, into `next`, pieces the carry left apart across a gap of up to
 /// [`BRIDGE_SECONDS`] where each one's own motion meets the other's (module docs); the
 /// tracks' steady neighbours at their ends and starts are `ending` and `starting`.
 fn bridge_by_motion(
     t: &Trajectories,
     spans: &[Option<Span>],
     (ending, starting): (&SteadyNeighbours, &SteadyNeighbours),
-    carried: &[(usize, usize, f64)],
     nearest: &impl Fn(usize, usize) -> f64,
     next: &mut [Option<usize>],
 ) {
@@ -287,11 +283,10 @@ fn bridge_by_motion(
     }
     let choices = Choices::of(&met, spans);
     for (a, continued_by) in next.iter_mut().enumerate() {
-        // Only pieces the carry could not judge; any piece is a rival.
+        // Only pieces the carry left apart; any piece is a rival.
         if let Some(b) = choices.clear_best(a, spans, nearest)
             && continued_by.is_none()
             && !continued[b]
-            && !carried.iter().any(|c| c.0 == a && c.1 == b)
         {
             *continued_by = Some(b);
             continued[b] = true;
