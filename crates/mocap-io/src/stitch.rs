@@ -22,18 +22,16 @@
 //! a segment of two or three markers with one hidden; or neighbours steady over the window
 //! that turn apart across the gap, at two or three markers per segment often across a
 //! joint: snowman-hard-s20032 at `--markers 2:3`, carried 69 mm off, its own motion
-//! 1.5 mm), a gap of up to
-//! [`BRIDGE_SECONDS`] is bridged by the pieces' own motion: a straight line in time over
-//! each one's [`MOTION_SECONDS`] at the gap, relative to the neighbour steadiest with both
-//! (absolute when none is), must meet the other's at the gap's middle within the same
-//! [`MATCH_SHARE`] of the way to the nearest other marker, no rival meeting within twice
-//! that, each the other's best. Lines from both sides meeting in the middle miss by the
-//! motion's change of acceleration only, not by the acceleration itself; relative to a
-//! neighbour on the segment that is its turning alone (the hard preset unlabeled at 2–3
-//! markers per segment, seeds 20001..20010, pairs the carry could not judge, each the
-//! other's best: relative lines
-//! joined 46 of one marker and refused 1, absolute lines joined 34 and refused 31; both
-//! refused the 6 pairs of two markers).
+//! 1.5 mm), a gap of up to [`BRIDGE_SECONDS`] is bridged by the pieces' own motion: a
+//! straight line in time over each one's [`MOTION_SECONDS`] at the gap, relative to the
+//! neighbour steadiest with both (absolute when none is), must meet the other's at the
+//! gap's middle within the same [`MATCH_SHARE`] of the way to the nearest other marker, no
+//! rival meeting within twice that, each the other's best. Lines from both sides meeting
+//! in the middle miss by the motion's change of acceleration only, not by the acceleration
+//! itself; relative to a neighbour on the segment, by its turning alone (the hard preset
+//! unlabeled at 2–3 markers per segment, seeds 20001..20010, pairs the carry could not
+//! judge, each the other's best: relative lines joined 46 of one marker and refused 1,
+//! absolute lines joined 34 and refused 31; both refused the 6 pairs of two markers).
 //!
 //! It does not guess where the neighbours are not steady or not seen at both ends and the
 //! gap is longer than the bridge, or join tracks that share a frame.
@@ -699,16 +697,12 @@ mod tests {
         assert!(bits(&read.trajectories) == bits(&c.trajectories));
     }
 
-    /// Tracks of `body`'s markers with only markers 0 and 1 (too few neighbours for a
-    /// carry), each seen over the frames given.
-    fn two_markers(pieces: &[(usize, std::ops::Range<usize>)]) -> Capture {
-        capture(pieces, 300)
-    }
-
     #[test]
     fn a_short_gap_is_bridged_by_the_pieces_own_motion() {
-        // Marker 0 hidden for 8 frames beside marker 1: no three neighbours carry it, but
-        // its motion about marker 1 on each side meets across the gap.
+        // Two of the body's markers (too few neighbours for a carry). Marker 0 hidden for 8
+        // frames beside marker 1: its motion about marker 1 on each side meets across the
+        // gap.
+        let two_markers = |pieces: &[(usize, std::ops::Range<usize>)]| capture(pieces, 300);
         let c = join_pieces(two_markers(&[(0, 0..120), (0, 128..300), (1, 0..300)]));
         assert_eq!(c.info.stitched, [vec!["*0".to_owned(), "*1".to_owned()]]);
         // Both hidden together (a two-marker body hidden whole): each line meets its own

@@ -1016,45 +1016,65 @@ mod tests {
         }
     }
 
+    /// The skin-hinged scene with marker 1 hidden over frames 120..260, its later piece
+    /// track 8.
+    fn marker_1_cut(seed: u64) -> Trajectories {
+        cut_at_gap(
+            &skin_hinged_capture(&PARENT, &CHILD, 30.0, 6.0, seed),
+            1,
+            120..260,
+        )
+    }
+
+    /// `cut` with one more track, `label`, placed in each frame by `at` from that frame's
+    /// markers (`None`: hidden).
+    fn with_track(
+        cut: &Trajectories,
+        label: &str,
+        at: impl Fn(usize, &[[f64; 3]]) -> Option<[f64; 3]>,
+    ) -> Trajectories {
+        let n = cut.markers();
+        let mut labels = cut.labels().to_vec();
+        labels.push(label.to_owned());
+        let mut positions = Vec::with_capacity(cut.frames() * (n + 1));
+        for f in 0..cut.frames() {
+            let frame = cut.frame(f);
+            positions.extend_from_slice(frame);
+            positions.push(at(f, frame).unwrap_or([f64::NAN; 3]));
+        }
+        Trajectories::new(labels, cut.frame_rate(), 1, cut.frames(), positions)
+            .expect("capture with one more track")
+    }
+
+    /// What `kept_distances` joins to the body of markers 0–3, with `others` the cluster's
+    /// tracks outside it.
+    fn kept_joins(traj: &Trajectories, others: &[usize]) -> Vec<(usize, usize)> {
+        let stats = pair_stats(traj);
+        let (members, posed) = posable_body(traj, &stats, &[0, 1, 2, 3]).expect("a posable body");
+        let spans: Vec<_> = (0..traj.markers()).map(|m| span(traj, m)).collect();
+        let spacing = traj.marker_spacing_mm().expect("a spacing");
+        kept_distances(
+            &stats,
+            (&members, &posed.shape),
+            others,
+            &spans,
+            spacing,
+            (24, 10.0),
+        )
+    }
+
     /// Two tracks seen together that both keep a hidden marker's distances (its later
     /// piece and a ghost 1 mm beside it) cannot both be it: neither joins.
     #[test]
     fn two_tracks_seen_together_do_not_join_one_marker() {
         for seed in 1..=3 {
-            let cut = cut_at_gap(
-                &skin_hinged_capture(&PARENT, &CHILD, 30.0, 6.0, seed),
-                1,
-                120..260,
-            );
-            let n = cut.markers();
-            let mut labels = cut.labels().to_vec();
-            labels.push("ghost".to_owned());
-            let mut positions = Vec::with_capacity(cut.frames() * (n + 1));
-            for f in 0..cut.frames() {
-                let frame = cut.frame(f);
-                positions.extend_from_slice(frame);
-                positions.push([frame[8][0] + 1.0, frame[8][1], frame[8][2]]);
-            }
-            let traj = Trajectories::new(labels, cut.frame_rate(), 1, cut.frames(), positions)
-                .expect("capture with a ghost");
+            let cut = marker_1_cut(seed);
+            let traj = with_track(&cut, "ghost", |_, frame| {
+                Some([frame[8][0] + 1.0, frame[8][1], frame[8][2]])
+            });
             // By distances to the body the later piece alone keeps marker 1's place.
-            let joins = |traj: &Trajectories| {
-                let stats = pair_stats(traj);
-                let (members, posed) =
-                    posable_body(traj, &stats, &[0, 1, 2, 3]).expect("a posable body");
-                let spans: Vec<_> = (0..traj.markers()).map(|m| span(traj, m)).collect();
-                let spacing = traj.marker_spacing_mm().expect("a spacing");
-                kept_distances(
-                    &stats,
-                    (&members, &posed.shape),
-                    &[],
-                    &spans,
-                    spacing,
-                    (24, 10.0),
-                )
-            };
-            assert_eq!(joins(&cut), vec![(1, 8)], "seed {seed}");
-            assert_eq!(joins(&traj), Vec::new(), "seed {seed}");
+            assert_eq!(kept_joins(&cut, &[]), vec![(1, 8)], "seed {seed}");
+            assert_eq!(kept_joins(&traj, &[]), Vec::new(), "seed {seed}");
         }
     }
 
@@ -1064,43 +1084,20 @@ mod tests {
     #[test]
     fn a_piece_another_marker_could_have_left_does_not_join() {
         for seed in 1..=3 {
-            let cut = cut_at_gap(
-                &skin_hinged_capture(&PARENT, &CHILD, 30.0, 6.0, seed),
-                1,
-                120..260,
-            );
+            let cut = marker_1_cut(seed);
             for (share, joined) in [(0.02, false), (0.6, true)] {
-                let n = cut.markers();
-                let mut labels = cut.labels().to_vec();
-                labels.push("other".to_owned());
-                let mut positions = Vec::with_capacity(cut.frames() * (n + 1));
-                for f in 0..cut.frames() {
-                    let frame = cut.frame(f);
-                    positions.extend_from_slice(frame);
-                    // On the body, `share` of the way from marker 1 away from marker 3;
-                    // seen until frame 100.
+                // On the body, `share` of the way from marker 1 away from marker 3; seen
+                // until frame 100.
+                let traj = with_track(&cut, "other", |f, frame| {
                     let (one, three) = (frame[1], frame[3]);
-                    let other: [f64; 3] =
-                        std::array::from_fn(|i| one[i] + share * (one[i] - three[i]));
-                    positions.push(if f < 100 { other } else { [f64::NAN; 3] });
-                }
-                let traj = Trajectories::new(labels, cut.frame_rate(), 1, cut.frames(), positions)
-                    .expect("capture with another marker");
-                let stats = pair_stats(&traj);
-                let (members, posed) =
-                    posable_body(&traj, &stats, &[0, 1, 2, 3]).expect("a posable body");
-                let spans: Vec<_> = (0..traj.markers()).map(|m| span(&traj, m)).collect();
-                let spacing = traj.marker_spacing_mm().expect("a spacing");
-                let joins = kept_distances(
-                    &stats,
-                    (&members, &posed.shape),
-                    &[9],
-                    &spans,
-                    spacing,
-                    (24, 10.0),
-                );
+                    (f < 100).then(|| std::array::from_fn(|i| one[i] + share * (one[i] - three[i])))
+                });
                 let expected = if joined { vec![(1, 8)] } else { Vec::new() };
-                assert_eq!(joins, expected, "seed {seed}, share {share}");
+                assert_eq!(
+                    kept_joins(&traj, &[9]),
+                    expected,
+                    "seed {seed}, share {share}"
+                );
             }
         }
     }
