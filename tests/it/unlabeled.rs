@@ -422,9 +422,10 @@ fn a_real_foot_hidden_whole_is_found_again_by_its_shape() {
 
 /// Two or three markers per segment leave few steady neighbours, and those may turn apart
 /// across a gap: snowman-hard-s20032 at 2–3 markers per segment, cut at every gap, has
-/// M002 hidden 13–18 frames, carried 69 mm off by neighbours across a joint while its own
-/// motion about its partner meets within 2 mm. The reader joins its three pieces, and
-/// none of its joins mixes two markers.
+/// M002 hidden for 18 frames and later for 8; across the first its neighbours carry it
+/// 69 mm off, while its own motion about its partner meets within 1.5 mm there and 2.4 mm
+/// across the second. The reader joins its three pieces, and none of its joins mixes two
+/// markers.
 #[test]
 fn pieces_of_a_sparse_marker_set_are_bridged_by_their_own_motion() {
     let trial = synth::generate(&synth::SynthConfig {

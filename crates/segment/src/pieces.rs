@@ -295,7 +295,11 @@ fn kept_distances(
                         }
                     })
                 })
-                .filter_map(|&d| kept_misfit(stats, members, (c, d), min_overlap, tolerance_mm))
+                .filter_map(|&d| {
+                    partner_misfit(stats, members, (c, d), (min_overlap, tolerance_mm))
+                        .filter(|&(_, count, _)| count >= DISTANCE_PARTNERS)
+                        .map(|(misfit, _, _)| misfit)
+                })
                 .any(|other| other < RIVAL_FACTOR * fit);
             if fit > MATCH_SHARE * scale || rival || piece_rival {
                 continue;
@@ -313,27 +317,28 @@ fn kept_distances(
     out
 }
 
-/// RMS difference of two tracks' mean distances to the `partners` seen rigidly with both
-/// (ρ within `tolerance_mm` over ≥ `min_overlap` frames), when ≥ [`DISTANCE_PARTNERS`] are.
-fn kept_misfit(
+/// Two tracks' mean distances to the `partners` seen rigidly with both (ρ within
+/// `rigid.1` over ≥ `rigid.0` frames): the RMS difference, how many partners, and the
+/// least of `a`'s distances to them; `None` without such a partner.
+fn partner_misfit(
     stats: &PairStats,
     partners: &[usize],
     (a, b): (usize, usize),
-    min_overlap: usize,
-    tolerance_mm: f64,
-) -> Option<f64> {
+    (min_overlap, tolerance_mm): (usize, f64),
+) -> Option<(f64, usize, f64)> {
     let rigid = |p: usize, x: usize| {
         stats
             .rho(p, x, min_overlap)
             .is_some_and(|rho| rho <= tolerance_mm)
     };
-    let (mut sum, mut count) = (0.0, 0usize);
+    let (mut sum, mut count, mut nearest) = (0.0, 0usize, f64::INFINITY);
     for &x in partners.iter().filter(|&&x| rigid(a, x) && rigid(b, x)) {
-        let d = stats.mean[stats.at(a, x)] - stats.mean[stats.at(b, x)];
-        sum += d * d;
+        let (da, db) = (stats.mean[stats.at(a, x)], stats.mean[stats.at(b, x)]);
+        sum += (db - da) * (db - da);
         count += 1;
+        nearest = nearest.min(da);
     }
-    (count >= DISTANCE_PARTNERS).then(|| (sum / count as f64).sqrt())
+    (count > 0).then(|| ((sum / count as f64).sqrt(), count, nearest))
 }
 
 /// Of the tracks `found` to fit one piece (frames between them and it, track), the nearest
@@ -364,11 +369,6 @@ fn partner_distances(
     (min_overlap, tolerance_mm): (usize, f64),
 ) -> Vec<(usize, usize)> {
     let apart = |a: usize, b: usize| stats.apart(a, b);
-    let rigid = |a: usize, b: usize| {
-        stats
-            .rho(a, b, min_overlap)
-            .is_some_and(|rho| rho <= tolerance_mm)
-    };
     let mut out = Vec::new();
     for &b in cluster {
         let Some((_, last_b)) = spans[b] else {
@@ -382,18 +382,12 @@ fn partner_distances(
             if first_c <= last_b {
                 continue;
             }
-            let (mut sum, mut count, mut scale) = (0.0, 0usize, spacing_mm);
-            for &x in cluster.iter().filter(|&&x| rigid(b, x) && rigid(c, x)) {
-                let (db, dc) = (stats.mean[stats.at(b, x)], stats.mean[stats.at(c, x)]);
-                sum += (dc - db) * (dc - db);
-                count += 1;
-                scale = scale.min(db);
-            }
-            if count == 0 {
+            let Some((misfit, _, nearest)) =
+                partner_misfit(stats, cluster, (b, c), (min_overlap, tolerance_mm))
+            else {
                 continue;
-            }
-            let misfit = (sum / count as f64).sqrt();
-            if misfit <= (MATCH_SHARE * scale).min(tolerance_mm) {
+            };
+            if misfit <= (MATCH_SHARE * nearest.min(spacing_mm)).min(tolerance_mm) {
                 after.push((first_c - last_b, c));
             }
         }

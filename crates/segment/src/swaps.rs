@@ -290,8 +290,8 @@ fn add_in_order(swaps: &mut Vec<LabelSwap>, swap: LabelSwap, frames: usize) {
 /// medians near 10); skin and noise move markers smoothly, and a glitch moves one marker,
 /// not two onto each other's paths. Two markers that both move fast (over their bound
 /// divided by [`EXCHANGE_GAIN`]) exchange too where each lands within its bound on the
-/// other's path and that explains the steps that many times better than running on. An exchange where
-/// the two passed close shows no jump and is left to the distances ([`swap_test`]). An
+/// other's path and that explains the steps that many times better than running on. An
+/// exchange where the two passed close shows no jump and is left to the distances ([`swap_test`]). An
 /// exchange step may also show on one side only, where the other marker's track ends or
 /// starts (an unlabeled capture cuts tracks at every gap): one marker jumps onto the path
 /// of a track that has just ended, or leaves its path to a track that starts soon after
