@@ -26,7 +26,13 @@
 //! straight line in time over each one's [`MOTION_SECONDS`] at the gap, relative to the
 //! neighbour steadiest with both (absolute when none is), must meet the other's at the
 //! gap's middle within the same [`MATCH_SHARE`] of the way to the nearest other marker, no
-//! rival meeting within twice that, each the other's best. Lines from both sides meeting
+//! rival meeting within twice that, each the other's best. Where two markers sit close that
+//! bound is tighter than the lines' own miss, so where some rival met them the lines may
+//! also join within [`RIVAL_SHARE`] of the nearest rival's miss, up to [`MATCH_SHARE`] of
+//! the marker spacing (human-hard-s20020 at `--markers 2:3`: M035's lines meet 28.9 mm
+//! apart, its nearest marker 11.6 mm away, the rivals' lines 554 and 461 mm; a pair with
+//! no rival at all keeps the nearest-marker bound, as quadruped-hard-s30023's M025~1 and
+//! M048~1, two markers' pieces meeting 22.6 mm apart alone). Lines from both sides meeting
 //! in the middle miss by the motion's change of acceleration only, not by the acceleration
 //! itself; relative to a neighbour on the segment, by its turning alone (the hard preset
 //! unlabeled at 2–3 markers per segment, seeds 20001..20010, pairs the carry could not
@@ -55,6 +61,10 @@ const STEADY_SHARE: f64 = 0.2;
 /// A continuation lands within this share of the distance from the piece to its nearest
 /// other marker (capped at the marker spacing) of where it was carried.
 const MATCH_SHARE: f64 = 0.5;
+/// Where a bridge's lines meet farther apart than [`MATCH_SHARE`] of the way to the
+/// nearest marker, they may still join within this share of the nearest rival's miss (and
+/// [`MATCH_SHARE`] of the marker spacing).
+const RIVAL_SHARE: f64 = 1.0 / 3.0;
 
 /// Where each piece starts and ends: first and last frame seen.
 #[derive(Clone, Copy)]
@@ -150,9 +160,15 @@ fn continuations(t: &Trajectories) -> Vec<Option<usize>> {
     }
     let choices = Choices::of(&carried, &spans);
     for (a, continued_by) in next.iter_mut().enumerate() {
-        *continued_by = choices.clear_best(a, &spans, &nearest);
+        *continued_by = choices.clear_best(a, &spans, &nearest, None);
     }
-    bridge_by_motion(t, &spans, (&ending, &starting), &nearest, &mut next);
+    bridge_by_motion(
+        t,
+        &spans,
+        (&ending, &starting),
+        (&nearest, spacing),
+        &mut next,
+    );
     next
 }
 
@@ -226,7 +242,7 @@ fn bridge_by_motion(
     t: &Trajectories,
     spans: &[Option<Span>],
     (ending, starting): (&SteadyNeighbours, &SteadyNeighbours),
-    nearest: &impl Fn(usize, usize) -> f64,
+    (nearest, spacing): (&impl Fn(usize, usize) -> f64, f64),
     next: &mut [Option<usize>],
 ) {
     let (m, frames) = (t.markers(), t.frames());
@@ -246,6 +262,8 @@ fn bridge_by_motion(
     // relative to the neighbour steadiest with both ends when there is one (a segment's
     // markers turn about each other far slower than they travel).
     let mut met: Vec<(usize, usize, f64)> = Vec::new();
+    // How far the two lines were carried to meet, indexed like `met`.
+    let mut reach: Vec<f64> = Vec::new();
     for a in 0..m {
         let Some(sa) = spans[a].filter(|s| s.last + 1 < frames) else {
             continue;
@@ -273,6 +291,10 @@ fn bridge_by_motion(
             };
             let meet = 0.5 * (sa.last + sb.first) as f64;
             met.push((a, b, distance(ea.at_frame(meet), eb.at_frame(meet))));
+            reach.push(
+                distance(ea.at_frame(meet), ea.at_frame(sa.last as f64))
+                    + distance(eb.at_frame(meet), eb.at_frame(sb.first as f64)),
+            );
         }
     }
     let mut continued = vec![false; m];
@@ -280,9 +302,17 @@ fn bridge_by_motion(
         continued[*b] = true;
     }
     let choices = Choices::of(&met, spans);
+    // A line bends away from its marker's path by no more than it was carried, so the
+    // wider bound stops there (a real capture, c3d.org's Dance cut at gaps: two markers'
+    // pieces a frame apart, the lines 54 mm apart under a 57.6 mm wider bound, carried
+    // 0.4 mm in all). `met` is in (ending, starting) order, as the loops made it.
+    let widest = |a: usize, b: usize| {
+        met.binary_search_by(|&(x, y, _)| (x, y).cmp(&(a, b)))
+            .map_or(0.0, |i| reach[i].min(MATCH_SHARE * spacing))
+    };
     for (a, continued_by) in next.iter_mut().enumerate() {
         // Only pieces the carry left apart; any piece is a rival.
-        if let Some(b) = choices.clear_best(a, spans, nearest)
+        if let Some(b) = choices.clear_best(a, spans, nearest, Some(&widest))
             && continued_by.is_none()
             && !continued[b]
         {
@@ -347,16 +377,24 @@ impl Choices {
     /// What continues track `a`: its best partner when `a` is that one's best too, within
     /// [`MATCH_SHARE`] of the way to the nearest other marker at either end, clearly
     /// better than any rival on either side, and not within a quarter of that tolerance
-    /// either (two pieces in one place are a guess).
+    /// either (two pieces in one place are a guess); with `widest` and a rival, within
+    /// [`RIVAL_SHARE`] of the nearest rival's error too, up to `widest` of the pair.
     fn clear_best(
         &self,
         a: usize,
         spans: &[Option<Span>],
         nearest: &impl Fn(usize, usize) -> f64,
+        widest: Option<&dyn Fn(usize, usize) -> f64>,
     ) -> Option<usize> {
         let (b, error) = self.best_next[a]?;
         let (sa, sb) = (spans[a]?, spans[b]?);
-        let tolerance = MATCH_SHARE * nearest(a, sa.last).min(nearest(b, sb.first));
+        let mut tolerance = MATCH_SHARE * nearest(a, sa.last).min(nearest(b, sb.first));
+        let rival = self.rival_next[a].min(self.rival_previous[b]);
+        if let Some(widest) = widest
+            && rival.is_finite()
+        {
+            tolerance = tolerance.max(widest(a, b).min(RIVAL_SHARE * rival));
+        }
         let clear = |rival: f64| rival >= (2.0 * error).max(0.25 * tolerance);
         (error < tolerance
             && self.best_previous[b].is_some_and(|(p, _)| p == a)
@@ -724,6 +762,29 @@ mod tests {
         // Another marker's piece where this one's motion does not lead joins nothing.
         let c = join_pieces(two_markers(&[(0, 0..120), (2, 126..300), (1, 0..300)]));
         assert!(c.info.stitched.is_empty(), "{:?}", c.info.stitched);
+    }
+
+    #[test]
+    fn a_bridge_widens_its_bound_only_against_a_rival() {
+        // Piece 0 ends at 99, piece 1 starts at 110 and their lines meet 12 mm apart,
+        // beyond half the way to a marker 10 mm off; piece 2, seen until 90, meets piece 1
+        // 60 mm apart.
+        let spans = [(0, 99), (110, 200), (0, 90)].map(|(first, last)| Some(Span { first, last }));
+        let nearest = |_: usize, _: usize| 10.0;
+        let alone = Choices::of(&[(0, 1, 12.0)], &spans);
+        let beside = Choices::of(&[(0, 1, 12.0), (2, 1, 60.0)], &spans);
+        let widest = |_: usize, _: usize| 25.0;
+        // A third of the rival's 60 mm, under the widest bound.
+        assert_eq!(
+            beside.clear_best(0, &spans, &nearest, Some(&widest)),
+            Some(1)
+        );
+        // The nearest-marker bound alone, and with nothing else to measure the miss against.
+        assert_eq!(beside.clear_best(0, &spans, &nearest, None), None);
+        assert_eq!(alone.clear_best(0, &spans, &nearest, Some(&widest)), None);
+        // The widest bound caps it.
+        let widest = |_: usize, _: usize| 10.0;
+        assert_eq!(beside.clear_best(0, &spans, &nearest, Some(&widest)), None);
     }
 
     #[test]
