@@ -32,12 +32,15 @@
 //! the marker spacing (human-hard-s20020 at `--markers 2:3`: M035's lines meet 28.9 mm
 //! apart, its nearest marker 11.6 mm away, the rivals' lines 554 and 461 mm; a pair with
 //! no rival at all keeps the nearest-marker bound, as quadruped-hard-s30023's M025~1 and
-//! M048~1, two markers' pieces meeting 22.6 mm apart alone). Lines from both sides meeting
-//! in the middle miss by the motion's change of acceleration only, not by the acceleration
-//! itself; relative to a neighbour on the segment, by its turning alone (the hard preset
-//! unlabeled at 2–3 markers per segment, seeds 20001..20010, pairs the carry could not
-//! judge, each the other's best: relative lines joined 46 of one marker and refused 1,
-//! absolute lines joined 34 and refused 31; both refused the 6 pairs of two markers).
+//! M048~1, two markers' pieces meeting 22.6 mm apart alone). Either way the lines meet
+//! within [`CARRIED_FACTOR`] times the way they were carried to meet, plus
+//! [`LINE_NOISE_MM`]: a line bends off its marker's path by no more than it travels. Lines
+//! from both sides meeting in the middle miss by the motion's change of acceleration only,
+//! not by the acceleration itself; relative to a neighbour on the segment, by its turning
+//! alone (the hard preset unlabeled at 2–3 markers per segment, seeds 20001..20010, pairs
+//! the carry could not judge, each the other's best: relative lines joined 46 of one
+//! marker and refused 1, absolute lines joined 34 and refused 31; both refused the 6 pairs
+//! of two markers).
 //!
 //! It does not guess where the neighbours are not steady or not seen at both ends and the
 //! gap is longer than the bridge, or join tracks that share a frame.
@@ -65,6 +68,12 @@ const MATCH_SHARE: f64 = 0.5;
 /// nearest marker, they may still join within this share of the nearest rival's miss (and
 /// [`MATCH_SHARE`] of the marker spacing).
 const RIVAL_SHARE: f64 = 1.0 / 3.0;
+/// A bridge's two lines meet within this many times the way they were carried to meet,
+/// plus [`LINE_NOISE_MM`].
+const CARRIED_FACTOR: f64 = 2.0;
+/// How far a line's place at the gap may be off by the positions' noise alone (mm; the
+/// hard preset's noise is 1 mm per coordinate).
+const LINE_NOISE_MM: f64 = 2.0;
 
 /// Where each piece starts and ends: first and last frame seen.
 #[derive(Clone, Copy)]
@@ -302,17 +311,22 @@ fn bridge_by_motion(
         continued[*b] = true;
     }
     let choices = Choices::of(&met, spans);
-    // A line bends away from its marker's path by no more than it was carried, so the
-    // wider bound stops there (a real capture, c3d.org's Dance cut at gaps: two markers'
-    // pieces a frame apart, the lines 54 mm apart under a 57.6 mm wider bound, carried
-    // 0.4 mm in all). `met` is in (ending, starting) order, as the loops made it.
-    let widest = |a: usize, b: usize| {
+    // A line bends away from its marker's path by no more than it was carried, so two
+    // lines that miss by more than that met by chance (a real capture, c3d.org's Dance cut
+    // at gaps: two markers' pieces a frame apart, the lines 54 mm apart, carried 0.4 mm in
+    // all; hexapod-hard-s20001 unlabeled: M081~1 and M033~1, 16.7 mm apart, carried 3.5
+    // mm, where the same marker's pieces missed by at most 2.95 × the way: the hard preset
+    // unlabeled, seeds 20001..20025, 1,381 joins at 3–6 and 2–3 markers per segment).
+    // `met` is in (ending, starting) order, as the loops made it.
+    let most = |a: usize, b: usize| {
         met.binary_search_by(|&(x, y, _)| (x, y).cmp(&(a, b)))
-            .map_or(0.0, |i| reach[i].min(MATCH_SHARE * spacing))
+            .map_or(0.0, |i| {
+                (CARRIED_FACTOR * reach[i] + LINE_NOISE_MM).min(MATCH_SHARE * spacing)
+            })
     };
     for (a, continued_by) in next.iter_mut().enumerate() {
         // Only pieces the carry left apart; any piece is a rival.
-        if let Some(b) = choices.clear_best(a, spans, nearest, Some(&widest))
+        if let Some(b) = choices.clear_best(a, spans, nearest, Some(&most))
             && continued_by.is_none()
             && !continued[b]
         {
@@ -377,23 +391,24 @@ impl Choices {
     /// What continues track `a`: its best partner when `a` is that one's best too, within
     /// [`MATCH_SHARE`] of the way to the nearest other marker at either end, clearly
     /// better than any rival on either side, and not within a quarter of that tolerance
-    /// either (two pieces in one place are a guess); with `widest` and a rival, within
-    /// [`RIVAL_SHARE`] of the nearest rival's error too, up to `widest` of the pair.
+    /// either (two pieces in one place are a guess); with `most`, never beyond `most` of the
+    /// pair, and with a rival, up to it within [`RIVAL_SHARE`] of the nearest rival's error.
     fn clear_best(
         &self,
         a: usize,
         spans: &[Option<Span>],
         nearest: &impl Fn(usize, usize) -> f64,
-        widest: Option<&dyn Fn(usize, usize) -> f64>,
+        most: Option<&dyn Fn(usize, usize) -> f64>,
     ) -> Option<usize> {
         let (b, error) = self.best_next[a]?;
         let (sa, sb) = (spans[a]?, spans[b]?);
         let mut tolerance = MATCH_SHARE * nearest(a, sa.last).min(nearest(b, sb.first));
         let rival = self.rival_next[a].min(self.rival_previous[b]);
-        if let Some(widest) = widest
-            && rival.is_finite()
-        {
-            tolerance = tolerance.max(widest(a, b).min(RIVAL_SHARE * rival));
+        if let Some(most) = most.map(|most| most(a, b)) {
+            if rival.is_finite() {
+                tolerance = tolerance.max(RIVAL_SHARE * rival);
+            }
+            tolerance = tolerance.min(most);
         }
         let clear = |rival: f64| rival >= (2.0 * error).max(0.25 * tolerance);
         (error < tolerance
@@ -765,7 +780,7 @@ mod tests {
     }
 
     #[test]
-    fn a_bridge_widens_its_bound_only_against_a_rival() {
+    fn a_bridge_widens_its_bound_against_a_rival_up_to_the_way_its_lines_came() {
         // Piece 0 ends at 99, piece 1 starts at 110 and their lines meet 12 mm apart,
         // beyond half the way to a marker 10 mm off; piece 2, seen until 90, meets piece 1
         // 60 mm apart.
@@ -773,18 +788,19 @@ mod tests {
         let nearest = |_: usize, _: usize| 10.0;
         let alone = Choices::of(&[(0, 1, 12.0)], &spans);
         let beside = Choices::of(&[(0, 1, 12.0), (2, 1, 60.0)], &spans);
-        let widest = |_: usize, _: usize| 25.0;
-        // A third of the rival's 60 mm, under the widest bound.
-        assert_eq!(
-            beside.clear_best(0, &spans, &nearest, Some(&widest)),
-            Some(1)
-        );
+        let far = |_: usize, _: usize| 25.0;
+        // A third of the rival's 60 mm, within what the lines' way allows.
+        assert_eq!(beside.clear_best(0, &spans, &nearest, Some(&far)), Some(1));
         // The nearest-marker bound alone, and with nothing else to measure the miss against.
         assert_eq!(beside.clear_best(0, &spans, &nearest, None), None);
-        assert_eq!(alone.clear_best(0, &spans, &nearest, Some(&widest)), None);
-        // The widest bound caps it.
-        let widest = |_: usize, _: usize| 10.0;
-        assert_eq!(beside.clear_best(0, &spans, &nearest, Some(&widest)), None);
+        assert_eq!(alone.clear_best(0, &spans, &nearest, Some(&far)), None);
+        // Lines carried too short a way to miss by 12 mm, and by 4 mm, which the
+        // nearest-marker bound alone would take.
+        let near = |_: usize, _: usize| 3.0;
+        assert_eq!(beside.clear_best(0, &spans, &nearest, Some(&near)), None);
+        let close = Choices::of(&[(0, 1, 4.0)], &spans);
+        assert_eq!(close.clear_best(0, &spans, &nearest, None), Some(1));
+        assert_eq!(close.clear_best(0, &spans, &nearest, Some(&near)), None);
     }
 
     #[test]
