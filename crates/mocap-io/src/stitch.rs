@@ -403,8 +403,8 @@ impl Choices {
         let (b, error) = self.best_next[a]?;
         let (sa, sb) = (spans[a]?, spans[b]?);
         let mut tolerance = MATCH_SHARE * nearest(a, sa.last).min(nearest(b, sb.first));
-        let rival = self.rival_next[a].min(self.rival_previous[b]);
         if let Some(most) = most.map(|most| most(a, b)) {
+            let rival = self.rival_next[a].min(self.rival_previous[b]);
             if rival.is_finite() {
                 tolerance = tolerance.max(RIVAL_SHARE * rival);
             }
