@@ -291,15 +291,15 @@ fn add_in_order(swaps: &mut Vec<LabelSwap>, swap: LabelSwap, frames: usize) {
 /// not two onto each other's paths. Two markers that both move fast (over their bound
 /// divided by [`EXCHANGE_GAIN`]) exchange too where each lands within its bound on the
 /// other's path and that explains the steps that many times better than running on. An
-/// exchange where the two passed close shows no jump and is left to the distances ([`swap_test`]). An
-/// exchange step may also show on one side only, where the other marker's track ends or
-/// starts (an unlabeled capture cuts tracks at every gap): one marker jumps onto the path
-/// of a track that has just ended, or leaves its path to a track that starts soon after
-/// (robotarm-messy-s20006's M028 carries link 1's marker while link 1's own track ends a
-/// frame before and the base marker's path goes on in a track starting 15 frames later).
-/// Which frames are exchanged is [`exchanged_frames`]'s choice, and an exchange is kept
-/// where `accept` takes it. Each marker is in at most one of them: the pairs with more
-/// steps seen on both sides first.
+/// exchange where the two passed close shows no jump and is left to the distances
+/// ([`swap_test`]). An exchange step may also show on one side only, where the other
+/// marker's track ends or starts (an unlabeled capture cuts tracks at every gap): one
+/// marker jumps onto the path of a track that has just ended, or leaves its path to a
+/// track that starts soon after (robotarm-messy-s20006's M028 carries link 1's marker
+/// while link 1's own track ends a frame before and the base marker's path goes on in a
+/// track starting 15 frames later). Which frames are exchanged is [`exchanged_frames`]'s
+/// choice, and an exchange is kept where `accept` takes it. Each marker is in at most one
+/// of them: the pairs with more steps seen on both sides first.
 fn exchanges_by_jumps(
     traj: &Trajectories,
     floor_mm: f64,
