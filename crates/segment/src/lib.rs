@@ -7,17 +7,20 @@
 //! pass over the frames gives every pair's distance mean and standard deviation ρ over the
 //! frames where both are seen (a marker is never dropped for a gap); an affinity from ρ
 //! (less the noise level in quadrature where the capture's scatter is white noise, which
-//! every pair carries alike; `white_noise_excess`), normalised spectral clustering with the eigen-gap segment count and seeded k-means
-//! (Aguiar et al. 2006, Sect. 3), then a rigidity check: each cluster is re-split by
-//! complete linkage on ρ / √(s_i s_j) (s = a marker's ρ to its nearest marker, floored at
-//! the noise), so a two-marker segment whose pair is each other's nearest stays whole;
-//! orphans rejoin only a group they slide on no more than they slide on anything, and not
-//! one that lacks a partner of theirs far steadier than the group's markers (orphaned at a
-//! joint; `rejoin_orphans`); then markers move and rigid neighbours merge within a
-//! tolerance on the noise, and pieces of one or two markers within one on the spread of ρ
-//! inside the spectral clusters (skin widens it beyond the noise; see
-//! `rigidity::rigid_spread`); both tolerances are a tighter multiple where the capture's
-//! scatter is white measurement noise rather than skin (`rigidity::scatter_smoothness`).
+//! every pair carries alike; `white_noise_excess`), normalised spectral clustering with the
+//! eigen-gap segment count and seeded k-means (Aguiar et al. 2006, Sect. 3); a track seen
+//! in under a quarter of the frames, which may have been seen only while joints held
+//! still, leaves its cluster alone (`brief_track_fraction`); then a rigidity check: each
+//! cluster is re-split by complete linkage on ρ / √(s_i s_j) (s = a marker's ρ to its
+//! nearest marker, floored at the noise), so a two-marker segment whose pair is each
+//! other's nearest stays whole; orphans rejoin only a group they slide on no more than they
+//! slide on anything, and not one that lacks a partner of theirs far steadier than the
+//! group's markers (orphaned at a joint; `rejoin_orphans`); then markers move and rigid
+//! neighbours merge within a tolerance on the noise, and pieces of one or two markers
+//! within one on the spread of ρ inside the spectral clusters (skin widens it beyond the
+//! noise; see `rigidity::rigid_spread`); both tolerances are a tighter multiple where the
+//! capture's scatter is white measurement noise rather than skin
+//! (`rigidity::scatter_smoothness`).
 //! A marker still alone takes an ambiguous partner (rigid with it and with its own group,
 //! near a joint axis) from a group that keeps three, so both sides stay poseable.
 //! Before that, a rigid-fit check: each cluster of 4–10 markers is fitted as one rigid body
@@ -263,7 +266,7 @@ fn segment_capture(
             };
             let a = affinity::affinity_matrix(&stats, &nodes, params, noise_rho_mm);
             let found = spectral::spectral_clusters(&a, nodes.len(), params)?;
-            let clusters: Vec<Vec<usize>> = found
+            let mut clusters: Vec<Vec<usize>> = found
                 .clusters
                 .iter()
                 .map(|c| c.iter().map(|&p| nodes[p]).collect())
@@ -273,6 +276,10 @@ fn segment_capture(
                     spectral_of[m] = Some(k);
                 }
             }
+            let needed = params.brief_track_fraction * frames as f64;
+            take_out_brief_tracks(&mut clusters, &mut spectral_of, |m| {
+                (stats.visible[m] as f64) < needed
+            });
             // Skin widens ρ within a segment beyond the noise; the spectral clusters, mostly
             // segments already, say by how much (see `rigid_spread`). A piece of one or two
             // markers has no pose, so only ρ can say where it belongs: it merges within that
@@ -715,6 +722,31 @@ fn segment_capture(
         named_segments,
         pieces: Vec::new(),
     })
+}
+
+/// Takes every track `brief` says was seen only briefly out of its spectral cluster, as a
+/// lone marker with no spectral cluster, for the rigidity check to place
+/// (`Params::brief_track_fraction`). Its ρ is measured over a stretch where the joints
+/// between segments may have held still, so its cluster can hold markers of several
+/// segments it alone ties together; cut at its ρ, such a cluster keeps them wrongly paired.
+fn take_out_brief_tracks(
+    clusters: &mut Vec<Vec<usize>>,
+    spectral_of: &mut [Option<usize>],
+    brief: impl Fn(usize) -> bool,
+) {
+    let mut alone = Vec::new();
+    for c in clusters.iter_mut() {
+        c.retain(|&m| {
+            let keep = !brief(m);
+            if !keep {
+                alone.push(vec![m]);
+                spectral_of[m] = None;
+            }
+            keep
+        });
+    }
+    clusters.retain(|c| !c.is_empty());
+    clusters.extend(alone);
 }
 
 /// Whether at least `share` of the clusters of ≥ 2 markers hold exactly two (a marker set

@@ -1022,6 +1022,60 @@ fn label_exchanges_in_unlabeled_captures_are_undone() {
     }
 }
 
+/// An unlabeled capture at two or three markers per segment (snake-hard-s20011 as `cargo
+/// xtask eval --unlabeled --markers 2:3` makes it, the reader's stitch joining what it
+/// can): link3's marker M016 comes back for its last 83 frames as a track of its own, seen
+/// while the chain from the base to link4 barely moved, so its distances to base marker
+/// M017 and to link4 keep as steady as to link3's M007, and spectral clustering puts it
+/// with M017 and a link4 marker. Taken out of that cluster before the rigidity check
+/// (`brief_track_fraction`), it no longer keeps M017 from the base: the base's three
+/// markers are one segment, and link3 is M007 with both of M016's tracks. Left in, M017
+/// and the late track stay one cluster.
+#[test]
+fn a_brief_track_leaves_its_spectral_cluster_before_the_rigidity_check() {
+    let trial = sparse_eval_trial(synth::Subject::Snake, synth::Preset::Hard, 20011);
+    let (cut, marker_of_piece) =
+        synth::unlabeled(&trial.trajectories, 20011, |i, _, _| i.to_string());
+    let read = mocap_io::stitch(mocap_io::Capture {
+        format: mocap_io::Format::C3d,
+        trajectories: cut,
+        info: mocap_io::CaptureInfo::default(),
+    });
+    let traj = &read.trajectories;
+    let label_of = |track: usize| -> &str {
+        let piece: usize = traj.labels()[track].parse().expect("a piece's index");
+        &trial.trajectories.labels()[marker_of_piece[piece]]
+    };
+    // The labels of the tracks in each segment, sorted, a marker once per track.
+    let groups = |seg: &Segmentation| -> Vec<Vec<&str>> {
+        seg.segments
+            .iter()
+            .map(|s| {
+                let mut g: Vec<&str> = s.markers.iter().map(|&m| label_of(m)).collect();
+                g.sort_unstable();
+                g
+            })
+            .collect()
+    };
+    let seg = run(traj, &Params::default()).expect("segments");
+    let found = groups(&seg);
+    let base = ["M001", "M010", "M017"];
+    assert!(found.iter().any(|g| g == &base), "{found:?}");
+    let link3 = ["M007", "M016", "M016"];
+    assert!(found.iter().any(|g| g == &link3), "{found:?}");
+    let left_in = Params {
+        brief_track_fraction: 0.0,
+        ..Params::default()
+    };
+    let bridged = groups(&run(traj, &left_in).expect("segments"));
+    assert!(
+        bridged
+            .iter()
+            .any(|g| g.contains(&"M017") && g.contains(&"M016")),
+        "{bridged:?}"
+    );
+}
+
 /// Undoing a swap exchanges the two trajectories back in its frames only.
 #[test]
 fn untangle_exchanges_the_swapped_frames_back() {
