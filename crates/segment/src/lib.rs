@@ -9,8 +9,9 @@
 //! (less the noise level in quadrature where the capture's scatter is white noise, which
 //! every pair carries alike; `white_noise_excess`), normalised spectral clustering with the
 //! eigen-gap segment count and seeded k-means (Aguiar et al. 2006, Sect. 3); a track seen
-//! in under a quarter of the frames, which may have been seen only while joints held
-//! still, leaves its cluster alone (`brief_track_fraction`); then a rigidity check: each
+//! in under a quarter of the median track's frames, which may have been seen only while
+//! joints held still, leaves its cluster alone (`brief_track_fraction`, where most tracks
+//! span half the capture or more); then a rigidity check: each
 //! cluster is re-split by complete linkage on ρ / √(s_i s_j) (s = a marker's ρ to its
 //! nearest marker, floored at the noise), so a two-marker segment whose pair is each
 //! other's nearest stays whole; orphans rejoin only a group they slide on no more than they
@@ -276,10 +277,6 @@ fn segment_capture(
                     spectral_of[m] = Some(k);
                 }
             }
-            let needed = params.brief_track_fraction * frames as f64;
-            take_out_brief_tracks(&mut clusters, &mut spectral_of, |m| {
-                (stats.visible[m] as f64) < needed
-            });
             // Skin widens ρ within a segment beyond the noise; the spectral clusters, mostly
             // segments already, say by how much (see `rigid_spread`). A piece of one or two
             // markers has no pose, so only ρ can say where it belongs: it merges within that
@@ -295,6 +292,13 @@ fn segment_capture(
             let spread_mm = bound_spread(spread_mm);
             let tolerance_mm = tolerance_from(spread_mm);
             let noise_tolerance_mm = tolerance_from(noise_mm);
+            let median = median_visible(&stats, &nodes);
+            if median >= BACKBONE_SHARE * frames as f64 {
+                let needed = params.brief_track_fraction * median;
+                take_out_brief_tracks(&mut clusters, &mut spectral_of, |m| {
+                    (stats.visible[m] as f64) < needed
+                });
+            }
             let clusters = if params.rigidity_check && params.split_linkage {
                 let mut groups: Vec<Vec<usize>> = clusters
                     .iter()
@@ -722,6 +726,22 @@ fn segment_capture(
         named_segments,
         pieces: Vec::new(),
     })
+}
+
+/// Brief tracks leave their spectral clusters only where the median track is seen in at
+/// least this share of the frames: where most tracks are pieces (c3d.org's Dance hidden
+/// 1.1–2.6 s every 3 s), the briefest are no outliers and taking them out cost joins.
+const BACKBONE_SHARE: f64 = 0.5;
+
+/// The median over `nodes` of the frames each is seen in (0 with no nodes).
+fn median_visible(stats: &PairStats, nodes: &[usize]) -> f64 {
+    let mut seen: Vec<usize> = nodes.iter().map(|&m| stats.visible[m]).collect();
+    seen.sort_unstable();
+    match seen.len() {
+        0 => 0.0,
+        n if n % 2 == 1 => seen[n / 2] as f64,
+        n => 0.5 * (seen[n / 2 - 1] + seen[n / 2]) as f64,
+    }
 }
 
 /// Takes every track `brief` says was seen only briefly out of its spectral cluster, as a
