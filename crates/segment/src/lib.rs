@@ -11,17 +11,16 @@
 //! eigen-gap segment count and seeded k-means (Aguiar et al. 2006, Sect. 3); a track seen
 //! in under a quarter of the median track's frames, which may have been seen only while
 //! joints held still, leaves its cluster alone (`brief_track_fraction`, where most tracks
-//! span half the capture or more); then a rigidity check: each
-//! cluster is re-split by complete linkage on ρ / √(s_i s_j) (s = a marker's ρ to its
-//! nearest marker, floored at the noise), so a two-marker segment whose pair is each
-//! other's nearest stays whole; orphans rejoin only a group they slide on no more than they
-//! slide on anything, and not one that lacks a partner of theirs far steadier than the
-//! group's markers (orphaned at a joint; `rejoin_orphans`); then markers move and rigid
-//! neighbours merge within a tolerance on the noise, and pieces of one or two markers
-//! within one on the spread of ρ inside the spectral clusters (skin widens it beyond the
-//! noise; see `rigidity::rigid_spread`); both tolerances are a tighter multiple where the
-//! capture's scatter is white measurement noise rather than skin
-//! (`rigidity::scatter_smoothness`).
+//! span half the capture or more); then a rigidity check: each cluster is re-split by
+//! complete linkage on ρ / √(s_i s_j) (s = a marker's ρ to its nearest marker, floored at
+//! the noise), so a two-marker segment whose pair is each other's nearest stays whole;
+//! orphans rejoin only a group they slide on no more than they slide on anything, and not
+//! one that lacks a partner of theirs far steadier than the group's markers (orphaned at a
+//! joint; `rejoin_orphans`); then markers move and rigid neighbours merge within a
+//! tolerance on the noise, and pieces of one or two markers within one on the spread of ρ
+//! inside the spectral clusters (skin widens it beyond the noise; see
+//! `rigidity::rigid_spread`); both tolerances are a tighter multiple where the capture's
+//! scatter is white measurement noise rather than skin (`rigidity::scatter_smoothness`).
 //! A marker still alone takes an ambiguous partner (rigid with it and with its own group,
 //! near a joint axis) from a group that keeps three, so both sides stay poseable.
 //! Before that, a rigid-fit check: each cluster of 4–10 markers is fitted as one rigid body
@@ -292,6 +291,7 @@ fn segment_capture(
             let spread_mm = bound_spread(spread_mm);
             let tolerance_mm = tolerance_from(spread_mm);
             let noise_tolerance_mm = tolerance_from(noise_mm);
+            // After the spread is read: the spectral clusters as they came measure it.
             let median = median_visible(&stats, &nodes);
             if median >= BACKBONE_SHARE * frames as f64 {
                 let needed = params.brief_track_fraction * median;

@@ -1076,6 +1076,32 @@ fn a_brief_track_leaves_its_spectral_cluster_before_the_rigidity_check() {
     );
 }
 
+/// Brief tracks leave their clusters as lone markers with no spectral cluster, the rest
+/// keep theirs, and a cluster left empty is gone; the median counts each track's frames.
+#[test]
+fn brief_tracks_leave_their_clusters_alone_against_the_median_track() {
+    // Four markers over 6 frames, seen in 6, 5, 2 and 1 frames.
+    let seen = [6, 5, 2, 1];
+    let labels: Vec<String> = ["A", "B", "C", "D"].iter().map(|s| s.to_string()).collect();
+    let positions: Vec<[f64; 3]> = (0..6)
+        .flat_map(|f| {
+            seen.iter()
+                .enumerate()
+                .map(move |(m, &n)| if f < n { [m as f64, 0.0, 0.0] } else { MISSING })
+        })
+        .collect();
+    let traj = Trajectories::new(labels, 100.0, 1, 6, positions).unwrap();
+    let stats = crate::pairstats::pair_stats(&traj);
+    assert_eq!(crate::median_visible(&stats, &[0, 1, 2, 3]), 3.5);
+    assert_eq!(crate::median_visible(&stats, &[0, 1, 2]), 5.0);
+    assert_eq!(crate::median_visible(&stats, &[]), 0.0);
+    let mut clusters = vec![vec![0, 2], vec![1], vec![3]];
+    let mut spectral_of = vec![Some(0), Some(1), Some(0), Some(2)];
+    crate::take_out_brief_tracks(&mut clusters, &mut spectral_of, |m| stats.visible[m] < 3);
+    assert_eq!(clusters, vec![vec![0], vec![1], vec![2], vec![3]]);
+    assert_eq!(spectral_of, vec![Some(0), Some(1), None, None]);
+}
+
 /// Undoing a swap exchanges the two trajectories back in its frames only.
 #[test]
 fn untangle_exchanges_the_swapped_frames_back() {
