@@ -391,8 +391,9 @@ impl Choices {
     /// What continues track `a`: its best partner when `a` is that one's best too, within
     /// [`MATCH_SHARE`] of the way to the nearest other marker at either end, clearly
     /// better than any rival on either side, and not within a quarter of that tolerance
-    /// either (two pieces in one place are a guess); with `most`, never beyond `most` of the
-    /// pair, and with a rival, up to it within [`RIVAL_SHARE`] of the nearest rival's error.
+    /// either (two pieces in one place are a guess); with `most`, never beyond `most` of
+    /// the pair, and with a rival, up to it within [`RIVAL_SHARE`] of the nearest rival's
+    /// error.
     fn clear_best(
         &self,
         a: usize,
@@ -791,7 +792,8 @@ mod tests {
         let far = |_: usize, _: usize| 25.0;
         // A third of the rival's 60 mm, within what the lines' way allows.
         assert_eq!(beside.clear_best(0, &spans, &nearest, Some(&far)), Some(1));
-        // The nearest-marker bound alone, and with nothing else to measure the miss against.
+        // The nearest-marker bound alone, and with nothing else to measure the miss
+        // against.
         assert_eq!(beside.clear_best(0, &spans, &nearest, None), None);
         assert_eq!(alone.clear_best(0, &spans, &nearest, Some(&far)), None);
         // Lines carried too short a way to miss by 12 mm, and by 4 mm, which the

@@ -735,13 +735,11 @@ const BACKBONE_SHARE: f64 = 0.5;
 
 /// The median over `nodes` of the frames each is seen in (0 with no nodes).
 fn median_visible(stats: &PairStats, nodes: &[usize]) -> f64 {
-    let mut seen: Vec<usize> = nodes.iter().map(|&m| stats.visible[m]).collect();
-    seen.sort_unstable();
-    match seen.len() {
-        0 => 0.0,
-        n if n % 2 == 1 => seen[n / 2] as f64,
-        n => 0.5 * (seen[n / 2 - 1] + seen[n / 2]) as f64,
+    if nodes.is_empty() {
+        return 0.0;
     }
+    let mut seen: Vec<f64> = nodes.iter().map(|&m| stats.visible[m] as f64).collect();
+    fitsplit::median(&mut seen)
 }
 
 /// Takes every track `brief` says was seen only briefly out of its spectral cluster, as a
