@@ -351,6 +351,33 @@ fn hinge_sides_are_judged_from_the_segment_that_turns_least() {
     );
 }
 
+/// A random tree (seed 30051) whose hinges hang along bones that carry other joints: each
+/// such bone's joints draw its line, and a hinge goes where its axis meets it
+/// (`bonefit.hinge_lines`); without that line its markers alone place it, tens of
+/// millimetres along the axis.
+#[test]
+fn a_hinge_along_a_bone_goes_where_its_axis_meets_the_bones_line() {
+    let tmp = Scratch::new("accuracy-hinge-lines");
+    let dir = synthesize(&tmp, "random", "clean", 30051);
+    let score_with = |lines: bool| {
+        let set = format!("bonefit.hinge_lines={lines}");
+        run_and_score(&tmp, &dir, "random-clean-s30051", &[set])
+    };
+    let (lines, markers) = (score_with(true), score_with(false));
+    assert!(
+        lines.topology_exact && markers.topology_exact,
+        "{lines} / {markers}"
+    );
+    assert!(
+        lines.joint_error_mean_pct.is_some_and(|e| e <= 0.03),
+        "with the lines: {lines}"
+    );
+    assert!(
+        markers.joint_error_mean_pct.is_some_and(|e| e >= 0.1),
+        "without: {markers}"
+    );
+}
+
 /// A clean synthetic snake (`cargo xtask synth --subject snake`) through the whole CLI: the
 /// tree is exact and every joint is written `universal` with its two unit axes (the one
 /// fixed in the parent's frame, then the child's) and no hinge axis.

@@ -111,7 +111,12 @@ pub fn run(
             HingePlacement::Bone => {
                 let (directed, direction) =
                     jointfit::placement_direction(copy, &edges, params.hinge_sides_from_steadiest);
-                let placed = jointfit::place_hinges_across_bones(copy, &directed, direction);
+                let placed = jointfit::place_hinges_across_bones(
+                    copy,
+                    &directed,
+                    direction,
+                    params.hinge_lines,
+                );
                 measured_point = placed.at_composite_point;
                 placed.shifts
             }

@@ -60,10 +60,12 @@
 //!   `hinge_placement = bone` (default): every hinge at once where its axis crosses its
 //!   child's bone (`jointfit::place_hinges_across_bones`): the joints the child carries
 //!   and the child's markers, and the parent side's joints and markers where they agree
-//!   (a limb's parent bone crosses squarely too), each weighted by its precision. Which
-//!   side is a hinge's child is judged from the segment that turns least in the world
-//!   (`hinge_sides_from_steadiest`, `jointfit::steadiest_orientation`): the subject's root,
-//!   where topo roots the tree at its centre.
+//!   (a limb's parent bone crosses squarely too), each weighted by its precision, and
+//!   where its axis meets the line of a segment's other joints, all in line
+//!   (`hinge_lines`: branches along one bone). Which side is a hinge's child is judged
+//!   from the segment that turns least in the world (`hinge_sides_from_steadiest`,
+//!   `jointfit::steadiest_orientation`): the subject's root, where topo roots the tree at
+//!   its centre.
 //!   `child`: a hinge with ball joints on its child segment goes, by itself, nearest
 //!   their mean; the others take the joint solve of all hinges
 //!   (`jointfit::place_hinge_centres`) where that slide is at most
@@ -207,6 +209,10 @@ pub struct Params {
     /// For `bone` placement, judge which side of each hinge is its child from the segment
     /// that turns least in the world, not from the tree's root (default true).
     pub hinge_sides_from_steadiest: bool,
+    /// For `bone` placement, a hinge whose axis meets the line of one of its segments'
+    /// other joints, all in line (branches along one bone), goes there as the evidence's
+    /// precision allows (default true).
+    pub hinge_lines: bool,
     /// Read the tree joints' positions from every tree joint's views at once
     /// (`jointfit::tree_positions`: a segment's pose error shows at all its joints),
     /// after the hinge placement (default true).
@@ -231,6 +237,7 @@ impl Default for Params {
             hinge_max_shift_ratio: 0.1,
             hinge_placement: HingePlacement::Bone,
             hinge_sides_from_steadiest: true,
+            hinge_lines: true,
             tree_positions: true,
             tree_centres: true,
         }
@@ -375,6 +382,14 @@ pub const PARAM_DOCS: &[(&str, &str)] = &[
          02_01 moves 0.4 mm, c3d.org's gait-raw left knee 19.5 mm (36.6 -> 33.9 mm from \
          the LKNE marker), Sample_Jump2 and MACsample (both trees already odd) more, the \
          rest not at all; default true",
+    ),
+    (
+        "hinge_lines",
+        "with hinge_placement \"bone\": a hinge whose axis meets the line of one of its \
+         segments' other joints (at least two, every one on that line within 3 standard \
+         deviations of its fit; a free hinge among them where its child side puts it) goes \
+         there, weighted by how precisely the crossing places it: a bone is a line, and \
+         joints hung along it (a random tree's branches) are in line; default true",
     ),
     (
         "tree_positions",

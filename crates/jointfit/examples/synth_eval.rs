@@ -525,10 +525,10 @@ struct AlongAxis {
 /// truth's; `None` without a true hinge fitted as a hinge.
 fn along_axis(fits: &jointfit::PairFits, truth: &synth::Truth) -> Option<AlongAxis> {
     let edges = true_tree_edges(fits, truth);
-    // As bonefit places them by default (`hinge_sides_from_steadiest`).
+    // As bonefit places them by default (`hinge_sides_from_steadiest`, `hinge_lines`).
     let place = |fits: &mut jointfit::PairFits| {
         let (directed, direction) = jointfit::placement_direction(fits, &edges, true);
-        jointfit::place_hinges_across_bones(fits, &directed, direction);
+        jointfit::place_hinges_across_bones(fits, &directed, direction, true);
     };
     // A true hinge's axis in segment s's frame (from frame 0, where the truth gives it).
     let axis_in = |j: &synth::TruthJoint, s: usize| -> Option<DVec3> {

@@ -426,6 +426,10 @@ const PARENT_JOINT_TEST_SIGMAS: f64 = 3.0;
 /// point ([`place_hinges_across_bones`]).
 const MEETING_MIN_SINE: f64 = 0.2;
 
+/// A line of joints places a hinge ([`line_rows`]) only where the test of its meeting the
+/// axis can tell it from a line that misses by this share of the joints' spacing.
+const LINE_TEST_SHARE: f64 = 0.5;
+
 /// Bound on the capture's share of hinges whose parent side is square
 /// ([`place_hinges_across_bones`]), and one minus it the floor: a few hinges do not make
 /// any row certain or hopeless.
@@ -917,7 +921,9 @@ pub struct HingePlacements {
 ///   limb's radius);
 /// - the point the hinge's far segment and a neighbouring joint's far segment turn about,
 ///   where their pair fit has one on the axis (`composite_point_rows`): two joints at
-///   one tip, measured by two segments' poses where axes that skin tilts may not meet.
+///   one tip, measured by two segments' poses where axes that skin tilts may not meet;
+/// - with `lines`, where the axis meets the line of a segment's other joints, all in line
+///   (`line_rows`: branches along one bone, whose line is the bone's).
 ///
 /// In the child sides' solve, the parent rows' test against it and the final solve, the
 /// axis's tilt is not an independent error of each joint and marker row but one per
@@ -938,6 +944,7 @@ pub fn place_hinges_across_bones(
     fits: &mut PairFits,
     edges: &[(usize, usize, usize)],
     direction: EdgeDirection,
+    lines: bool,
 ) -> HingePlacements {
     let segments = fits.poses.len();
     let mut placed = HingePlacements {
@@ -1268,6 +1275,12 @@ pub fn place_hinges_across_bones(
         fits, edges, &unknown, &seen_from, &residual, &tilt, &solution,
     );
     rows.extend(composite.iter().cloned());
+    // A hinge hung along a bone with other joints lies where its axis meets their line.
+    if lines {
+        rows.extend(line_rows(
+            edges, &unknown, &seen_from, &residual, &tilt, &solution,
+        ));
+    }
     let Some(s) = solve_rows(&slots.rows(&rows), slots.total) else {
         return placed;
     };
@@ -1504,6 +1517,122 @@ fn meeting_rows(
                     b: -d.dot(ug),
                     weight,
                     lever,
+                    across: DVec3::ZERO,
+                    sibling: None,
+                    tilt: None,
+                });
+            }
+        }
+    }
+    rows
+}
+
+/// Rows putting a free hinge's centre where its axis meets the line of one of its
+/// segments' other joints, seen from that segment, when every other joint the segment has
+/// (≥ 2; a free hinge where the child sides' evidence `first` puts it) lies on one line
+/// and the axis meets it: each within [`PARENT_JOINT_TEST_SIGMAS`] standard deviations of
+/// what the fits leave (the joints' residuals, the bone floor and, for a free hinge, its
+/// placement's variance, carried along the line by where the point lies between the two
+/// that draw it; for the crossing also this hinge's residual and its tilt times how far
+/// along the axis the crossing is). The line must be at least [`MEETING_MIN_SINE`] off
+/// the axis, drawn by two joints further apart than that bound on their σ, with that
+/// bound at the crossing within [`LINE_TEST_SHARE`] of their spacing (two vague joints,
+/// as a trunk's free hinges can be, draw a line any axis meets: BTKData's Gait.trc moved
+/// a shoulder 44 mm along its axis), and the crossing at a shift the child sides'
+/// evidence allows within the same bound. A bone is a line, and joints hung along it are
+/// in line (a random tree's branches leave their parent's bone anywhere from 30 % of its
+/// length to its tip, at any angle to its hinge axes): the line through two of them is
+/// the bone, and the hinge sits where its axis meets it. A trunk's joints (a pelvis's hips
+/// and lumbar joint) spread across it, and two joints alone always draw a line, so every
+/// other joint must lie on it too. Of the lines through pairs of the joints, the one that
+/// places the hinge most precisely (σ of the shift: the crossing's σ over the sine of the
+/// angle between line and axis).
+fn line_rows(
+    edges: &[(usize, usize, usize)],
+    unknown: &[Option<usize>],
+    seen_from: &dyn Fn(usize, usize) -> Option<(DVec3, Option<DVec3>)>,
+    residual: &dyn Fn(usize) -> f64,
+    tilt: &dyn Fn(usize) -> f64,
+    first: &FirstSolve,
+) -> Vec<ShiftRow> {
+    let bound = PARENT_JOINT_TEST_SIGMAS * PARENT_JOINT_TEST_SIGMAS;
+    let mut rows = Vec::new();
+    for (e, &(_, pe, ce)) in edges.iter().enumerate() {
+        let Some(k) = unknown[e] else { continue };
+        for x in [pe, ce] {
+            let Some((c, Some(u))) = seen_from(e, x) else {
+                continue;
+            };
+            // The segment's other joints and their variance (mm²).
+            let points: Vec<(DVec3, f64)> = edges
+                .iter()
+                .enumerate()
+                .filter(|&(g, &(_, p, q))| g != e && (p == x || q == x))
+                .filter_map(|(g, _)| {
+                    let (at, axis) = seen_from(g, x)?;
+                    let own = BONE_SIGMA_FLOOR_MM.powi(2) + residual(g).powi(2);
+                    match (unknown[g], axis) {
+                        (None, _) => Some((at, own)),
+                        (Some(kg), Some(axis)) => {
+                            let shift = first.guess[kg];
+                            let placed = first.covariance[kg][kg] + (tilt(g) * shift).powi(2);
+                            Some((at + axis * shift, own + placed))
+                        }
+                        (Some(_), None) => None,
+                    }
+                })
+                .collect();
+            // (shift variance, shift) of the most precise line the axis meets.
+            let mut best: Option<(f64, f64)> = None;
+            for (i, &(a, va)) in points.iter().enumerate() {
+                for &(b, vb) in &points[i + 1..] {
+                    let span = b - a;
+                    if span.length_squared() <= bound * (va + vb) {
+                        continue;
+                    }
+                    let length = span.length();
+                    let w = span / length;
+                    // The line's variance across itself where a point lies along it (0 at
+                    // a, 1 at b; beyond them the two points' errors lever it further).
+                    let spread = |along: f64| va * (1.0 - along).powi(2) + vb * along.powi(2);
+                    let off_line = |&(p, vp): &(DVec3, f64)| {
+                        let across = (p - a).reject_from_normalized(w);
+                        across.length_squared() > bound * (vp + spread((p - a).dot(w) / length))
+                    };
+                    if points.iter().any(off_line) {
+                        continue;
+                    }
+                    // The axis's part across the line, and the centre's offset from it.
+                    let across = u.reject_from_normalized(w);
+                    let sine = across.length();
+                    if sine < MEETING_MIN_SINE {
+                        continue;
+                    }
+                    let offset = (c - a).reject_from_normalized(w);
+                    let shift = -offset.dot(across) / across.length_squared();
+                    let miss = (offset + across * shift).length_squared();
+                    let variance = spread((c + u * shift - a).dot(w) / length)
+                        + BONE_SIGMA_FLOOR_MM.powi(2)
+                        + residual(e).powi(2)
+                        + (tilt(e) * shift).powi(2);
+                    let shift_variance = variance / (sine * sine);
+                    let allowed = (shift - first.guess[k]).powi(2)
+                        <= bound * (first.covariance[k][k] + shift_variance);
+                    // A line the test could not tell from one that misses by half the
+                    // joints' spacing (two vague joints, a trunk's) says nothing.
+                    let telling = bound * variance <= (LINE_TEST_SHARE * length).powi(2);
+                    let meets = telling && miss <= bound * variance && shift_variance.is_finite();
+                    if meets && allowed && best.is_none_or(|(v, _)| shift_variance < v) {
+                        best = Some((shift_variance, shift));
+                    }
+                }
+            }
+            if let Some((variance, shift)) = best {
+                rows.push(ShiftRow {
+                    terms: vec![(k, 1.0)],
+                    b: shift,
+                    weight: 1.0 / variance.max(MIN_ROW_VARIANCE_MM2),
+                    lever: 0.0,
                     across: DVec3::ZERO,
                     sibling: None,
                     tilt: None,

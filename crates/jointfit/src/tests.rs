@@ -795,7 +795,7 @@ fn hinge_centres_placed_across_the_child_bone() {
     let before = mean_error(pair(&fits, 0, 1), &trial.joints[1]);
     assert!(before > 10.0, "{before} mm before placement");
     let placed =
-        crate::place_hinges_across_bones(&mut fits, &edges, crate::EdgeDirection::TreeRoot);
+        crate::place_hinges_across_bones(&mut fits, &edges, crate::EdgeDirection::TreeRoot, true);
     assert_eq!(placed.shifts[1], 0.0, "the ball joint does not slide");
     // Joint 1 is pinned by the ball joint its child carries. The leaf's hinge has its
     // markers and the parent's ball joint, both right, but the parent's markers (off to
@@ -842,7 +842,7 @@ fn a_leaf_hinge_sits_midway_between_its_outermost_markers() {
     let trial = generate(&mut rng, &bodies, 300, 0.0, |_, _, _| false);
     let mut fits = run_on_segments(&trial.traj, &trial.segments, &Params::default()).unwrap();
     let edges = tree_edges(&fits, &[(0, 1)]);
-    crate::place_hinges_across_bones(&mut fits, &edges, crate::EdgeDirection::TreeRoot);
+    crate::place_hinges_across_bones(&mut fits, &edges, crate::EdgeDirection::TreeRoot, true);
     let fit = pair(&fits, 0, 1);
     assert_eq!(fit.kind, JointKind::Hinge);
     let err = mean_error(fit, &trial.joints[1]);
@@ -869,7 +869,7 @@ fn one_sided_leaf(
     let n = articulations.len();
     let links: Vec<(usize, usize)> = (0..n).map(|b| (b, b + 1)).collect();
     let edges = tree_edges(&fits, &links);
-    crate::place_hinges_across_bones(&mut fits, &edges, crate::EdgeDirection::TreeRoot);
+    crate::place_hinges_across_bones(&mut fits, &edges, crate::EdgeDirection::TreeRoot, true);
     let leaf = pair(&fits, n - 1, n);
     (
         leaf.kind,
@@ -1238,7 +1238,7 @@ fn hinge_beside_a_coincident_ball_joint_takes_its_point() {
     // The leaf's markers are scattered about, so only the ball joint pins the centre.
     let mut across = fits.clone();
     crate::place_hinge_centres(&mut fits, &edges);
-    crate::place_hinges_across_bones(&mut across, &edges, crate::EdgeDirection::TreeRoot);
+    crate::place_hinges_across_bones(&mut across, &edges, crate::EdgeDirection::TreeRoot, true);
     for (how, fits) in [("tree", &fits), ("across bones", &across)] {
         let err = mean_error(pair(fits, 1, 3), &trial.joints[3]);
         assert!(
@@ -1472,7 +1472,7 @@ fn two_hinges_whose_axes_meet_share_the_meeting_point() {
     let edges = tree_edges(&fits, &[(0, 1), (1, 2), (1, 3)]);
     assert_eq!(pair(&fits, 1, 2).kind, JointKind::Hinge);
     assert_eq!(pair(&fits, 1, 3).kind, JointKind::Hinge);
-    crate::place_hinges_across_bones(&mut fits, &edges, crate::EdgeDirection::TreeRoot);
+    crate::place_hinges_across_bones(&mut fits, &edges, crate::EdgeDirection::TreeRoot, true);
     for child in [2, 3] {
         let err = mean_error(pair(&fits, 1, child), &trial.joints[child]);
         assert!(
@@ -1480,6 +1480,63 @@ fn two_hinges_whose_axes_meet_share_the_meeting_point() {
             "hinge to {child}: centre {err:.1} mm from the tip"
         );
     }
+}
+
+/// A leaf hinge hung partway along its parent's bone, which carries the parent's own ball
+/// joint at one end and a ball-jointed sibling at its tip: the axis crosses the bone at 45°
+/// (the parent's joints do not lie square to it), and the leaf's three markers straddle
+/// its bone unevenly along the axis (their midrange 15 mm off it). The parent's two other
+/// joints draw the bone's line, which the axis meets at the joint.
+#[test]
+fn a_hinge_along_a_bone_goes_where_its_axis_meets_the_bone() {
+    let mut rng = TestRng(47);
+    let mut bodies = chain(&mut rng, &[Articulation::Ball(50.0)], 4);
+    let axis = DVec3::new(1.0, 0.0, 1.0).normalize();
+    // The leaf's bone, square to the axis.
+    let bone = DVec3::new(1.0, 0.0, -1.0).normalize();
+    let across = DVec3::Y;
+    bodies.push(crate::testkit::Body {
+        parent: Some(1),
+        joint_in_parent: DVec3::new(0.0, 0.0, -300.0),
+        joint_in_self: DVec3::ZERO,
+        articulation: Articulation::Hinge(axis, 40.0),
+        markers: [
+            (120.0, 45.0, 40.0),
+            (220.0, -15.0, -40.0),
+            (320.0, -10.0, 35.0),
+        ]
+        .map(|(along, up, side)| bone * along + axis * up + across * side)
+        .to_vec(),
+    });
+    bodies.push(crate::testkit::Body {
+        parent: Some(1),
+        joint_in_parent: DVec3::new(0.0, 0.0, -500.0),
+        joint_in_self: DVec3::ZERO,
+        articulation: Articulation::Ball(40.0),
+        markers: (0..4)
+            .map(|_| DVec3::new(0.0, 0.0, -250.0) + rng.vec3(60.0))
+            .collect(),
+    });
+    let trial = generate(&mut rng, &bodies, 300, 0.0, |_, _, _| false);
+    let fits = run_on_segments(&trial.traj, &trial.segments, &Params::default()).unwrap();
+    let edges = tree_edges(&fits, &[(0, 1), (1, 2), (1, 3)]);
+    assert_eq!(pair(&fits, 1, 2).kind, JointKind::Hinge);
+    let placed_error = |lines: bool| {
+        let mut placed = fits.clone();
+        crate::place_hinges_across_bones(
+            &mut placed,
+            &edges,
+            crate::EdgeDirection::TreeRoot,
+            lines,
+        );
+        mean_error(pair(&placed, 1, 2), &trial.joints[2])
+    };
+    let (with_line, without) = (placed_error(true), placed_error(false));
+    assert!(with_line < 2.0, "{with_line:.1} mm from the joint");
+    assert!(
+        without > 8.0,
+        "{without:.1} mm from the joint without the line"
+    );
 }
 
 /// The same on a child carried by two markers close to its bone, posed through the joint
