@@ -388,8 +388,13 @@ pub const PARAM_DOCS: &[(&str, &str)] = &[
         "with hinge_placement \"bone\": a hinge whose axis meets the line of one of its \
          segments' other joints (at least two, every one on that line within 3 standard \
          deviations of its fit; a free hinge among them where its child side puts it) goes \
-         there, weighted by how precisely the crossing places it: a bone is a line, and \
-         joints hung along it (a random tree's branches) are in line; default true",
+         there, weighted by how precisely the crossing places it, where the test of that \
+         meeting could tell the line from one missing by half the joints' spacing: a bone \
+         is a line, and joints hung along it (a random tree's branches) are in line. cargo \
+         xtask eval --presets clean --subjects random --seeds 20001..20050,30001..30050 \
+         --compare bonefit.hinge_lines=false,true: 0.3067 -> 0.2318 % of height (held-out \
+         30051..30080: 0.2843 -> 0.2495); hard, every subject, the same seeds: 1.3837 -> \
+         1.3796 %, no tree changes; default true",
     ),
     (
         "tree_positions",
