@@ -1270,16 +1270,19 @@ pub fn place_hinges_across_bones(
     // Hinges one segment carries whose axes meet there share that point (two hinges on
     // one tip), which pins both far better than their markers.
     let axes = free_axes(edges, &unknown, &seen_from, segments);
-    rows.extend(meeting_rows(&axes, edges, &residual, &tilt, &solution));
-    let composite = composite_point_rows(
-        fits, edges, &unknown, &seen_from, &residual, &tilt, &solution,
-    );
+    let tree = TreeView {
+        edges,
+        unknown: &unknown,
+        seen_from: &seen_from,
+        residual: &residual,
+        tilt: &tilt,
+    };
+    rows.extend(meeting_rows(&axes, &tree, &solution));
+    let composite = composite_point_rows(fits, &tree, &solution);
     rows.extend(composite.iter().cloned());
     // A hinge hung along a bone with other joints lies where its axis meets their line.
     if lines {
-        rows.extend(line_rows(
-            edges, &unknown, &seen_from, &residual, &tilt, &solution,
-        ));
+        rows.extend(line_rows(&tree, &solution));
     }
     let Some(s) = solve_rows(&slots.rows(&rows), slots.total) else {
         return placed;
@@ -1407,6 +1410,19 @@ fn rerooted(edges: &[(usize, usize, usize)], root: usize) -> Vec<(usize, usize, 
     out
 }
 
+/// What the final solve's row builders read of the tree ([`meeting_rows`],
+/// [`composite_point_rows`], [`line_rows`]): its edges (pair, parent, child), each free
+/// hinge's unknown, an edge's centre and unit axis (if any) seen from one of its segments,
+/// and an edge's pair residual (mm) and axis tilt bound (radians).
+#[derive(Clone, Copy)]
+struct TreeView<'a> {
+    edges: &'a [(usize, usize, usize)],
+    unknown: &'a [Option<usize>],
+    seen_from: &'a dyn Fn(usize, usize) -> Option<(DVec3, Option<DVec3>)>,
+    residual: &'a dyn Fn(usize) -> f64,
+    tilt: &'a dyn Fn(usize) -> f64,
+}
+
 /// A free hinge: its edge, its unknown's index, and its centre and unit axis as each of
 /// its two segments sees them.
 struct FreeAxis {
@@ -1456,13 +1472,13 @@ fn free_axes(
 /// Axes within ~11.5° of parallel are left alone: where they meet is ill-defined. The two
 /// rows are the closest-point conditions `u_e·d = 0`, `u_g·d = 0` for
 /// `d = c_e + s_e u_e − c_g − s_g u_g`.
-fn meeting_rows(
-    axes: &[FreeAxis],
-    edges: &[(usize, usize, usize)],
-    residual: &dyn Fn(usize) -> f64,
-    tilt: &dyn Fn(usize) -> f64,
-    first: &FirstSolve,
-) -> Vec<ShiftRow> {
+fn meeting_rows(axes: &[FreeAxis], tree: &TreeView, first: &FirstSolve) -> Vec<ShiftRow> {
+    let TreeView {
+        edges,
+        residual,
+        tilt,
+        ..
+    } = *tree;
     let mut rows = Vec::new();
     for (i, e) in axes.iter().enumerate() {
         for g in &axes[i + 1..] {
@@ -1547,14 +1563,14 @@ fn meeting_rows(
 /// other joint must lie on it too. Of the lines through pairs of the joints, the one that
 /// places the hinge most precisely (σ of the shift: the crossing's σ over the sine of the
 /// angle between line and axis).
-fn line_rows(
-    edges: &[(usize, usize, usize)],
-    unknown: &[Option<usize>],
-    seen_from: &dyn Fn(usize, usize) -> Option<(DVec3, Option<DVec3>)>,
-    residual: &dyn Fn(usize) -> f64,
-    tilt: &dyn Fn(usize) -> f64,
-    first: &FirstSolve,
-) -> Vec<ShiftRow> {
+fn line_rows(tree: &TreeView, first: &FirstSolve) -> Vec<ShiftRow> {
+    let TreeView {
+        edges,
+        unknown,
+        seen_from,
+        residual,
+        tilt,
+    } = *tree;
     let bound = PARENT_JOINT_TEST_SIGMAS * PARENT_JOINT_TEST_SIGMAS;
     let mut rows = Vec::new();
     for (e, &(_, pe, ce)) in edges.iter().enumerate() {
@@ -1660,15 +1676,14 @@ fn line_rows(
 ///   of a hinge's axis is a centre of its motion, so a neighbour's point on it (a chain
 ///   whose bone runs along the next axis: random-skin-s6003, 110 mm apart) is where the
 ///   hinge is only if its child's markers agree.
-fn composite_point_rows(
-    fits: &PairFits,
-    edges: &[(usize, usize, usize)],
-    unknown: &[Option<usize>],
-    seen_from: &dyn Fn(usize, usize) -> Option<(DVec3, Option<DVec3>)>,
-    residual: &dyn Fn(usize) -> f64,
-    tilt: &dyn Fn(usize) -> f64,
-    first: &FirstSolve,
-) -> Vec<ShiftRow> {
+fn composite_point_rows(fits: &PairFits, tree: &TreeView, first: &FirstSolve) -> Vec<ShiftRow> {
+    let TreeView {
+        edges,
+        unknown,
+        seen_from,
+        residual,
+        tilt,
+    } = *tree;
     let bound = PARENT_JOINT_TEST_SIGMAS * PARENT_JOINT_TEST_SIGMAS;
     let mut rows = Vec::new();
     let far = |e: usize, x: usize| {
@@ -2110,9 +2125,14 @@ mod tests {
                 frames: 100,
                 poses: Vec::new(),
             };
-            composite_point_rows(
-                &fits, &edges, &unknown, &seen_from, &residual, &tilt, &first,
-            )
+            let tree = TreeView {
+                edges: &edges,
+                unknown: &unknown,
+                seen_from: &seen_from,
+                residual: &residual,
+                tilt: &tilt,
+            };
+            composite_point_rows(&fits, &tree, &first)
         };
         let rows = rows_with(point_fit(1, 2, [[3.0, -2.0, 40.0], [0.0; 3]], 4.0), 30.0);
         assert_eq!(rows.len(), 1);
