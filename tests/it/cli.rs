@@ -135,6 +135,8 @@ fn recomputing_without_the_cache_gives_byte_identical_files() {
             "joints.csv",
             "joints.trc",
             "joints.c3d",
+            "markers.trc",
+            "markers.c3d",
             "skeleton.osim",
             "skeleton.mot",
             "report.html",

@@ -6,6 +6,7 @@
 mod accuracy;
 mod cli;
 mod expect;
+mod fill;
 mod real;
 mod support;
 mod unlabeled;

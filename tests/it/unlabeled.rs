@@ -120,6 +120,34 @@ fn an_unlabeled_capture_cut_at_every_gap_gives_the_labelled_skeleton() {
         }
     }
     assert!(pieces >= 2, "the segment stage joined {pieces} pieces");
+    // markers.trc holds each of those markers once: the later piece's samples in the first
+    // piece's track, the later piece's own track left out.
+    let filled = mocap_io::read_capture(&out.join("markers.trc"), &Default::default())
+        .unwrap()
+        .trajectories;
+    let column = |label: &str| filled.labels().iter().position(|l| l == label);
+    for marker in skeleton["markers"].as_array().unwrap() {
+        let (Some(label), Some(of)) = (marker["label"].as_str(), marker["piece_of"].as_str())
+        else {
+            continue;
+        };
+        assert_eq!(column(label), None, "{label} has a track of its own");
+        let first = column(of).unwrap();
+        let piece = read
+            .trajectories
+            .labels()
+            .iter()
+            .position(|l| l == label)
+            .unwrap();
+        for f in 0..read.trajectories.frames() {
+            if read.trajectories.get(f, piece).is_some() {
+                assert!(
+                    filled.get(f, first).is_some(),
+                    "{of} lacks {label}'s frame {f}"
+                );
+            }
+        }
+    }
 
     // Without either joining (the reader's stitch, the segment stage's), the pieces make a
     // different, wrong skeleton. (With the segment stage's alone the tree comes out right

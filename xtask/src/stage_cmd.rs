@@ -22,7 +22,7 @@ Inputs are recognised by their artifact header, so their order does not matter:
   export    --in mocap-io.cbor --in segment.cbor --in jointfit.cbor --in topo.cbor --in bonefit.cbor
 For export, --out ending in .cbor writes the Outputs artifact (file name → bytes); any \
 other --out is a folder that receives skeleton.json, skeleton.bvh, skeleton.glb, joints.csv, \
-joints.trc, joints.c3d, skeleton.osim, skeleton.mot, report.html.
+joints.trc, joints.c3d, markers.trc, markers.c3d, skeleton.osim, skeleton.mot, report.html.
 The artifact written is byte-identical to the one `cargo xtask run` caches for the same \
 inputs and parameters.")]
 pub struct Args {

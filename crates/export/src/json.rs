@@ -263,6 +263,10 @@ pub struct MarkerJson {
     /// null when none.
     #[serde(default)]
     pub piece_of: Option<String>,
+    /// Samples markers.trc fills from its segment's pose where the capture, as the pipeline
+    /// read it, misses the marker (0 for a marker in no segment).
+    #[serde(default)]
+    pub filled_frames: usize,
 }
 
 /// Rounds to `decimals` places; None for NaN/infinite; no negative zero.
@@ -571,6 +575,8 @@ pub(crate) fn document(input: &Inputs<'_>) -> Result<SkeletonJson, Error> {
                 .iter()
                 .find(|u| u.marker == m)
                 .map(|u| u.reason.clone()),
+            // Set by `crate::run` from the fill, which the document does not make.
+            filled_frames: 0,
         });
     }
 

@@ -21,6 +21,10 @@
 //! - `joints.c3d`: the same as a C3D file (float, mm) for Visual3D, Nexus, Mokka and ezc3d;
 //!   numbered from 1 where the capture's frame numbers leave C3D's 1–65535, and left out
 //!   for a capture longer than 65535 frames.
+//! - `markers.trc`, `markers.c3d`: the capture's markers as the pipeline read them (label
+//!   swaps undone, glitch samples out, an unlabeled capture's pieces of one marker joined),
+//!   each gap filled where its segment's pose is known (see `fill`), so a marker tool gets
+//!   the capture gap-filled; skeleton.json's `filled_frames` counts each marker's fill.
 //! - `skeleton.glb`: the BVH's hierarchy and motion as binary glTF 2.0 (an armature
 //!   from a skin over the root, joint and End Site nodes, a mesh of one octahedral bone
 //!   per offset, one animation keyed per frame) in metres; Blender, three.js, Unity and
@@ -38,6 +42,7 @@
 mod bvh;
 mod csv;
 mod error;
+mod fill;
 mod glb;
 mod json;
 mod osim;
@@ -62,7 +67,7 @@ use serde::{Deserialize, Serialize};
 pub const STAGE: &str = "export";
 
 /// Schema version of [`Outputs`] and of skeleton.json's layout; bump when either changes.
-pub const SCHEMA_VERSION: u32 = 18;
+pub const SCHEMA_VERSION: u32 = 19;
 
 /// Everything the files are made from.
 #[derive(Clone, Copy, Debug)]
@@ -86,7 +91,8 @@ pub struct Inputs<'a> {
 #[derive(Clone, Debug, Default, PartialEq, Eq, Serialize, Deserialize)]
 pub struct Outputs {
     /// File name → file bytes (skeleton.json, skeleton.bvh, skeleton.glb, joints.csv,
-    /// joints.trc, joints.c3d, skeleton.osim, skeleton.mot, report.html).
+    /// joints.trc, joints.c3d, markers.trc, markers.c3d, skeleton.osim, skeleton.mot,
+    /// report.html).
     #[serde(with = "byte_files")]
     pub files: BTreeMap<String, Vec<u8>>,
 }
@@ -95,10 +101,10 @@ pub struct Outputs {
 #[derive(Clone, Debug, Default, PartialEq, Serialize, Deserialize)]
 #[serde(default, deny_unknown_fields)]
 pub struct Params {
-    /// Rotate the BVH, the glTF, joints.trc and joints.c3d from Z-up to Y-up
-    /// (x, y, z) → (x, z, −y) for Y-up consumers (Blender's BVH import, glTF viewers,
-    /// OpenSim), and hang skeleton.osim's root on a ground frame turned the same way; the
-    /// JSON and CSV stay in the capture's frame. Default false.
+    /// Rotate the BVH, the glTF, joints.trc, joints.c3d, markers.trc and markers.c3d from
+    /// Z-up to Y-up (x, y, z) → (x, z, −y) for Y-up consumers (Blender's BVH import, glTF
+    /// viewers, OpenSim), and hang skeleton.osim's root on a ground frame turned the same
+    /// way; the JSON and CSV stay in the capture's frame. Default false.
     pub y_up: bool,
     /// Make every joint of skeleton.osim a ball joint, so skeleton.mot reproduces the
     /// skeleton's motion exactly, instead of each joint's fitted kind (a hinge a pin, a
@@ -111,10 +117,10 @@ pub struct Params {
 pub const PARAM_DOCS: &[(&str, &str)] = &[
     (
         "y_up",
-        "rotate the BVH, skeleton.glb, joints.trc and joints.c3d from the capture's Z-up \
-         to Y-up ((x, y, z) -> (x, z, -y)) for Y-up consumers (glTF and OpenSim's ground are \
-         Y-up), and hang skeleton.osim's root on a ground frame turned the same way; \
-         skeleton.json and joints.csv stay in the capture's frame; default false",
+        "rotate the BVH, skeleton.glb, joints.trc, joints.c3d, markers.trc and markers.c3d \
+         from the capture's Z-up to Y-up ((x, y, z) -> (x, z, -y)) for Y-up consumers (glTF \
+         and OpenSim's ground are Y-up), and hang skeleton.osim's root on a ground frame \
+         turned the same way; skeleton.json and joints.csv stay in the capture's frame; default false",
     ),
     (
         "osim_ball_joints",
@@ -125,28 +131,59 @@ pub const PARAM_DOCS: &[(&str, &str)] = &[
     ),
 ];
 
-/// Makes skeleton.json, skeleton.bvh, skeleton.glb, joints.csv, joints.trc, joints.c3d
-/// (where the capture fits C3D's 65535 frames), skeleton.osim, skeleton.mot and report.html.
+/// Makes skeleton.json, skeleton.bvh, skeleton.glb, joints.csv, joints.trc, joints.c3d,
+/// markers.trc, markers.c3d (each C3D where the capture fits C3D's 65535 frames),
+/// skeleton.osim, skeleton.mot and report.html.
 pub fn run(input: &Inputs<'_>, params: &Params) -> Result<Outputs, Error> {
-    let document = json::document(input)?;
-    let mut files = BTreeMap::new();
-    files.insert("skeleton.json".to_owned(), json::to_bytes(&document)?);
-    files.insert("skeleton.bvh".to_owned(), bvh::write(input, params)?);
-    files.insert("skeleton.glb".to_owned(), glb::write(input, params)?);
-    files.insert("joints.csv".to_owned(), csv::write(input.skeleton));
-    let joints = trc::joint_trajectories(input, params)?;
-    files.insert(
-        "joints.trc".to_owned(),
-        mocap_io::trc::write(&joints).into_bytes(),
+    // The document first: it checks that the inputs belong together, which the files
+    // below take for granted.
+    let mut document = json::document(input)?;
+    // markers.trc is the biggest text (every marker at every frame; number formatting is
+    // most of export's time): it is made beside the skeleton's files.
+    let (markers, skeleton_files) = rayon::join(
+        || -> Result<_, Error> {
+            let markers = fill::filled_markers(input, params)?;
+            let files = marker_files("markers", &markers.trajectories)?;
+            Ok((markers.filled, files))
+        },
+        || -> Result<_, Error> {
+            let mut files = BTreeMap::new();
+            files.insert("skeleton.bvh".to_owned(), bvh::write(input, params)?);
+            files.insert("skeleton.glb".to_owned(), glb::write(input, params)?);
+            files.insert("joints.csv".to_owned(), csv::write(input.skeleton));
+            let joints = trc::joint_trajectories(input, params)?;
+            files.extend(marker_files("joints", &joints)?);
+            let (model, motion) = osim::write(input, params)?;
+            files.insert("skeleton.osim".to_owned(), model);
+            files.insert("skeleton.mot".to_owned(), motion);
+            Ok(files)
+        },
     );
-    if let Some(c3d) = trc::c3d(&joints)? {
-        files.insert("joints.c3d".to_owned(), c3d);
+    let (filled, mut files) = markers?;
+    files.extend(skeleton_files?);
+    for (entry, &count) in document.markers.iter_mut().zip(&filled) {
+        entry.filled_frames = count;
     }
-    let (model, motion) = osim::write(input, params)?;
-    files.insert("skeleton.osim".to_owned(), model);
-    files.insert("skeleton.mot".to_owned(), motion);
+    files.insert("skeleton.json".to_owned(), json::to_bytes(&document)?);
     files.insert("report.html".to_owned(), report::write(&document));
     Ok(Outputs { files })
+}
+
+/// `<name>.trc` and `<name>.c3d` (where the capture fits C3D's frame numbers) of `tracks`.
+fn marker_files(
+    name: &str,
+    tracks: &mocap_io::Trajectories,
+) -> Result<BTreeMap<String, Vec<u8>>, Error> {
+    let mut files = BTreeMap::new();
+    files.insert(
+        format!("{name}.trc"),
+        mocap_io::trc::write(tracks).into_bytes(),
+    );
+    let c3d_name = format!("{name}.c3d");
+    if let Some(c3d) = trc::c3d(tracks, &c3d_name)? {
+        files.insert(c3d_name, c3d);
+    }
+    Ok(files)
 }
 
 /// File bytes as CBOR byte strings, not arrays of small integers.

@@ -786,6 +786,90 @@ fn trc_has_the_json_positions_and_gaps() {
 
 /// The report names every joint, segment marker and kind, draws three projections with a
 /// line per joint that has a position to hang from, and escapes what came from the capture.
+/// markers.trc (and markers.c3d) read back: every marker of the capture, its samples
+/// as the capture has them, and a gap filled where its segment is posed (by its own
+/// pose, or where it has none by its other markers and its joints' centres), at the
+/// hidden samples (the scene's markers are rigid, so the posed place is exact); where no
+/// pose is known (gappy_scene's torso, frames 30–49) the marker stays missing. With
+/// `y_up` the same samples turned as joints.trc's.
+#[test]
+fn markers_trc_fills_a_gap_where_its_segment_is_posed() {
+    let full = gappy_scene();
+    let mut s = gappy_scene();
+    let t = &s.trajectories;
+    let markers = t.markers();
+    let mut positions = t.positions().to_vec();
+    // The thigh's first marker hidden in frames 10..40, posed throughout.
+    let thigh_marker = s.segmentation.segments[1].markers[0];
+    for f in 10..40 {
+        positions[f * markers + thigh_marker] = mocap_io::MISSING;
+    }
+    // In frames 15..25 the thigh has no pose of its own.
+    for f in 15..25 {
+        s.fits.poses[1].rotations[f] = [f64::NAN; 4];
+    }
+    s.trajectories = mocap_io::Trajectories::new(
+        t.labels().to_vec(),
+        t.frame_rate(),
+        t.first_frame(),
+        t.frames(),
+        positions,
+    )
+    .unwrap_or_else(|e| panic!("{e}"));
+    let turned = Params {
+        y_up: true,
+        ..Params::default()
+    };
+    for (params, name) in [
+        (&Params::default(), "markers.trc"),
+        (&Params::default(), "markers.c3d"),
+        (&turned, "markers.trc"),
+    ] {
+        let out = files(&s, params);
+        let bytes = out.files.get(name).cloned().unwrap_or_default();
+        let options = mocap_io::ReadOptions::default();
+        let back = if name.ends_with(".c3d") {
+            mocap_io::c3d::parse(&bytes, &options)
+        } else {
+            mocap_io::trc::parse(&bytes, &options)
+        }
+        .unwrap_or_else(|e| panic!("{name} does not parse back: {e}"));
+        let back = &back.trajectories;
+        assert_eq!(back.labels(), full.trajectories.labels(), "{name}");
+        assert_eq!(back.frames(), full.trajectories.frames(), "{name}");
+        for f in 0..back.frames() {
+            for m in 0..markers {
+                let got = back.get(f, m);
+                // The scene's own gaps: the torso's where it has no pose, the thigh's.
+                let truth = full
+                    .trajectories
+                    .get(f, m)
+                    .map(|[x, y, z]| if params.y_up { [x, z, -y] } else { [x, y, z] });
+                match (got, truth) {
+                    (Some(g), Some(w)) => {
+                        let d = DVec3::from_array(g).distance(DVec3::from_array(w));
+                        assert!(d < 2e-3, "{name} frame {f} marker {m}: {d} mm");
+                    }
+                    (None, None) => {}
+                    _ => panic!("{name} frame {f} marker {m}: {got:?} against {truth:?}"),
+                }
+            }
+        }
+    }
+    let doc = json(&files(&s, &Params::default()));
+    let filled: Vec<u64> = doc["markers"]
+        .as_array()
+        .map(|ms| {
+            ms.iter()
+                .map(|m| m["filled_frames"].as_u64().unwrap_or(0))
+                .collect()
+        })
+        .unwrap_or_default();
+    let mut want = vec![0; markers];
+    want[thigh_marker] = 30;
+    assert_eq!(filled, want);
+}
+
 #[test]
 fn report_tabulates_the_document_and_escapes_labels() {
     let s = gappy_scene();
@@ -839,6 +923,8 @@ fn outputs_are_deterministic_and_round_trip_through_serde() {
             "joints.c3d",
             "joints.csv",
             "joints.trc",
+            "markers.c3d",
+            "markers.trc",
             "report.html",
             "skeleton.bvh",
             "skeleton.glb",
@@ -1307,16 +1393,17 @@ fn joints_c3d_counts_from_one_and_is_left_out_past_the_formats_frames() {
             .unwrap_or_else(|e| panic!("{e}"))
             .trajectories
     };
-    let kept = crate::trc::c3d(&track(7, 10)).unwrap_or_else(|e| panic!("{e}"));
+    let kept = crate::trc::c3d(&track(7, 10), "joints.c3d").unwrap_or_else(|e| panic!("{e}"));
     assert_eq!(kept.map(read).map(|t| t.first_frame()), Some(7));
     // A capture numbered from 0 (CSV) or running past 65535 is numbered from 1.
     for (first, frames) in [(0, 10), (65_000, 1000)] {
-        let bytes = crate::trc::c3d(&track(first, frames)).unwrap_or_else(|e| panic!("{e}"));
+        let bytes =
+            crate::trc::c3d(&track(first, frames), "joints.c3d").unwrap_or_else(|e| panic!("{e}"));
         let t = bytes
             .map(read)
             .unwrap_or_else(|| panic!("no joints.c3d from {first}"));
         assert_eq!((t.first_frame(), t.frames()), (1, frames));
     }
-    let long = crate::trc::c3d(&track(1, 65_536)).unwrap_or_else(|e| panic!("{e}"));
+    let long = crate::trc::c3d(&track(1, 65_536), "joints.c3d").unwrap_or_else(|e| panic!("{e}"));
     assert!(long.is_none(), "a C3D holds at most 65535 frames");
 }

@@ -40,12 +40,12 @@ pub(crate) fn joint_trajectories(
     Ok(trajectories)
 }
 
-/// joints.c3d: the same trajectories as a C3D file (mocap-io's writer: float, mm, missing
-/// samples with residual −1), for the tools biomechanics reads C3D in (Visual3D, Nexus,
-/// Mokka, ezc3d). C3D counts frames from 1 to 65535: a capture that starts below 1 or
-/// ends past 65535 is numbered from 1 here (joints.trc keeps the capture's numbers), and
-/// one longer than 65535 frames gets no joints.c3d (`None`).
-pub(crate) fn c3d(joints: &mocap_io::Trajectories) -> Result<Option<Vec<u8>>, Error> {
+/// joints.c3d (or markers.c3d, `name`): the same trajectories as a C3D file (mocap-io's
+/// writer: float, mm, missing samples with residual −1), for the tools biomechanics reads
+/// C3D in (Visual3D, Nexus, Mokka, ezc3d). C3D counts frames from 1 to 65535: a capture
+/// that starts below 1 or ends past 65535 is numbered from 1 here (the TRC keeps the
+/// capture's numbers), and one longer than 65535 frames gets no C3D (`None`).
+pub(crate) fn c3d(joints: &mocap_io::Trajectories, name: &str) -> Result<Option<Vec<u8>>, Error> {
     const LAST: i64 = u16::MAX as i64;
     let frames = joints.frames() as i64;
     if frames > LAST {
@@ -63,17 +63,17 @@ pub(crate) fn c3d(joints: &mocap_io::Trajectories) -> Result<Option<Vec<u8>>, Er
             joints.frames(),
             joints.positions().to_vec(),
         )
-        .map_err(|e| Error::Mismatch(format!("joint trajectories: {e}")))?;
+        .map_err(|e| Error::Mismatch(format!("{name}: {e}")))?;
         &renumbered
     };
     mocap_io::c3d::write(joints)
         .map(Some)
-        .map_err(|e| Error::Mismatch(format!("joints.c3d: {e}")))
+        .map_err(|e| Error::Mismatch(format!("{name}: {e}")))
 }
 
 /// One position as written: rounded like skeleton.json, rotated for `y_up`, missing
 /// where any coordinate is unknown.
-fn sample(p: [f64; 3], y_up: bool) -> [f64; 3] {
+pub(crate) fn sample(p: [f64; 3], y_up: bool) -> [f64; 3] {
     let r = |c: f64| crate::json::round(c, 3);
     match (r(p[0]), r(p[1]), r(p[2])) {
         (Some(x), Some(y), Some(z)) if y_up => [x, z, if y == 0.0 { 0.0 } else { -y }],
