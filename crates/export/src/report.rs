@@ -303,6 +303,21 @@ fn markers(out: &mut String, doc: &SkeletonJson) {
             sliding.join("; ")
         );
     }
+    let filled: Vec<String> = doc
+        .markers
+        .iter()
+        .filter(|m| m.filled_frames > 0)
+        .map(|m| format!("{} ({})", escape(&m.label), m.filled_frames))
+        .collect();
+    if !filled.is_empty() {
+        let _ = writeln!(
+            out,
+            "<p>markers.trc and markers.c3d fill {} missing samples from their segments' \
+             poses: {}.</p>",
+            doc.markers.iter().map(|m| m.filled_frames).sum::<usize>(),
+            filled.join("; ")
+        );
+    }
     let glitching: Vec<String> = doc
         .markers
         .iter()

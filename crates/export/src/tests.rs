@@ -868,6 +868,11 @@ fn markers_trc_fills_a_gap_where_its_segment_is_posed() {
     let mut want = vec![0; markers];
     want[thigh_marker] = 30;
     assert_eq!(filled, want);
+    // The report says what was filled, marker by marker.
+    let html = text(&files(&s, &Params::default()), "report.html");
+    let label = &s.trajectories.labels()[thigh_marker];
+    let line = format!("fill 30 missing samples from their segments' poses: {label} (30).");
+    assert!(html.contains(&line), "no fill line {line}");
 }
 
 #[test]
