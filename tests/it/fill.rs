@@ -54,8 +54,8 @@ fn linear(cut: &Trajectories, marker: usize, frame: usize) -> Option<[f64; 3]> {
     }))
 }
 
-/// How the fill did: (samples hidden, samples filled, RMS error of the fill, RMS error of
-/// the straight line over the same samples), mm.
+/// How the fill did: samples hidden, samples filled (where a straight line can be drawn
+/// too), and the RMS errors (mm) of the fill and of the straight line over those samples.
 struct FillScore {
     hidden: usize,
     filled: usize,
@@ -63,8 +63,33 @@ struct FillScore {
     linear_rms_mm: f64,
 }
 
+impl FillScore {
+    /// Prints the score for `what` and asserts that ≥ 90 % of the hidden samples were
+    /// filled, within `max_rms_mm` RMS and `times` closer than the straight line.
+    fn check(&self, what: &str, max_rms_mm: f64, times: f64) {
+        eprintln!(
+            "{what} fill: {} of {} hidden samples filled, RMS {:.2} mm; straight line {:.2} mm",
+            self.filled, self.hidden, self.rms_mm, self.linear_rms_mm
+        );
+        assert!(
+            self.filled * 10 >= self.hidden * 9,
+            "{} of {}",
+            self.filled,
+            self.hidden
+        );
+        assert!(self.rms_mm < max_rms_mm, "fill RMS {:.2} mm", self.rms_mm);
+        assert!(
+            self.rms_mm * times < self.linear_rms_mm,
+            "{:.2} against {:.2}",
+            self.rms_mm,
+            self.linear_rms_mm
+        );
+    }
+}
+
 /// Runs the pipeline on `cut` (written as C3D into `tmp`) and scores markers.trc's fill
-/// of `hidden`; markers.trc must keep every sample `cut` has, as it has it.
+/// of `hidden`; markers.trc must keep every sample `cut` has, as it has it (neither
+/// capture here has a glitch, whose samples the pipeline reads as gaps).
 fn score_fill(tmp: &Scratch, cut: &Trajectories, hidden: &[(usize, usize, [f64; 3])]) -> FillScore {
     let input = tmp.path("hidden.c3d");
     mocap_io::write_c3d(&input, cut).unwrap();
@@ -122,24 +147,7 @@ fn a_synthetic_capture_s_hidden_stretches_are_filled_near_the_truth() {
     .unwrap();
     let (cut, hidden) = hide(&trial.trajectories, 5, (40, 60, 20));
     let tmp = Scratch::new("fill-synthetic");
-    let s = score_fill(&tmp, &cut, &hidden);
-    eprintln!(
-        "synthetic fill: {} of {} hidden samples filled, RMS {:.2} mm; straight line {:.2} mm",
-        s.filled, s.hidden, s.rms_mm, s.linear_rms_mm
-    );
-    assert!(
-        s.filled * 10 >= s.hidden * 9,
-        "{} of {}",
-        s.filled,
-        s.hidden
-    );
-    assert!(s.rms_mm < 10.0, "fill RMS {:.2} mm", s.rms_mm);
-    assert!(
-        s.rms_mm * 5.0 < s.linear_rms_mm,
-        "{:.2} against {:.2}",
-        s.rms_mm,
-        s.linear_rms_mm
-    );
+    score_fill(&tmp, &cut, &hidden).check("synthetic", 10.0, 5.0);
 }
 
 /// CMU 02_01 (a walk): every fifth marker hidden for half a second (staggered), the fill
@@ -155,22 +163,5 @@ fn a_real_walk_s_hidden_stretches_are_filled_near_the_samples() {
     let walk = read(&data.join("c3d/cmu/02_01.c3d"));
     let (cut, hidden) = hide(&walk, 5, (40, 60, 20));
     let tmp = Scratch::new("fill-real");
-    let s = score_fill(&tmp, &cut, &hidden);
-    eprintln!(
-        "CMU 02_01 fill: {} of {} hidden samples filled, RMS {:.2} mm; straight line {:.2} mm",
-        s.filled, s.hidden, s.rms_mm, s.linear_rms_mm
-    );
-    assert!(
-        s.filled * 10 >= s.hidden * 9,
-        "{} of {}",
-        s.filled,
-        s.hidden
-    );
-    assert!(s.rms_mm < 25.0, "fill RMS {:.2} mm", s.rms_mm);
-    assert!(
-        s.rms_mm * 3.0 < s.linear_rms_mm,
-        "{:.2} against {:.2}",
-        s.rms_mm,
-        s.linear_rms_mm
-    );
+    score_fill(&tmp, &cut, &hidden).check("CMU 02_01", 25.0, 3.0);
 }

@@ -120,7 +120,8 @@ pub const PARAM_DOCS: &[(&str, &str)] = &[
         "rotate the BVH, skeleton.glb, joints.trc, joints.c3d, markers.trc and markers.c3d \
          from the capture's Z-up to Y-up ((x, y, z) -> (x, z, -y)) for Y-up consumers (glTF \
          and OpenSim's ground are Y-up), and hang skeleton.osim's root on a ground frame \
-         turned the same way; skeleton.json and joints.csv stay in the capture's frame; default false",
+         turned the same way; skeleton.json and joints.csv stay in the capture's frame; \
+         default false",
     ),
     (
         "osim_ball_joints",

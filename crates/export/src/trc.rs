@@ -45,28 +45,28 @@ pub(crate) fn joint_trajectories(
 /// C3D in (Visual3D, Nexus, Mokka, ezc3d). C3D counts frames from 1 to 65535: a capture
 /// that starts below 1 or ends past 65535 is numbered from 1 here (the TRC keeps the
 /// capture's numbers), and one longer than 65535 frames gets no C3D (`None`).
-pub(crate) fn c3d(joints: &mocap_io::Trajectories, name: &str) -> Result<Option<Vec<u8>>, Error> {
+pub(crate) fn c3d(tracks: &mocap_io::Trajectories, name: &str) -> Result<Option<Vec<u8>>, Error> {
     const LAST: i64 = u16::MAX as i64;
-    let frames = joints.frames() as i64;
+    let frames = tracks.frames() as i64;
     if frames > LAST {
         return Ok(None);
     }
-    let first = joints.first_frame();
+    let first = tracks.first_frame();
     let renumbered;
-    let joints = if first >= 1 && first + frames - 1 <= LAST {
-        joints
+    let tracks = if first >= 1 && first + frames - 1 <= LAST {
+        tracks
     } else {
         renumbered = mocap_io::Trajectories::new(
-            joints.labels().to_vec(),
-            joints.frame_rate(),
+            tracks.labels().to_vec(),
+            tracks.frame_rate(),
             1,
-            joints.frames(),
-            joints.positions().to_vec(),
+            tracks.frames(),
+            tracks.positions().to_vec(),
         )
         .map_err(|e| Error::Mismatch(format!("{name}: {e}")))?;
         &renumbered
     };
-    mocap_io::c3d::write(joints)
+    mocap_io::c3d::write(tracks)
         .map(Some)
         .map_err(|e| Error::Mismatch(format!("{name}: {e}")))
 }
