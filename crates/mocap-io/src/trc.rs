@@ -414,17 +414,36 @@ pub(crate) fn warn_frame_jumps(subject: &str, jumps: usize, warnings: &mut Vec<S
 pub(crate) fn push_samples(out: &mut String, samples: &[[f64; 3]], sep: char) {
     for p in samples {
         if crate::is_present(*p) {
-            let _ = write!(
-                out,
-                "{sep}{:.d$}{sep}{:.d$}{sep}{:.d$}",
-                p[0],
-                p[1],
-                p[2],
-                d = POSITION_DECIMALS
-            );
+            for c in p {
+                out.push(sep);
+                push_position(out, *c);
+            }
         } else {
             out.extend([sep, sep, sep]);
         }
+    }
+}
+
+/// Largest magnitude (mm) written from its count of thousandths: below it a double's
+/// distance from the thousandth it is nearest to is far under the fifth decimal's half.
+const WHOLE_THOUSANDTHS_MAX: f64 = 1e9;
+
+/// Appends `v` with [`POSITION_DECIMALS`] decimals, exactly as `{:.5}` writes it. A value
+/// that is a whole number of thousandths of a millimetre (every position export writes is
+/// rounded so) is written from that integer count, several times faster than the float
+/// formatter, which is most of the time spent writing a big TRC; any other value goes
+/// through `{:.5}`.
+fn push_position(out: &mut String, v: f64) {
+    let thousandths = (v * 1000.0).round();
+    if v.abs() < WHOLE_THOUSANDTHS_MAX && thousandths / 1000.0 == v {
+        // `{:.5}` keeps the sign of −0.0, and of a negative value that rounds to zero.
+        if v.is_sign_negative() {
+            out.push('-');
+        }
+        let k = thousandths.abs() as u64;
+        let _ = write!(out, "{}.{:03}00", k / 1000, k % 1000);
+    } else {
+        let _ = write!(out, "{v:.POSITION_DECIMALS$}");
     }
 }
 
@@ -776,6 +795,35 @@ impl<'a> Iterator for Fields<'a> {
 
 #[cfg(test)]
 mod tests {
+    /// The integer path writes every whole number of thousandths as `{:.5}` does (signs,
+    /// zeros, carries, large values), and anything else goes through `{:.5}` itself.
+    #[test]
+    fn positions_are_written_as_five_decimals_exactly() {
+        let mut values: Vec<f64> = vec![0.0, -0.0, 1e-3, -1e-3, 0.5, -0.5, 999.999, -1000.0];
+        // Thousandths across magnitudes, and values that are not whole thousandths.
+        let mut k: i64 = 1;
+        while k < 900_000_000_000 {
+            for d in [-1, 0, 1, 7, 499, 500, 501, 999] {
+                values.push((k + d) as f64 / 1000.0);
+                values.push(-((k + d) as f64) / 1000.0);
+            }
+            k = k * 3 + 1;
+        }
+        values.extend([
+            0.12345678,
+            -2.0000049,
+            3.0000051,
+            1e-9,
+            -7.77777e3,
+            1e12 + 0.5,
+        ]);
+        for v in values {
+            let mut got = String::new();
+            super::push_position(&mut got, v);
+            assert_eq!(got, format!("{v:.5}"), "{v:e}");
+        }
+    }
+
     use super::*;
 
     fn read(text: &str) -> Result<Capture, FormatError> {
