@@ -14,10 +14,12 @@
 //! ([`MIN_SPREAD_MM`]): a two-marker thigh that lost one marker is posed by the other and
 //! its hip and knee. Skin moves a marker a few millimetres about that place, so the posed
 //! place misses the marker's own samples at the gap's ends; the fill carries that miss,
-//! measured at the last sample before the gap and the first after it, linearly across the
+//! measured at the nearest sample on each side that the pose reaches, linearly across the
 //! gap (one side's miss where only one side has a pose), so a filled stretch meets its
-//! samples on both sides. A marker in no segment, a marker never seen with the rest of its
-//! segment and a frame without a pose stay missing.
+//! samples on both sides. In each gap the pose reaching most of its frames leads and the
+//! other fills in only where it has none: each switch jumps by how far the two disagree.
+//! A marker in no segment, a marker never seen with the rest of its segment and a frame
+//! without a pose stay missing.
 
 use glam::{DQuat, DVec3};
 
@@ -180,10 +182,17 @@ fn line_spread_mm(points: impl Iterator<Item = DVec3>) -> f64 {
     (sum / points.len() as f64).sqrt()
 }
 
+/// Fewest samples on each side of a gap searched for one a source places, to measure its
+/// miss there: farther from the gap than this the skin has moved on.
+const EDGE_SEARCH: usize = 32;
+
 /// Fills each run of missing samples of `track` where one of `sources` gives the marker's
-/// place (the first that does, at each frame), shifted by that source's miss at the run's
-/// ends (linear between the last sample before and the first after, the one side's where
-/// only one has it, none where neither); returns the samples filled.
+/// place, shifted by that source's miss at the run's ends (linear between the nearest
+/// sample before and after that the source places, within [`EDGE_SEARCH`] of the gap; the
+/// one side's where only one has it, none where neither); returns the samples filled. In
+/// each gap the source placing the most frames leads and the others fill in where it has
+/// nothing (earlier sources first), since every switch jumps by how far two sources
+/// disagree.
 pub(crate) fn fill_gaps(
     track: &mut [[f64; 3]],
     sources: &[&dyn Fn(usize) -> Option<DVec3>],
@@ -201,28 +210,39 @@ pub(crate) fn fill_gaps(
         while f < n && !present(track[f]) {
             f += 1;
         }
-        // The gap is start..f; its neighbours are samples (or the capture's ends).
-        let edge = |source: &dyn Fn(usize) -> Option<DVec3>, at: Option<usize>| {
-            let at = at.filter(|&e| e < n)?;
-            source(at).map(|p| DVec3::from_array(track[at]) - p)
-        };
-        let misses: Vec<(Option<DVec3>, Option<DVec3>)> = sources
+        // The gap is start..f; on each side, the run of samples next to it.
+        let places: Vec<Vec<Option<DVec3>>> = sources
             .iter()
-            .map(|s| (edge(*s, start.checked_sub(1)), edge(*s, Some(f))))
+            .map(|source| (start..f).map(source).collect())
             .collect();
-        let span = (f + 1 - start) as f64;
+        let mut order: Vec<usize> = (0..sources.len()).collect();
+        order.sort_by_key(|&i| std::cmp::Reverse(places[i].iter().flatten().count()));
+        let track_ref: &[[f64; 3]] = track;
+        let miss = |source: &dyn Fn(usize) -> Option<DVec3>,
+                    side: &mut dyn Iterator<Item = usize>| {
+            side.take(EDGE_SEARCH)
+                .take_while(|&e| present(track_ref[e]))
+                .find_map(|e| source(e).map(|p| (e, DVec3::from_array(track_ref[e]) - p)))
+        };
+        let misses: Vec<_> = sources
+            .iter()
+            .map(|source| {
+                let before = miss(*source, &mut (0..start).rev());
+                let after = miss(*source, &mut (f..n));
+                (before, after)
+            })
+            .collect();
         for (g, sample) in track.iter_mut().enumerate().take(f).skip(start) {
-            let Some((p, (before, after))) = sources
+            let Some((p, (before, after))) = order
                 .iter()
-                .zip(&misses)
-                .find_map(|(s, miss)| s(g).map(|p| (p, *miss)))
+                .find_map(|&i| places[i][g - start].map(|p| (p, misses[i])))
             else {
                 continue;
             };
             let shift = match (before, after) {
-                (Some(a), Some(b)) => a.lerp(b, (g + 1 - start) as f64 / span),
-                (Some(a), None) => a,
-                (None, Some(b)) => b,
+                (Some((e0, a)), Some((e1, b))) => a.lerp(b, (g - e0) as f64 / (e1 - e0) as f64),
+                (Some((_, a)), None) => a,
+                (None, Some((_, b))) => b,
                 (None, None) => DVec3::ZERO,
             };
             let q = p + shift;
@@ -272,6 +292,24 @@ mod tests {
         assert_eq!(fill_gaps(&mut track, &[&posed]), 3);
         let x: Vec<f64> = track.iter().map(|p| p[0]).collect();
         assert_eq!(x, [0.0, 2.0, 4.0, 6.0, 8.0]);
+    }
+
+    /// Two sources: the first places only the gap's first frame, the second every gap
+    /// frame but not the samples right beside the gap. The second leads (no switch
+    /// inside the gap), and its miss is measured at the nearest samples it places.
+    #[test]
+    fn the_source_placing_most_of_a_gap_leads_and_its_miss_is_found_beside_the_gap() {
+        let first = |f: usize| (f == 3).then_some(DVec3::new(100.0, 0.0, 0.0));
+        let second = |f: usize| (f != 2 && f != 7).then_some(DVec3::new(f as f64, 0.0, 0.0));
+        // Samples 1 mm above the second source's place; frames 3..7 missing.
+        let mut track: Vec<[f64; 3]> = (0..10).map(|f| [f as f64, 1.0, 0.0]).collect();
+        for p in &mut track[3..7] {
+            *p = GAP;
+        }
+        assert_eq!(fill_gaps(&mut track, &[&first, &second]), 4);
+        for (f, p) in track.iter().enumerate() {
+            assert_eq!(*p, [f as f64, 1.0, 0.0], "frame {f}");
+        }
     }
 
     /// Where the body has no pose the marker stays missing; a gap at the capture's start
