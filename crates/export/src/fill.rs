@@ -182,7 +182,7 @@ fn line_spread_mm(points: impl Iterator<Item = DVec3>) -> f64 {
     (sum / points.len() as f64).sqrt()
 }
 
-/// Fewest samples on each side of a gap searched for one a source places, to measure its
+/// Most samples on each side of a gap searched for one a source places, to measure its
 /// miss there: farther from the gap than this the skin has moved on.
 const EDGE_SEARCH: usize = 32;
 
@@ -210,7 +210,7 @@ pub(crate) fn fill_gaps(
         while f < n && !present(track[f]) {
             f += 1;
         }
-        // The gap is start..f; on each side, the run of samples next to it.
+        // The gap is start..f, with a run of samples (or the capture's end) on each side.
         let places: Vec<Vec<Option<DVec3>>> = sources
             .iter()
             .map(|source| (start..f).map(source).collect())

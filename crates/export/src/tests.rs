@@ -789,8 +789,6 @@ fn trc_has_the_json_positions_and_gaps() {
     assert_eq!(check_trc(&turned, |[x, y, z]| [x, z, neg(y)]), compared);
 }
 
-/// The report names every joint, segment marker and kind, draws three projections with a
-/// line per joint that has a position to hang from, and escapes what came from the capture.
 /// markers.trc (and markers.c3d) read back: every marker of the capture, its samples
 /// as the capture has them, and a gap filled where its segment is posed (by its own
 /// pose, or where it has none by its other markers and its joints' centres), at the
@@ -873,6 +871,8 @@ fn markers_trc_fills_a_gap_where_its_segment_is_posed() {
     assert!(html.contains(&line), "no fill line {line}");
 }
 
+/// The report names every joint, segment marker and kind, draws three projections with a
+/// line per joint that has a position to hang from, and escapes what came from the capture.
 #[test]
 fn report_tabulates_the_document_and_escapes_labels() {
     let s = gappy_scene();
