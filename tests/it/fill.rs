@@ -30,15 +30,7 @@ fn hide(
             }
         }
     }
-    let cut = Trajectories::new(
-        traj.labels().to_vec(),
-        traj.frame_rate(),
-        traj.first_frame(),
-        traj.frames(),
-        positions,
-    )
-    .unwrap();
-    (cut, hidden)
+    (traj.with_positions(positions).unwrap(), hidden)
 }
 
 /// The straight line across the gap holding `frame` in `marker`'s track of `cut`, from

@@ -37,8 +37,10 @@
 //!   of joints (kind with its evidence, residuals, range of motion, warnings), segments
 //!   and markers, label swaps, notes and the run's settings.
 //!
-//! It does not fit anything; every number comes from the inputs, and the parameters the
-//! run set (`Inputs::settings`) are recorded as given.
+//! It fits nothing of the skeleton; every number comes from the inputs, and the parameters
+//! the run set (`Inputs::settings`) are recorded as given. Its one computation is
+//! markers.trc's fill (`fill`): a segment's marker placed by the pose the inputs hold, or
+//! where they hold none by a rigid fit of its other markers and its joints' centres.
 mod bvh;
 mod csv;
 mod error;

@@ -223,20 +223,10 @@ pub(crate) fn gappy_scene() -> Scene {
             positions[f * markers + m] = [f64::NAN; 3];
         }
     }
-    s.trajectories = with_positions(t, positions);
+    s.trajectories = t
+        .with_positions(positions)
+        .unwrap_or_else(|e| panic!("{e}"));
     s
-}
-
-/// `t` with its samples replaced by `positions` (frame-major).
-fn with_positions(t: &mocap_io::Trajectories, positions: Vec<[f64; 3]>) -> mocap_io::Trajectories {
-    mocap_io::Trajectories::new(
-        t.labels().to_vec(),
-        t.frame_rate(),
-        t.first_frame(),
-        t.frames(),
-        positions,
-    )
-    .unwrap_or_else(|e| panic!("{e}"))
 }
 
 /// Checks BVH forward kinematics against skeleton.json, mapping JSON points by `axes`.
@@ -811,7 +801,9 @@ fn markers_trc_fills_a_gap_where_its_segment_is_posed() {
     for f in 15..25 {
         s.fits.poses[1].rotations[f] = [f64::NAN; 4];
     }
-    s.trajectories = with_positions(t, positions);
+    s.trajectories = t
+        .with_positions(positions)
+        .unwrap_or_else(|e| panic!("{e}"));
     let turned = Params {
         y_up: true,
         ..Params::default()

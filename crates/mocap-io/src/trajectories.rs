@@ -101,6 +101,17 @@ impl Trajectories {
         let m = self.labels.len();
         &self.positions[frame * m..(frame + 1) * m]
     }
+    /// These trajectories (labels, rate, first frame, frame count) with `positions`
+    /// (frame-major) as their samples: an error when the count does not fit.
+    pub fn with_positions(&self, positions: Vec<[f64; 3]>) -> Result<Self, IoError> {
+        Self::new(
+            self.labels.clone(),
+            self.frame_rate,
+            self.first_frame,
+            self.frames,
+            positions,
+        )
+    }
     /// One sample in millimetres, or `None` where it is missing.
     pub fn get(&self, frame: usize, marker: usize) -> Option<[f64; 3]> {
         let p = self.positions[frame * self.labels.len() + marker];

@@ -424,9 +424,10 @@ pub(crate) fn push_samples(out: &mut String, samples: &[[f64; 3]], sep: char) {
     }
 }
 
-/// Largest magnitude (mm) written from its count of thousandths: below it a double's
-/// distance from the thousandth it is nearest to is far under the fifth decimal's half.
-const WHOLE_THOUSANDTHS_MAX: f64 = 1e9;
+/// Largest magnitude (mm) written from its count of thousandths: [`crate::ABSURD_MM`],
+/// beyond which no trajectory holds a sample, and below which a double's distance from
+/// the thousandth it is nearest to is far under the fifth decimal's half.
+const WHOLE_THOUSANDTHS_MAX: f64 = crate::ABSURD_MM;
 
 /// Appends `v` with [`POSITION_DECIMALS`] decimals, exactly as `{:.5}` writes it. A value
 /// that is a whole number of thousandths of a millimetre (every position export writes is

@@ -223,14 +223,8 @@ fn untangled_positions(traj: &Trajectories, swaps: &[LabelSwap]) -> Vec<[f64; 3]
 /// `traj` with its samples replaced by `positions` (rearranged or some made missing, so
 /// valid wherever `traj` was; `traj` itself should they somehow not be).
 pub(crate) fn with_positions(traj: &Trajectories, positions: Vec<[f64; 3]>) -> Trajectories {
-    Trajectories::new(
-        traj.labels().to_vec(),
-        traj.frame_rate(),
-        traj.first_frame(),
-        traj.frames(),
-        positions,
-    )
-    .unwrap_or_else(|_| traj.clone())
+    traj.with_positions(positions)
+        .unwrap_or_else(|_| traj.clone())
 }
 
 /// A set of markers that move as one rigid body.
