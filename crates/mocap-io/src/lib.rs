@@ -234,10 +234,68 @@ pub fn read_capture(path: &Path, options: &ReadOptions) -> Result<Capture, IoErr
                 capture
             }
         })
+        .map(|mut capture| {
+            let warning = implausible_spacing(&capture, options);
+            capture.info.warnings.extend(warning);
+            capture
+        })
         .map_err(|error| IoError::Format {
             path: path.to_path_buf(),
             error,
         })
+}
+
+/// Median nearest-marker distances (mm) outside which no marker set on bodies lies: a
+/// marker is a sphere of a few millimetres (the smallest in use, 3 mm, touch at 3 mm), and
+/// a body carries its markers centimetres apart (the shared real captures 20-321 mm, the
+/// generator's subjects 28-94 mm); beyond 2 m most markers would be metres from any other.
+pub const PLAUSIBLE_SPACING_MM: [f64; 2] = [2.0, 2000.0];
+
+/// The warning for a capture whose markers, in the unit its coordinates were read in, lie
+/// implausibly close or far apart ([`PLAUSIBLE_SPACING_MM`]): a units line that does not
+/// match the numbers (a TRC saying `m` over millimetres) turns a body into a stadium, and
+/// every stage's millimetre tolerances with it. Names the unit that would put the markers
+/// nearest a body's spacing where one does; `None` where the spacing is plausible.
+fn implausible_spacing(capture: &Capture, options: &ReadOptions) -> Option<String> {
+    let spacing = capture.trajectories.marker_spacing_mm()?;
+    let [low, high] = PLAUSIBLE_SPACING_MM;
+    if (low..=high).contains(&spacing) {
+        return None;
+    }
+    // The unit the reader applied: the option, else the file's word, else millimetres.
+    let applied = options.units.map(LengthUnit::mm).unwrap_or_else(|| {
+        let declared = capture.info.declared_units.as_deref();
+        declared.and_then(c3d::unit_factor).unwrap_or(1.0)
+    });
+    let typical = FLOOR_SPACING_MM;
+    let suggestion = [
+        LengthUnit::Mm,
+        LengthUnit::Cm,
+        LengthUnit::M,
+        LengthUnit::In,
+    ]
+    .into_iter()
+    .map(|u| (u, spacing * u.mm() / applied))
+    .filter(|&(_, s)| (low..=high).contains(&s))
+    .min_by(|a, b| {
+        (a.1 / typical)
+            .ln()
+            .abs()
+            .total_cmp(&(b.1 / typical).ln().abs())
+    });
+    let side = if spacing < low { "closer" } else { "farther" };
+    let advice = match suggestion {
+        Some((u, s)) => format!(
+            "if the coordinates are in {name}, --set mocap-io.units={name} reads them so \
+             ({s:.1} mm apart)",
+            name = u.name()
+        ),
+        None => "check the file's units".to_string(),
+    };
+    Some(format!(
+        "markers lie a median {spacing:.3} mm from their nearest neighbour as read, {side} \
+         than markers on any body ({low} to {high} mm): the units look wrong; {advice}"
+    ))
 }
 
 /// The capture with the pieces of each marker joined, as [`read_capture`] does when

@@ -598,3 +598,67 @@ fn a_unit_option_overrides_what_the_file_declares() {
     );
     let _ = std::fs::remove_dir_all(&dir);
 }
+
+/// A units line that does not match the numbers is said, with the unit that fits: a
+/// body's markers (a median 75 mm from the nearest) written in metres under `mm` lie
+/// 0.075 mm apart as read, and in millimetres under `m` 75 m apart; read in their own
+/// unit, nothing is said.
+#[test]
+fn a_units_line_the_numbers_contradict_is_said_with_the_unit_that_fits() {
+    let dir = scratch("ossify-units-implausible");
+    // Four markers of one body, 60-150 mm apart, turning slowly.
+    let body = [
+        [0.0, 0.0, 0.0],
+        [60.0, 0.0, 0.0],
+        [0.0, 90.0, 0.0],
+        [0.0, 0.0, 150.0],
+    ];
+    let frames = 20;
+    let positions: Vec<[f64; 3]> = (0..frames)
+        .flat_map(|f| {
+            let (s, c) = (0.02 * f as f64).sin_cos();
+            body.map(|[x, y, z]| [c * x - s * y + 500.0, s * x + c * y, z + 900.0])
+        })
+        .collect();
+    let labels = ["A", "B", "C", "D"].map(String::from).to_vec();
+    let mm = Trajectories::new(labels.clone(), 100.0, 1, frames, positions.clone()).unwrap();
+    let in_metres = positions.iter().map(|p| p.map(|x| x / 1000.0)).collect();
+    let m = Trajectories::new(labels, 100.0, 1, frames, in_metres).unwrap();
+    let path = dir.join("body.trc");
+    let read = |t: &Trajectories, units: &str| {
+        let text = trc::write(t).replace("\tmm\t", &format!("\t{units}\t"));
+        std::fs::write(&path, text).unwrap();
+        mocap_io::read_capture(&path, &opts()).unwrap()
+    };
+    let metres_as_mm = read(&m, "mm");
+    assert!(
+        warned(
+            &metres_as_mm,
+            "0.075 mm from their nearest neighbour as read, closer than markers on any body"
+        ) && warned(
+            &metres_as_mm,
+            "--set mocap-io.units=m reads them so (75.0 mm apart)"
+        ),
+        "{:?}",
+        metres_as_mm.info.warnings
+    );
+    let mm_as_metres = read(&mm, "m");
+    assert!(
+        warned(&mm_as_metres, "farther than markers on any body")
+            && warned(
+                &mm_as_metres,
+                "--set mocap-io.units=mm reads them so (75.0 mm apart)"
+            ),
+        "{:?}",
+        mm_as_metres.info.warnings
+    );
+    for (t, units) in [(&mm, "mm"), (&m, "m")] {
+        let right = read(t, units);
+        assert!(
+            !warned(&right, "units look wrong"),
+            "{:?}",
+            right.info.warnings
+        );
+    }
+    let _ = std::fs::remove_dir_all(&dir);
+}

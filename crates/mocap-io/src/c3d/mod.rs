@@ -667,7 +667,7 @@ fn labels(params: &Params, points: usize, warnings: &mut Vec<String>) -> Vec<Str
 }
 
 /// Millimetres per declared unit; `None` for a unit we do not know.
-fn unit_factor(units: &str) -> Option<f64> {
+pub(crate) fn unit_factor(units: &str) -> Option<f64> {
     match units.trim().to_ascii_lowercase().as_str() {
         "mm" | "millimeter" | "millimeters" | "millimetre" | "millimetres" => Some(1.0),
         "cm" | "centimeter" | "centimeters" | "centimetre" | "centimetres" => Some(10.0),
