@@ -292,7 +292,8 @@ fn a_frame_range_and_left_out_markers_reach_the_skeleton() {
     let mut skeleton = read_json(&tmp.path("out/skeleton.json"));
     assert_eq!(skeleton["first_frame"], 41);
     assert_eq!(skeleton["frame_count"], 200);
-    // The settings say what was left out; nothing else names it.
+    // The settings say what was left out (and the reader's note); no segment, joint or
+    // marker entry names it.
     let settings = skeleton["settings"].take();
     assert_eq!(
         settings,
@@ -301,6 +302,16 @@ fn a_frame_range_and_left_out_markers_reach_the_skeleton() {
             "mocap-io.exclude_markers": [first_label],
         })
     );
+    assert!(
+        skeleton["reader_warnings"]
+            .as_array()
+            .is_some_and(|w| w.iter().any(|w| w.as_str().is_some_and(|w| w
+                .starts_with("left out 1 of")
+                && w.ends_with(&format!(": {first_label}"))))),
+        "{}",
+        skeleton["reader_warnings"]
+    );
+    skeleton["reader_warnings"].take();
     let text = skeleton.to_string();
     assert!(
         !text.contains(&format!("\"{first_label}\"")),

@@ -486,6 +486,7 @@ impl Products {
                     topology: topology()?,
                     skeleton: need(&self.skeleton, StageId::Bonefit)?,
                     settings: &params.changed()?,
+                    reader_warnings: &capture()?.info.warnings,
                 };
                 Payload::Outputs(export::run(&inputs, &params.export)?)
             }

@@ -80,6 +80,7 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
                         topology: &topology,
                         skeleton: &skeleton,
                         settings: &Default::default(),
+                        reader_warnings: &[],
                     },
                     &export::Params::default(),
                 )?;

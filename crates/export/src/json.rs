@@ -100,6 +100,11 @@ pub struct SkeletonJson {
     /// value; empty where every parameter had its default.
     #[serde(default)]
     pub settings: BTreeMap<String, serde_json::Value>,
+    /// What the reader said about the capture file, in its words (units guessed or
+    /// contradicted by the numbers, header counts disagreeing with the data, samples read
+    /// as missing); empty where it said nothing.
+    #[serde(default)]
+    pub reader_warnings: Vec<String>,
 }
 
 /// Two markers whose trajectories were exchanged, and when.
@@ -604,6 +609,7 @@ pub(crate) fn document(input: &Inputs<'_>) -> Result<SkeletonJson, Error> {
         notes: input.topology.notes.clone(),
         label_swaps,
         settings: input.settings.clone(),
+        reader_warnings: input.reader_warnings.to_vec(),
     })
 }
 

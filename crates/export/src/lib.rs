@@ -69,7 +69,7 @@ use serde::{Deserialize, Serialize};
 pub const STAGE: &str = "export";
 
 /// Schema version of [`Outputs`] and of skeleton.json's layout; bump when either changes.
-pub const SCHEMA_VERSION: u32 = 20;
+pub const SCHEMA_VERSION: u32 = 21;
 
 /// Everything the files are made from.
 #[derive(Clone, Copy, Debug)]
@@ -87,6 +87,9 @@ pub struct Inputs<'a> {
     /// The parameters the run set away from their defaults, as `stage.param` → value
     /// (written to skeleton.json and the report, so a file says how it was made).
     pub settings: &'a BTreeMap<String, serde_json::Value>,
+    /// What the reader said about the capture file (`mocap_io::CaptureInfo::warnings`:
+    /// guesses made, disagreements resolved, data skipped), kept with the outputs.
+    pub reader_warnings: &'a [String],
 }
 
 /// The files, by name; the runner writes them.

@@ -27,6 +27,7 @@ pub(crate) fn write(doc: &SkeletonJson) -> Vec<u8> {
          </style>\n</head>\n<body>\n<h1>Skeleton report</h1>\n",
     );
     summary(&mut out, doc);
+    reader_warnings(&mut out, doc);
     drawing(&mut out, doc);
     joints(&mut out, doc);
     segments(&mut out, doc);
@@ -362,6 +363,19 @@ fn settings(out: &mut String, doc: &SkeletonJson) {
             escape(name),
             escape(&value.to_string())
         );
+    }
+    out.push_str("</ul>\n");
+}
+
+/// What the reader said about the file, first: a wrong unit or a guessed rate changes
+/// everything below it.
+fn reader_warnings(out: &mut String, doc: &SkeletonJson) {
+    if doc.reader_warnings.is_empty() {
+        return;
+    }
+    out.push_str("<h2>What the reader said about the file</h2>\n<ul class=\"warn\">\n");
+    for w in &doc.reader_warnings {
+        let _ = writeln!(out, "<li>{}</li>", escape(w));
     }
     out.push_str("</ul>\n");
 }

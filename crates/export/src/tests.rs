@@ -169,6 +169,7 @@ pub(crate) fn inputs<'a>(
         topology: &s.topology,
         skeleton,
         settings: &NO_SETTINGS,
+        reader_warnings: &[],
     }
 }
 
@@ -582,6 +583,41 @@ fn settings_are_written_where_the_run_set_any() {
     let report = text(&out, "report.html");
     assert!(
         report.contains("<code>topo.joints=[[1,&quot;M&lt;0&gt;&quot;]]</code>"),
+        "{report}"
+    );
+}
+
+/// What the reader said about the file is in skeleton.json and at the report's top,
+/// escaped; where it said nothing, `reader_warnings` is empty and the report has no such
+/// section.
+#[test]
+fn reader_warnings_are_kept_with_the_outputs() {
+    let s = scene(20, 60.0);
+    let skeleton = skeleton(&s);
+    let quiet = run(&inputs(&s, &s.segmentation, &skeleton), &Params::default())
+        .unwrap_or_else(|e| panic!("{e}"));
+    assert_eq!(json(&quiet)["reader_warnings"], serde_json::json!([]));
+    assert!(!text(&quiet, "report.html").contains("What the reader said"));
+    let said = [
+        "line 3: no usable DataRate; 120 Hz from the Time column".to_string(),
+        "units <m> look wrong".to_string(),
+    ];
+    let input = Inputs {
+        reader_warnings: &said,
+        ..inputs(&s, &s.segmentation, &skeleton)
+    };
+    let out = run(&input, &Params::default()).unwrap_or_else(|e| panic!("{e}"));
+    assert_eq!(json(&out)["reader_warnings"], serde_json::json!(said));
+    let report = text(&out, "report.html");
+    let section = report
+        .find("<h2>What the reader said about the file</h2>")
+        .expect("the section");
+    assert!(
+        section < report.find("<h2>Joints</h2>").expect("joints"),
+        "{report}"
+    );
+    assert!(
+        report.contains("<li>units &lt;m&gt; look wrong</li>"),
         "{report}"
     );
 }
@@ -1054,6 +1090,7 @@ fn end_to_end_synthetic_robot_arm_bvh_reproduces_json() {
         topology: &topology,
         skeleton: &skeleton,
         settings: &NO_SETTINGS,
+        reader_warnings: &[],
     };
     let out = run(&input, &Params::default()).unwrap_or_else(|e| panic!("{e}"));
     let checked = check_round_trip(&out, |p| p);
