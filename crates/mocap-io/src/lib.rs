@@ -245,11 +245,13 @@ pub fn read_capture(path: &Path, options: &ReadOptions) -> Result<Capture, IoErr
         })
 }
 
-/// Median nearest-marker distances (mm) outside which no marker set on bodies lies: a
-/// marker is a sphere of a few millimetres (the smallest in use, 3 mm, touch at 3 mm), and
-/// a body carries its markers centimetres apart (the shared real captures 20-321 mm, the
-/// generator's subjects 28-94 mm); beyond 2 m most markers would be metres from any other.
-pub const PLAUSIBLE_SPACING_MM: [f64; 2] = [2.0, 2000.0];
+/// Median nearest-marker distances (mm) outside which no marker set lies: a marker is a
+/// sphere of a few millimetres (the smallest in use, 3 mm, touch at 3 mm), and a body
+/// carries its markers centimetres apart (the shared real captures 20-321 mm, the
+/// generator's subjects 28-94 mm), a vehicle or a crane a few metres at most. Millimetres
+/// read as metres put a body's markers 20 m apart and more, metres read as millimetres
+/// under 0.5 mm.
+pub const PLAUSIBLE_SPACING_MM: [f64; 2] = [2.0, 10_000.0];
 
 /// The warning for a capture whose markers, in the unit its coordinates were read in, lie
 /// implausibly close or far apart ([`PLAUSIBLE_SPACING_MM`]): a units line that does not
