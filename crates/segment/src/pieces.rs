@@ -22,8 +22,8 @@
 //! of another body's starts) is that body again where its shape is, marker by marker
 //! ([`reappeared_bodies`]); so are tracks of a body's own cluster that it could not be
 //! posed with, where they pose a body of its shape (a segment hidden whole whose later
-//! tracks clustered with its earlier ones, or most of it hidden, one marker seen;
-//! [`come_back`]).
+//! tracks clustered with its earlier ones, or most of it hidden, one marker seen, which
+//! poses them where fewer than three come back; [`come_back`]).
 //! Skin moves a marker in its body's frame slowly: on the hard preset's unlabeled captures
 //! (seeds 20001..20020, a throwaway print of every body's best candidate) the true
 //! continuation started 0.18 (median) of the way to the nearest marker from where its piece
@@ -411,7 +411,12 @@ struct Body {
 /// could not be posed with, where those pose a body of its shape (by [`shape_match`]'s
 /// bounds), each never seen with the member it maps to: its markers come back (CMU
 /// 02_01's right foot hidden whole 1.2 s: its later tracks clustered with its earlier
-/// ones; tests/it/unlabeled.rs).
+/// ones; tests/it/unlabeled.rs). Fewer than three such tracks pose that body with the
+/// members seen with each of them, each of those in its own place: a body of three with
+/// one marker in sight while the other two came back as new tracks. (snowman-hard-s70037
+/// unlabeled, whose right upper arm comes back so for its last 136 frames, stays apart:
+/// its two returning markers sit 16 mm apart at like distances from the third, and the
+/// swapped map fits within the tolerance.)
 fn come_back(
     traj: &Trajectories,
     stats: &PairStats,
@@ -421,23 +426,39 @@ fn come_back(
     tolerance_mm: f64,
 ) -> Vec<(usize, usize)> {
     let (members, dropped) = (&body.members, &body.dropped);
-    if dropped.len() < 3 {
+    if dropped.is_empty() {
         return Vec::new();
     }
-    let Some(again) = posed_group(traj, dropped) else {
+    // With three or more, the tracks that came back pose alone; else with those members.
+    let staying: Vec<usize> = if dropped.len() >= 3 {
+        Vec::new()
+    } else {
+        members
+            .iter()
+            .copied()
+            .filter(|&m| dropped.iter().all(|&d| !stats.apart(m, d)))
+            .collect()
+    };
+    let tracks: Vec<usize> = dropped.iter().chain(&staying).copied().collect();
+    if tracks.len() < 3 {
+        return Vec::new();
+    }
+    let Some(again) = posed_group(traj, &tracks) else {
         return Vec::new();
     };
-    let apart = |i: usize, j: usize| stats.apart(members[i], dropped[j]);
-    let pairs = shape_match(&body.shape, &again.shape, spacing_mm, tolerance_mm, apart);
+    let allowed = |i: usize, j: usize| match dropped.get(j) {
+        Some(&d) => stats.apart(members[i], d),
+        None => members[i] == tracks[j],
+    };
+    let pairs = shape_match(&body.shape, &again.shape, spacing_mm, tolerance_mm, allowed);
     let mut out = Vec::new();
     for (i, j) in pairs.into_iter().flatten() {
-        match (spans[members[i]], spans[dropped[j]]) {
-            (Some((_, last)), Some((first, _))) if last < first => {
-                out.push((members[i], dropped[j]))
-            }
-            (Some((first, _)), Some((_, last))) if last < first => {
-                out.push((dropped[j], members[i]))
-            }
+        let Some(&d) = dropped.get(j) else {
+            continue;
+        };
+        match (spans[members[i]], spans[d]) {
+            (Some((_, last)), Some((first, _))) if last < first => out.push((members[i], d)),
+            (Some((first, _)), Some((_, last))) if last < first => out.push((d, members[i])),
             _ => {}
         }
     }
@@ -977,6 +998,36 @@ mod tests {
                     tight
                 ),
                 vec![vec![5, 9], vec![6, 10], vec![7, 11], vec![8, 12]],
+                "seed {seed}"
+            );
+        }
+    }
+
+    /// Two of a three-marker body's markers hidden together (frames 120..300) come back as
+    /// new tracks, the third seen throughout: two tracks pose nothing and each is seen with
+    /// one member only, but with the member seen with both they pose a body of the first
+    /// one's shape, that member in its own place, and each joins its marker.
+    #[test]
+    fn a_body_of_three_with_one_marker_in_sight_joins_by_its_shape() {
+        let child = &CHILD[..3];
+        for seed in 1..=3 {
+            let mut traj = skin_hinged_capture(&PARENT, child, 30.0, 6.0, seed);
+            for m in [5, 6] {
+                traj = cut_at_gap(&traj, m, 120..300);
+            }
+            let clusters = [vec![0, 1, 2, 3], vec![4, 5, 6, 7, 8]];
+            // As above: 4 mm is about what 6 mm of skin leaves a capture.
+            let tight = (crate::Params::default().min_overlap_frames, 4.0);
+            let stats = pair_stats(&traj);
+            assert_eq!(
+                find_pieces(
+                    &traj,
+                    &stats,
+                    &clusters,
+                    &vec![false; traj.markers()],
+                    tight
+                ),
+                vec![vec![5, 7], vec![6, 8]],
                 "seed {seed}"
             );
         }
