@@ -257,7 +257,8 @@ pub const PLAUSIBLE_SPACING_MM: [f64; 2] = [2.0, 10_000.0];
 /// implausibly close or far apart ([`PLAUSIBLE_SPACING_MM`]): a units line that does not
 /// match the numbers (a TRC saying `m` over millimetres) turns a body into a stadium, and
 /// every stage's millimetre tolerances with it. Names the unit that would put the markers
-/// nearest a body's spacing where one does; `None` where the spacing is plausible.
+/// nearest [`FLOOR_SPACING_MM`] apart where one does; `None` where the spacing is
+/// plausible.
 fn implausible_spacing(capture: &Capture, options: &ReadOptions) -> Option<String> {
     let spacing = capture.trajectories.marker_spacing_mm()?;
     let [low, high] = PLAUSIBLE_SPACING_MM;
@@ -285,7 +286,11 @@ fn implausible_spacing(capture: &Capture, options: &ReadOptions) -> Option<Strin
             .abs()
             .total_cmp(&(b.1 / typical).ln().abs())
     });
-    let side = if spacing < low { "closer" } else { "farther" };
+    let side = if spacing < low {
+        "closer together"
+    } else {
+        "farther apart"
+    };
     let advice = match suggestion {
         Some((u, s)) => format!(
             "if the coordinates are in {name}, --set mocap-io.units={name} reads them so \
@@ -296,7 +301,7 @@ fn implausible_spacing(capture: &Capture, options: &ReadOptions) -> Option<Strin
     };
     Some(format!(
         "markers lie a median {spacing:.3} mm from their nearest neighbour as read, {side} \
-         than markers on any body ({low} to {high} mm): the units look wrong; {advice}"
+         than in any marker set ({low} to {high} mm): the units look wrong; {advice}"
     ))
 }
 

@@ -634,7 +634,7 @@ fn a_units_line_the_numbers_contradict_is_said_with_the_unit_that_fits() {
     assert!(
         warned(
             &metres_as_mm,
-            "0.075 mm from their nearest neighbour as read, closer than markers on any body"
+            "0.075 mm from their nearest neighbour as read, closer together than in any"
         ) && warned(
             &metres_as_mm,
             "--set mocap-io.units=m reads them so (75.0 mm apart)"
@@ -644,7 +644,7 @@ fn a_units_line_the_numbers_contradict_is_said_with_the_unit_that_fits() {
     );
     let mm_as_metres = read(&mm, "m");
     assert!(
-        warned(&mm_as_metres, "farther than markers on any body")
+        warned(&mm_as_metres, "farther apart than in any marker set")
             && warned(
                 &mm_as_metres,
                 "--set mocap-io.units=mm reads them so (75.0 mm apart)"

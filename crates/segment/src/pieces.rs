@@ -979,28 +979,35 @@ mod tests {
             .chain([[40.0, 10.0, -340.0]])
             .collect();
         for seed in 1..=3 {
-            let mut traj = skin_hinged_capture(&PARENT, &child, 30.0, 6.0, seed);
-            for m in 5..9 {
-                traj = cut_at_gap(&traj, m, 120..300);
-            }
-            let clusters = [vec![0, 1, 2, 3], (4..13).collect()];
-            // At the default test tolerance (10 mm) the body's end-to-end flip fits within
-            // it (5.7 mm RMS: the markers lie along the bone) and nothing joins; 4 mm is
-            // about what 6 mm of skin leaves a capture.
-            let tight = (crate::Params::default().min_overlap_frames, 4.0);
-            let stats = pair_stats(&traj);
             assert_eq!(
-                find_pieces(
-                    &traj,
-                    &stats,
-                    &clusters,
-                    &vec![false; traj.markers()],
-                    tight
-                ),
+                come_back_found(&child, &[5, 6, 7, 8], seed),
                 vec![vec![5, 9], vec![6, 10], vec![7, 11], vec![8, 12]],
                 "seed {seed}"
             );
         }
+    }
+
+    /// What `find_pieces` joins in the skin-hinged scene (`PARENT` and `child`, 6 mm of
+    /// skin) with markers `hidden` cut at frames 120..300 into new tracks, each body's
+    /// tracks one cluster, at a 4 mm tolerance: at the default test tolerance (10 mm) a
+    /// body's end-to-end flip fits within it (5.7 mm RMS for the four-marker child plus one:
+    /// the markers lie along the bone) and nothing joins; 4 mm is about what 6 mm of skin
+    /// leaves a capture.
+    fn come_back_found(child: &[[f64; 3]], hidden: &[usize], seed: u64) -> Vec<Vec<usize>> {
+        let mut traj = skin_hinged_capture(&PARENT, child, 30.0, 6.0, seed);
+        for &m in hidden {
+            traj = cut_at_gap(&traj, m, 120..300);
+        }
+        let clusters = [vec![0, 1, 2, 3], (4..traj.markers()).collect()];
+        let tight = (crate::Params::default().min_overlap_frames, 4.0);
+        let stats = pair_stats(&traj);
+        find_pieces(
+            &traj,
+            &stats,
+            &clusters,
+            &vec![false; traj.markers()],
+            tight,
+        )
     }
 
     /// Two of a three-marker body's markers hidden together (frames 120..300) come back as
@@ -1009,24 +1016,9 @@ mod tests {
     /// one's shape, that member in its own place, and each joins its marker.
     #[test]
     fn a_body_of_three_with_one_marker_in_sight_joins_by_its_shape() {
-        let child = &CHILD[..3];
         for seed in 1..=3 {
-            let mut traj = skin_hinged_capture(&PARENT, child, 30.0, 6.0, seed);
-            for m in [5, 6] {
-                traj = cut_at_gap(&traj, m, 120..300);
-            }
-            let clusters = [vec![0, 1, 2, 3], vec![4, 5, 6, 7, 8]];
-            // As above: 4 mm is about what 6 mm of skin leaves a capture.
-            let tight = (crate::Params::default().min_overlap_frames, 4.0);
-            let stats = pair_stats(&traj);
             assert_eq!(
-                find_pieces(
-                    &traj,
-                    &stats,
-                    &clusters,
-                    &vec![false; traj.markers()],
-                    tight
-                ),
+                come_back_found(&CHILD[..3], &[5, 6], seed),
                 vec![vec![5, 7], vec![6, 8]],
                 "seed {seed}"
             );
