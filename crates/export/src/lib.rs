@@ -1,8 +1,8 @@
 //! export: the skeleton as files people open.
 //!
-//! Takes the capture, segmentation, pair fits, topology and [`bonefit::Skeleton`] (as
-//! [`Inputs`]) and gives [`Outputs`]: file name → bytes. It is the only stage that makes
-//! file bytes, and it still writes nothing: the runner does.
+//! Takes the capture (with what its reader warned), segmentation, pair fits, topology and
+//! [`bonefit::Skeleton`] (as [`Inputs`]) and gives [`Outputs`]: file name → bytes. It is
+//! the only stage that makes file bytes, and it still writes nothing: the runner does.
 //! - `skeleton.json`: DESIGN.md's output contract (units, frame_rate, frame_count,
 //!   segments, unassigned_markers, root_segment, joints with name, parent/child segment,
 //!   kind and one position per frame or null), then quality fields beside them (see
@@ -33,9 +33,10 @@
 //!   of the fitted kind at every joint, the capture's markers and the joint centres as
 //!   markers) and its coordinates per frame; see `osim`.
 //! - `report.html`: the same document for a person, one self-contained page (no script):
-//!   a summary, the skeleton drawn at its best-known frame in three projections, tables
-//!   of joints (kind with its evidence, residuals, range of motion, warnings), segments
-//!   and markers, label swaps, notes and the run's settings.
+//!   a summary, what the reader said about the file, the skeleton drawn at its best-known
+//!   frame in three projections, tables of joints (kind with its evidence, residuals,
+//!   range of motion, warnings), segments and markers, label swaps, notes and the run's
+//!   settings.
 //!
 //! It fits nothing of the skeleton; every number comes from the inputs, and the parameters
 //! the run set (`Inputs::settings`) are recorded as given. Its one computation is

@@ -990,9 +990,9 @@ mod tests {
     /// What `find_pieces` joins in the skin-hinged scene (`PARENT` and `child`, 6 mm of
     /// skin) with markers `hidden` cut at frames 120..300 into new tracks, each body's
     /// tracks one cluster, at a 4 mm tolerance: at the default test tolerance (10 mm) a
-    /// body's end-to-end flip fits within it (5.7 mm RMS for the four-marker child plus one:
-    /// the markers lie along the bone) and nothing joins; 4 mm is about what 6 mm of skin
-    /// leaves a capture.
+    /// body's end-to-end flip fits within it (5.7 mm RMS for the four-marker child plus
+    /// one: the markers lie along the bone) and nothing joins; 4 mm is about what 6 mm of
+    /// skin leaves a capture.
     fn come_back_found(child: &[[f64; 3]], hidden: &[usize], seed: u64) -> Vec<Vec<usize>> {
         let mut traj = skin_hinged_capture(&PARENT, child, 30.0, 6.0, seed);
         for &m in hidden {
