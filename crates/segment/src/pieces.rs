@@ -203,9 +203,9 @@ pub(crate) fn find_pieces(
     // A body's shape only once nothing else joins: matched while other pieces are apart, it
     // sent a real capture's later rounds elsewhere (c3d.org's Dance cut at gaps of
     // 1.1–2.6 s: right joins, but wrong groups 3 → 6 of 27 after them).
-    let mut by_shape = reappeared_bodies(&bodies, &spans, spacing_mm, rigid.1);
+    let mut by_shape = reappeared_bodies(stats, &bodies, &spans, spacing_mm, rigid);
     for body in &bodies {
-        by_shape.extend(come_back(traj, stats, body, &spans, spacing_mm, rigid.1));
+        by_shape.extend(come_back(traj, stats, body, &spans, spacing_mm, rigid));
     }
     chains(&by_shape.into_iter().collect())
 }
@@ -413,17 +413,17 @@ struct Body {
 /// 02_01's right foot hidden whole 1.2 s: its later tracks clustered with its earlier
 /// ones; tests/it/unlabeled.rs). Fewer than three such tracks pose that body with the
 /// members seen with each of them, each of those in its own place: a body of three with
-/// one marker in sight while the other two came back as new tracks. (snowman-hard-s70037
-/// unlabeled, whose right upper arm comes back so for its last 136 frames, stays apart:
-/// its two returning markers sit 16 mm apart at like distances from the third, and the
-/// swapped map fits within the tolerance.)
+/// one marker in sight while the other two came back as new tracks (snowman-hard-s70037
+/// unlabeled, whose right upper arm comes back so for its last 136 frames: its two
+/// returning markers sit 16 mm apart at like distances from the third, and only the shapes'
+/// own scatter tells the swapped map from the right one, see [`shape_match`]).
 fn come_back(
     traj: &Trajectories,
     stats: &PairStats,
     body: &Body,
     spans: &[Option<(usize, usize)>],
     spacing_mm: f64,
-    tolerance_mm: f64,
+    (min_overlap, tolerance_mm): (usize, f64),
 ) -> Vec<(usize, usize)> {
     let (members, dropped) = (&body.members, &body.dropped);
     if dropped.is_empty() {
@@ -450,7 +450,14 @@ fn come_back(
         Some(&d) => stats.apart(members[i], d),
         None => members[i] == tracks[j],
     };
-    let pairs = shape_match(&body.shape, &again.shape, spacing_mm, tolerance_mm, allowed);
+    let scatter = shape_scatter(stats, [members, &tracks], min_overlap);
+    let pairs = shape_match(
+        &body.shape,
+        &again.shape,
+        spacing_mm,
+        (tolerance_mm, scatter),
+        allowed,
+    );
     let mut out = Vec::new();
     for (i, j) in pairs.into_iter().flatten() {
         let Some(&d) = dropped.get(j) else {
@@ -489,15 +496,18 @@ struct BodyMatch {
 /// other's within [`MATCH_SHARE`] × the larger shape's closest two markers (capped at
 /// `spacing_mm`) and within twice `tolerance_mm` (a distance scattering within the
 /// tolerance has means over two stretches up to twice it apart), RMS, and no other map fits
-/// within `tolerance_mm` or within [`RIVAL_FACTOR`] times the best; ≥ 3 members each. A
+/// within the rival bar (`tolerance_mm`, or twice the shapes' own distance scatter where
+/// that is less: [`shape_scatter`]) or within [`RIVAL_FACTOR`] times the best; ≥ 3 members
+/// each. A
 /// proper rotation tells a body of four or more from its mirror image (a left limb's
 /// cluster from a right one's). Of several such bodies on one side, the nearest in time,
 /// and only where each is the other's.
 fn reappeared_bodies(
+    stats: &PairStats,
     bodies: &[Body],
     spans: &[Option<(usize, usize)>],
     spacing_mm: f64,
-    tolerance_mm: f64,
+    (min_overlap, tolerance_mm): (usize, f64),
 ) -> Vec<(usize, usize)> {
     // Each body's first and last frame; None where a member has no span (a user's track).
     let extent = |members: &[usize]| -> Option<(usize, usize)> {
@@ -519,11 +529,12 @@ fn reappeared_bodies(
             if a == b || last_a >= first_b {
                 continue;
             }
+            let scatter = shape_scatter(stats, [&body_a.members, &body_b.members], min_overlap);
             if let Some(pairs) = shape_match(
                 &body_a.shape,
                 &body_b.shape,
                 spacing_mm,
-                tolerance_mm,
+                (tolerance_mm, scatter),
                 |_, _| true,
             ) {
                 found.push(BodyMatch {
@@ -555,15 +566,33 @@ fn reappeared_bodies(
     out
 }
 
+/// RMS of the distance scatter ρ over the pairs of each of `shapes` seen together in at
+/// least `min_overlap` frames; `None` without such a pair.
+fn shape_scatter(stats: &PairStats, shapes: [&[usize]; 2], min_overlap: usize) -> Option<f64> {
+    let (mut sum_sq, mut count) = (0.0, 0usize);
+    for tracks in shapes {
+        for (k, &i) in tracks.iter().enumerate() {
+            for &j in &tracks[k + 1..] {
+                if let Some(rho) = stats.rho(i, j, min_overlap) {
+                    sum_sq += rho * rho;
+                    count += 1;
+                }
+            }
+        }
+    }
+    (count > 0).then(|| (sum_sq / count as f64).sqrt())
+}
+
 /// The one-to-one map of the smaller shape's points onto the larger's (pairs of indices
 /// into `a` and `b`) under which one rigid motion fits them best, by [`reappeared_bodies`]'s
 /// rule, pairing only points `allowed(i in a, j in b)` lets be one marker; `None` when none
-/// fits, or another map fits too nearly as well.
+/// fits, or another map fits too nearly as well. `scatter_mm`: the shapes' own distance
+/// scatter ([`shape_scatter`]), where known.
 fn shape_match(
     a: &[[f64; 3]],
     b: &[[f64; 3]],
     spacing_mm: f64,
-    tolerance_mm: f64,
+    (tolerance_mm, scatter_mm): (f64, Option<f64>),
     allowed: impl Fn(usize, usize) -> bool,
 ) -> Option<Vec<(usize, usize)>> {
     let (small, large, flipped) = if a.len() <= b.len() {
@@ -614,10 +643,16 @@ fn shape_match(
     };
     extend_map(small, large, prune, &may_be, &mut map, &mut visit);
     let (rms, map) = best?;
-    // A second map within the tolerance of a distance's scatter cannot be told from the
-    // best (c3d.org's Dance cut at gaps of 1.1–2.6 s: a near-isosceles triangle of three
-    // markers fit 1.02 mm RMS with two of them exchanged, 2.83 mm the right way).
-    (rms <= bound && runner_up > tolerance_mm.max(RIVAL_FACTOR * rms)).then(|| {
+    // A second map within twice the shapes' own distance scatter (the bound above's reason)
+    // cannot be told from the best: c3d.org's Dance cut at gaps of 1.1–2.6 s has a
+    // near-isosceles triangle of three markers that fit 1.02 mm RMS with two of them
+    // exchanged, 2.83 the right way, its distances scattering 6.1 mm (ρ, RMS), so the
+    // capture-wide tolerance, which caps the bar, decides. Where the shapes' own distances
+    // scatter less the bar is lower: unlabeled snowman-hard-s70037's upper arm, back as two
+    // new tracks beside the third, fits 0.97 mm the right way and 6.88 swapped, its
+    // distances scattering 2.24 mm, under a tolerance of 11.2 mm.
+    let rival_bar = scatter_mm.map_or(tolerance_mm, |s| tolerance_mm.min(2.0 * s));
+    (rms <= bound && runner_up > rival_bar.max(RIVAL_FACTOR * rms)).then(|| {
         map.into_iter()
             .enumerate()
             .map(|(i, j)| if flipped { (j, i) } else { (i, j) })
@@ -989,17 +1024,26 @@ mod tests {
 
     /// What `find_pieces` joins in the skin-hinged scene (`PARENT` and `child`, 6 mm of
     /// skin) with markers `hidden` cut at frames 120..300 into new tracks, each body's
-    /// tracks one cluster, at a 4 mm tolerance: at the default test tolerance (10 mm) a
-    /// body's end-to-end flip fits within it (5.7 mm RMS for the four-marker child plus
-    /// one: the markers lie along the bone) and nothing joins; 4 mm is about what 6 mm of
-    /// skin leaves a capture.
+    /// tracks one cluster, at a 4 mm tolerance, about what 6 mm of skin leaves a capture
+    /// (at the default test tolerance, 10 mm, a body's end-to-end flip fits within it:
+    /// 5.7 mm RMS for the four-marker child plus one, the markers along the bone).
     fn come_back_found(child: &[[f64; 3]], hidden: &[usize], seed: u64) -> Vec<Vec<usize>> {
+        come_back_found_at(child, hidden, seed, 4.0)
+    }
+
+    /// [`come_back_found`] at a rigidity tolerance of `tolerance_mm`.
+    fn come_back_found_at(
+        child: &[[f64; 3]],
+        hidden: &[usize],
+        seed: u64,
+        tolerance_mm: f64,
+    ) -> Vec<Vec<usize>> {
         let mut traj = skin_hinged_capture(&PARENT, child, 30.0, 6.0, seed);
         for &m in hidden {
             traj = cut_at_gap(&traj, m, 120..300);
         }
         let clusters = [vec![0, 1, 2, 3], (4..traj.markers()).collect()];
-        let tight = (crate::Params::default().min_overlap_frames, 4.0);
+        let tight = (crate::Params::default().min_overlap_frames, tolerance_mm);
         let stats = pair_stats(&traj);
         find_pieces(
             &traj,
@@ -1019,6 +1063,30 @@ mod tests {
         for seed in 1..=3 {
             assert_eq!(
                 come_back_found(&CHILD[..3], &[5, 6], seed),
+                vec![vec![5, 7], vec![6, 8]],
+                "seed {seed}"
+            );
+        }
+    }
+
+    /// The scenes of the two tests above at a loose tolerance (10 mm, where a body's flip
+    /// or its two returning markers exchanged fit within it): the rival bar is twice the
+    /// shapes' own distance scatter, well under it, and each joins as at 4 mm.
+    #[test]
+    fn a_loose_tolerance_leaves_the_rival_bar_to_the_shapes_own_scatter() {
+        let child: Vec<[f64; 3]> = CHILD
+            .iter()
+            .copied()
+            .chain([[40.0, 10.0, -340.0]])
+            .collect();
+        for seed in 1..=3 {
+            assert_eq!(
+                come_back_found_at(&child, &[5, 6, 7, 8], seed, 10.0),
+                vec![vec![5, 9], vec![6, 10], vec![7, 11], vec![8, 12]],
+                "seed {seed}"
+            );
+            assert_eq!(
+                come_back_found_at(&CHILD[..3], &[5, 6], seed, 10.0),
                 vec![vec![5, 7], vec![6, 8]],
                 "seed {seed}"
             );

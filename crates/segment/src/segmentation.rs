@@ -6,7 +6,7 @@ use mocap_io::{MISSING, Trajectories};
 use serde::{Deserialize, Serialize};
 
 /// Schema version of [`Segmentation`]; bump when its fields or the algorithm's output change.
-pub const SCHEMA_VERSION: u32 = 50;
+pub const SCHEMA_VERSION: u32 = 51;
 
 /// The rigid segments found in a capture.
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
