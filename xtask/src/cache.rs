@@ -149,24 +149,6 @@ impl Cache {
             .join(format!("{key}.cbor"))
     }
 
-    /// The bytes stored under a key; `Ok(None)` when there is no entry.
-    pub fn load(&self, stage: &str, schema_version: u32, key: &str) -> Result<Option<Vec<u8>>> {
-        let path = self.entry_path(stage, schema_version, key);
-        match std::fs::read(&path) {
-            Ok(bytes) => Ok(Some(bytes)),
-            Err(e) if e.kind() == std::io::ErrorKind::NotFound => Ok(None),
-            Err(e) => Err(e).with_context(|| format!("{}: cannot read", path.display())),
-        }
-    }
-
-    /// Stores bytes under a key, atomically.
-    pub fn store(&self, stage: &str, schema_version: u32, key: &str, bytes: &[u8]) -> Result<()> {
-        Ok(write_atomic(
-            &self.entry_path(stage, schema_version, key),
-            bytes,
-        )?)
-    }
-
     /// Removes buckets not in `known` (`<stage>-v<schema>` names), or every bucket with
     /// `all`; returns what was removed. Files at the top level other than the tag go too.
     pub fn prune(&self, known: &[String], all: bool) -> Result<Vec<PathBuf>> {
@@ -359,22 +341,19 @@ mod tests {
     const PINNED_KEY: &str = "077edfe968b2e481d5bb252b5df4f8ee775a54bedde17570a596c4a0683dc75a";
 
     #[test]
-    fn store_load_prune() {
+    fn entries_live_in_their_bucket_and_prune_drops_stale_buckets() {
         let dir = TempDir::new("cache").unwrap();
         let cache = Cache::open(dir.path()).unwrap();
         assert!(dir.path().join("CACHEDIR.TAG").is_file());
-        assert_eq!(cache.load("segment", 1, "abc").unwrap(), None);
-        cache.store("segment", 1, "abc", b"hello").unwrap();
-        assert_eq!(
-            cache.load("segment", 1, "abc").unwrap().as_deref(),
-            Some(&b"hello"[..])
-        );
-        cache.store("segment", 0, "old", b"x").unwrap();
+        let entry = cache.entry_path("segment", 1, "abc");
+        assert_eq!(entry, dir.path().join("segment-v1").join("abc.cbor"));
+        write_atomic(&entry, b"hello").unwrap();
+        write_atomic(&cache.entry_path("segment", 0, "old"), b"x").unwrap();
         let removed = cache.prune(&["segment-v1".into()], false).unwrap();
         assert_eq!(removed, vec![dir.path().join("segment-v0")]);
-        assert!(cache.load("segment", 1, "abc").unwrap().is_some());
+        assert_eq!(std::fs::read(&entry).unwrap(), b"hello");
         cache.prune(&["segment-v1".into()], true).unwrap();
-        assert!(cache.load("segment", 1, "abc").unwrap().is_none());
+        assert!(!entry.exists());
         assert!(dir.path().join("CACHEDIR.TAG").is_file());
     }
 }

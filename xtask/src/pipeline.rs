@@ -303,17 +303,31 @@ pub enum Payload {
 }
 
 impl Payload {
-    /// Encodes the payload under a header as artifact bytes.
-    pub fn encode(&self, header: &ArtifactHeader) -> Result<Vec<u8>> {
-        let bytes = match self {
-            Payload::Capture(p) => artifact::encode(header, p),
-            Payload::Segmentation(p) => artifact::encode(header, p),
-            Payload::PairFits(p) => artifact::encode(header, p),
-            Payload::Topology(p) => artifact::encode(header, p),
-            Payload::Skeleton(p) => artifact::encode(header, p),
-            Payload::Outputs(p) => artifact::encode(header, p),
+    /// Writes the payload under a header as an artifact file, atomically and streamed (the
+    /// bytes are never all in memory); returns their content hash.
+    pub fn write(&self, path: &Path, header: &ArtifactHeader) -> Result<String> {
+        let hash = match self {
+            Payload::Capture(p) => artifact::write_hashed(path, header, p),
+            Payload::Segmentation(p) => artifact::write_hashed(path, header, p),
+            Payload::PairFits(p) => artifact::write_hashed(path, header, p),
+            Payload::Topology(p) => artifact::write_hashed(path, header, p),
+            Payload::Skeleton(p) => artifact::write_hashed(path, header, p),
+            Payload::Outputs(p) => artifact::write_hashed(path, header, p),
         };
-        Ok(bytes?)
+        Ok(hash?)
+    }
+
+    /// The content hash of the artifact [`Payload::write`] would write, without writing it.
+    pub fn content_hash(&self, header: &ArtifactHeader) -> Result<String> {
+        let hash = match self {
+            Payload::Capture(p) => artifact::encoded_hash(header, p),
+            Payload::Segmentation(p) => artifact::encoded_hash(header, p),
+            Payload::PairFits(p) => artifact::encoded_hash(header, p),
+            Payload::Topology(p) => artifact::encoded_hash(header, p),
+            Payload::Skeleton(p) => artifact::encoded_hash(header, p),
+            Payload::Outputs(p) => artifact::encoded_hash(header, p),
+        };
+        Ok(hash?)
     }
 
     /// A short domain summary (segment count, joints, files...).
@@ -388,6 +402,34 @@ pub fn decode_payload(
         StageId::Bonefit => typed(bytes, path, Payload::Skeleton)?,
         StageId::Export => typed(bytes, path, Payload::Outputs)?,
     };
+    check_stage(stage, &header, path)?;
+    Ok((header, payload))
+}
+
+/// Reads an artifact file as `stage`'s payload as it streams in (its bytes never all in
+/// memory), checking the header's stage and schema; returns the file's content hash too.
+pub fn read_payload(stage: StageId, path: &Path) -> Result<(ArtifactHeader, Payload, String)> {
+    fn typed<P: serde::de::DeserializeOwned>(
+        path: &Path,
+        wrap: fn(P) -> Payload,
+    ) -> Result<(ArtifactHeader, Payload, String)> {
+        let (h, p, hash) = artifact::read_hashed::<P>(path)?;
+        Ok((h, wrap(p), hash))
+    }
+    let (header, payload, hash) = match stage {
+        StageId::MocapIo => typed(path, Payload::Capture)?,
+        StageId::Segment => typed(path, Payload::Segmentation)?,
+        StageId::Jointfit => typed(path, Payload::PairFits)?,
+        StageId::Topo => typed(path, Payload::Topology)?,
+        StageId::Bonefit => typed(path, Payload::Skeleton)?,
+        StageId::Export => typed(path, Payload::Outputs)?,
+    };
+    check_stage(stage, &header, path)?;
+    Ok((header, payload, hash))
+}
+
+/// Checks that an artifact's header names `stage` at its current schema version.
+fn check_stage(stage: StageId, header: &ArtifactHeader, path: &Path) -> Result<()> {
     if header.stage != stage.name() || header.schema_version != stage.schema_version() {
         bail!(
             "{}: artifact of {} v{}, expected {} v{}",
@@ -398,7 +440,7 @@ pub fn decode_payload(
             stage.schema_version()
         );
     }
-    Ok((header, payload))
+    Ok(())
 }
 
 /// Reads only an artifact's header (the payload is skipped, not decoded).
@@ -601,12 +643,16 @@ pub fn run_cached(
                         return Err(e);
                     }
                 };
-                let bytes = payload.encode(&header)?;
-                if let Err(e) = cache.store(stage.name(), stage.schema_version(), &key, &bytes) {
-                    progress.warn(&format!("not cached: {e:#}"));
-                }
+                let entry = cache.entry_path(stage.name(), stage.schema_version(), &key);
+                let hash = match payload.write(&entry, &header) {
+                    Ok(hash) => hash,
+                    Err(e) => {
+                        progress.warn(&format!("not cached: {e:#}"));
+                        payload.content_hash(&header)?
+                    }
+                };
                 products.put(payload);
-                (false, artifact::content_hash(&bytes))
+                (false, hash)
             }
         };
         let seconds = start.elapsed().as_secs_f64();
@@ -632,20 +678,15 @@ fn load_checked(
     progress: &Progress,
 ) -> Option<(Payload, String)> {
     let path = cache.entry_path(stage.name(), stage.schema_version(), key);
-    let bytes = match cache.load(stage.name(), stage.schema_version(), key) {
-        Ok(Some(b)) => b,
-        Ok(None) => return None,
-        Err(e) => {
-            progress.warn(&format!("{e:#}; recomputing"));
-            return None;
-        }
-    };
-    match decode_payload(stage, &bytes, &path) {
-        Ok((header, payload)) => {
+    if !path.exists() {
+        return None;
+    }
+    match read_payload(stage, &path) {
+        Ok((header, payload, hash)) => {
             // The tool version may differ: the key deliberately leaves it out.
             let same = header.params == expected.params && header.inputs == expected.inputs;
             if same {
-                Some((payload, artifact::content_hash(&bytes)))
+                Some((payload, hash))
             } else {
                 progress.warn(&format!(
                     "{}: cache entry does not match its key (parameters or inputs differ); recomputing",

@@ -640,6 +640,31 @@ mod tests {
         );
     }
 
+    /// A stage whose cache entry cannot be written still gives its artifact's hash, so the
+    /// stages after it find their entries as before: the run is whole, only not cached.
+    #[test]
+    fn an_entry_that_cannot_be_written_leaves_the_run_whole() {
+        let dir = TempDir::new("run-unwritable").unwrap();
+        let input = capture(dir.path());
+        let quiet = Progress::hidden();
+        let a = args(&input, dir.path(), &[]);
+        let first = execute(&a, &quiet).unwrap();
+        let json = std::fs::read(dir.path().join("out/skeleton.json")).unwrap();
+        let cache = Cache::open(&dir.path().join("cache")).unwrap();
+        let entry = cache.entry_path("jointfit", jointfit::SCHEMA_VERSION, &first.stages[2].key);
+        std::fs::remove_file(&entry).unwrap();
+        std::fs::create_dir(&entry).unwrap();
+        let again = execute(&a, &quiet).unwrap();
+        assert_eq!(cached(&again), [true, true, false, true, true, true]);
+        let hashes = |r: &Report| r.stages.iter().map(|s| s.hash.clone()).collect::<Vec<_>>();
+        assert_eq!(hashes(&again), hashes(&first));
+        assert!(entry.is_dir());
+        assert_eq!(
+            std::fs::read(dir.path().join("out/skeleton.json")).unwrap(),
+            json
+        );
+    }
+
     /// The findings name what skeleton.json flags, and only that.
     #[test]
     fn findings_list_what_deserves_a_look() {

@@ -180,8 +180,7 @@ pub fn execute(args: &Args) -> Result<Vec<PathBuf>> {
             .context("the export stage produced no outputs")?;
         return pipeline::write_outputs(outputs, &args.out);
     }
-    let bytes = payload.encode(&header)?;
-    artifact::write_atomic(&args.out, &bytes)?;
+    payload.write(&args.out, &header)?;
     Ok(vec![args.out.clone()])
 }
 

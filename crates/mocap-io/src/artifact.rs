@@ -5,7 +5,7 @@
 //! payload are byte strings (see [`crate::bulk`]). Maps are `BTreeMap`s or structs, never
 //! `HashMap`s, so the same value always encodes to the same bytes.
 
-use std::io::Write as _;
+use std::io::{BufReader, BufWriter, Read, Write};
 use std::path::{Path, PathBuf};
 use std::sync::atomic::{AtomicU64, Ordering};
 
@@ -55,11 +55,137 @@ pub fn content_hash(bytes: &[u8]) -> String {
 /// Encodes a header and payload as artifact bytes.
 pub fn encode<P: Serialize>(header: &ArtifactHeader, payload: &P) -> Result<Vec<u8>, IoError> {
     let mut out = Vec::new();
-    let env = ciborium::tag::Required::<_, SELF_DESCRIBE_TAG>(Envelope { header, payload });
-    ciborium::into_writer(&env, &mut out)
-        .map_err(|e| IoError::Invalid(format!("cannot encode artifact: {e}")))?;
+    encode_into(header, payload, &mut out).map_err(|e| IoError::Invalid(e.to_string()))?;
     Ok(out)
 }
+
+/// Encodes a header and payload into `out`; an encoding failure is an `io::Error` too.
+fn encode_into<P: Serialize>(
+    header: &ArtifactHeader,
+    payload: &P,
+    out: impl Write,
+) -> std::io::Result<()> {
+    let env = ciborium::tag::Required::<_, SELF_DESCRIBE_TAG>(Envelope { header, payload });
+    ciborium::into_writer(&env, out).map_err(|e| match e {
+        ciborium::ser::Error::Io(e) => e,
+        ciborium::ser::Error::Value(v) => {
+            std::io::Error::other(format!("cannot encode artifact: {v}"))
+        }
+    })
+}
+
+/// Bytes passing through, hashed on the way (blake3), so an artifact's [`content_hash`]
+/// comes without holding its bytes: a payload can be hundreds of megabytes.
+struct Hashing<T> {
+    inner: T,
+    hasher: blake3::Hasher,
+}
+
+impl<T> Hashing<T> {
+    fn new(inner: T) -> Self {
+        Self {
+            inner,
+            hasher: blake3::Hasher::new(),
+        }
+    }
+
+    fn hash(&self) -> String {
+        self.hasher.finalize().to_hex().to_string()
+    }
+}
+
+impl<W: Write> Write for Hashing<W> {
+    fn write(&mut self, buf: &[u8]) -> std::io::Result<usize> {
+        let n = self.inner.write(buf)?;
+        self.hasher.update(&buf[..n]);
+        Ok(n)
+    }
+
+    fn flush(&mut self) -> std::io::Result<()> {
+        self.inner.flush()
+    }
+}
+
+impl<R: Read> Read for Hashing<R> {
+    fn read(&mut self, buf: &mut [u8]) -> std::io::Result<usize> {
+        let n = self.inner.read(buf)?;
+        self.hasher.update(&buf[..n]);
+        Ok(n)
+    }
+}
+
+/// The [`content_hash`] of the bytes [`encode`] gives, without making them.
+pub fn encoded_hash<P: Serialize>(header: &ArtifactHeader, payload: &P) -> Result<String, IoError> {
+    let mut sink = Hashing::new(std::io::sink());
+    encode_into(header, payload, &mut sink).map_err(|e| IoError::Invalid(e.to_string()))?;
+    Ok(sink.hash())
+}
+
+/// Encodes and writes an artifact atomically, streamed to the file rather than built in
+/// memory first; returns the [`content_hash`] of the bytes written.
+pub fn write_hashed<P: Serialize>(
+    path: &Path,
+    header: &ArtifactHeader,
+    payload: &P,
+) -> Result<String, IoError> {
+    let mut hash = String::new();
+    let tmp = write_temp_with(path, |file| {
+        let mut out = Hashing::new(BufWriter::with_capacity(STREAM_BUFFER, file));
+        encode_into(header, payload, &mut out)?;
+        out.flush()?;
+        hash = out.hash();
+        Ok(())
+    })?;
+    rename_into(&tmp, path)?;
+    Ok(hash)
+}
+
+/// Reads and decodes an artifact file as it streams in, never holding its bytes; returns
+/// the header, the payload and the [`content_hash`] of the whole file. Errors as [`read`]'s
+/// but for the stage, which the caller checks.
+pub fn read_hashed<P: DeserializeOwned>(
+    path: &Path,
+) -> Result<(ArtifactHeader, P, String), IoError> {
+    let bad = |problem: String| IoError::Artifact {
+        path: path.to_path_buf(),
+        problem,
+    };
+    let file = std::fs::File::open(path).map_err(|source| IoError::Read {
+        path: path.to_path_buf(),
+        source,
+    })?;
+    let mut input = Hashing::new(BufReader::with_capacity(STREAM_BUFFER, file));
+    let mut head = [0u8; MAGIC.len()];
+    let opened = read_up_to(&mut input, &mut head).map_err(|e| bad(e.to_string()))?;
+    if head[..opened] != MAGIC {
+        return Err(bad(
+            "missing the CBOR self-describe tag (d9 d9 f7) that opens every artifact".into(),
+        ));
+    }
+    let mut envelope = (&head[..]).chain(&mut input);
+    let env: ciborium::tag::Required<Envelope<ArtifactHeader, P>, SELF_DESCRIBE_TAG> =
+        ciborium::from_reader(&mut envelope).map_err(|e| bad(e.to_string()))?;
+    // Bytes after the envelope are hashed too: the hash is the file's.
+    std::io::copy(&mut input, &mut std::io::sink()).map_err(|e| bad(e.to_string()))?;
+    Ok((env.0.header, env.0.payload, input.hash()))
+}
+
+/// Reads into `buf` until it is full or the input ends; returns how much was read.
+fn read_up_to(input: &mut impl Read, buf: &mut [u8]) -> std::io::Result<usize> {
+    let mut filled = 0;
+    while filled < buf.len() {
+        match input.read(&mut buf[filled..]) {
+            Ok(0) => break,
+            Ok(n) => filled += n,
+            Err(e) if e.kind() == std::io::ErrorKind::Interrupted => {}
+            Err(e) => return Err(e),
+        }
+    }
+    Ok(filled)
+}
+
+/// Buffer of a streamed artifact read or write.
+const STREAM_BUFFER: usize = 1 << 16;
 
 /// Decodes artifact bytes into header and payload; `path` only names the source in errors.
 pub fn decode<P: DeserializeOwned>(
@@ -82,11 +208,7 @@ pub fn decode<P: DeserializeOwned>(
 
 /// Reads and decodes an artifact file, checking that it came from `stage`.
 pub fn read<P: DeserializeOwned>(path: &Path, stage: &str) -> Result<(ArtifactHeader, P), IoError> {
-    let bytes = std::fs::read(path).map_err(|source| IoError::Read {
-        path: path.to_path_buf(),
-        source,
-    })?;
-    let (header, payload) = decode::<P>(&bytes, path)?;
+    let (header, payload, _) = read_hashed::<P>(path)?;
     if header.stage != stage {
         return Err(IoError::Artifact {
             path: path.to_path_buf(),
@@ -106,10 +228,19 @@ pub fn read_any(path: &Path) -> Result<(ArtifactHeader, ciborium::Value), IoErro
 }
 
 /// Writes bytes into a uniquely named temporary file beside `path`; returns its path.
+fn write_temp(path: &Path, bytes: &[u8]) -> Result<PathBuf, IoError> {
+    write_temp_with(path, |f| f.write_all(bytes))
+}
+
+/// Creates a uniquely named temporary file beside `path`, lets `fill` write it, and syncs
+/// it; returns its path, or removes it on any error.
 ///
 /// The name carries the process id and a process-wide counter, so threads of one process
 /// and concurrent runs never write the same temporary file.
-fn write_temp(path: &Path, bytes: &[u8]) -> Result<PathBuf, IoError> {
+fn write_temp_with(
+    path: &Path,
+    fill: impl FnOnce(&mut std::fs::File) -> std::io::Result<()>,
+) -> Result<PathBuf, IoError> {
     static COUNTER: AtomicU64 = AtomicU64::new(0);
     let err = |source| IoError::Write {
         path: path.to_path_buf(),
@@ -134,7 +265,7 @@ fn write_temp(path: &Path, bytes: &[u8]) -> Result<PathBuf, IoError> {
     let tmp = dir.join(format!(".{name}.tmp-{}-{n}", std::process::id()));
     let result = (|| {
         let mut f = std::fs::File::create(&tmp)?;
-        f.write_all(bytes)?;
+        fill(&mut f)?;
         f.sync_all()
     })();
     if let Err(source) = result {
@@ -184,13 +315,24 @@ pub fn write_atomic_all(files: &[(&Path, &[u8])]) -> Result<(), IoError> {
     Ok(())
 }
 
-/// Encodes and writes an artifact atomically.
+/// Renames a temporary file onto `path`, removing it if that fails.
+fn rename_into(tmp: &Path, path: &Path) -> Result<(), IoError> {
+    std::fs::rename(tmp, path).map_err(|source| {
+        let _ = std::fs::remove_file(tmp);
+        IoError::Write {
+            path: path.to_path_buf(),
+            source,
+        }
+    })
+}
+
+/// Encodes and writes an artifact atomically (streamed: see [`write_hashed`]).
 pub fn write<P: Serialize>(
     path: &Path,
     header: &ArtifactHeader,
     payload: &P,
 ) -> Result<(), IoError> {
-    write_atomic(path, &encode(header, payload)?)
+    write_hashed(path, header, payload).map(|_| ())
 }
 
 #[cfg(test)]
@@ -257,6 +399,48 @@ mod tests {
         }
         let err = decode::<Trajectories>(b"hello", Path::new("t.cbor")).unwrap_err();
         assert!(err.to_string().contains("t.cbor"), "{err}");
+    }
+
+    /// Streamed, an artifact is the bytes `encode` makes and its hash theirs; read back
+    /// as it streams in, it is the same value, and the hash covers the whole file.
+    #[test]
+    fn streamed_artifacts_are_the_encoded_bytes_and_their_hash() {
+        let dir = std::env::temp_dir().join(format!("ossify-art-stream-{}", std::process::id()));
+        let path = dir.join("s.cbor");
+        let bytes = encode(&header(), &sample()).unwrap();
+        let hash = write_hashed(&path, &header(), &sample()).unwrap();
+        assert_eq!(std::fs::read(&path).unwrap(), bytes);
+        assert_eq!(hash, content_hash(&bytes));
+        assert_eq!(encoded_hash(&header(), &sample()).unwrap(), hash);
+        let (h, t, read_hash) = read_hashed::<Trajectories>(&path).unwrap();
+        assert_eq!((h, read_hash), (header(), hash.clone()));
+        assert_eq!(encode(&header(), &t).unwrap(), bytes);
+        // Trailing bytes decode as before (as `decode` reads a slice) but change the hash.
+        let mut longer = bytes.clone();
+        longer.extend_from_slice(b"tail");
+        std::fs::write(&path, &longer).unwrap();
+        let (_, _, tail_hash) = read_hashed::<Trajectories>(&path).unwrap();
+        assert_eq!(tail_hash, content_hash(&longer));
+        assert_ne!(tail_hash, hash);
+        std::fs::remove_dir_all(&dir).unwrap();
+    }
+
+    #[test]
+    fn streamed_garbage_and_truncation_are_errors_naming_the_file() {
+        let dir = std::env::temp_dir().join(format!("ossify-art-cut-{}", std::process::id()));
+        std::fs::create_dir_all(&dir).unwrap();
+        let path = dir.join("cut.cbor");
+        let bytes = encode(&header(), &sample()).unwrap();
+        for cut in 0..bytes.len() {
+            std::fs::write(&path, &bytes[..cut]).unwrap();
+            let err = read_hashed::<Trajectories>(&path).unwrap_err();
+            assert!(err.to_string().contains("cut.cbor"), "{cut}: {err}");
+        }
+        std::fs::write(&path, b"hello").unwrap();
+        assert!(read_hashed::<Trajectories>(&path).is_err());
+        let missing = read_hashed::<Trajectories>(&dir.join("none.cbor")).unwrap_err();
+        assert!(missing.to_string().contains("none.cbor"), "{missing}");
+        std::fs::remove_dir_all(&dir).unwrap();
     }
 
     /// The names of the entries of `dir`, sorted (temp files left behind show here).
