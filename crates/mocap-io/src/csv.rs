@@ -14,8 +14,9 @@
 //!   a field are ignored; no quoting (a header cell wrapped in `"` has them removed).
 //! - Lines starting with `#` are comments. Before the header row two of them are read:
 //!   `# frame_rate: <Hz>` (**required**: without it the file is refused, naming the line
-//!   to add) and `# units: mm|cm|m` (optional, default millimetres; values are converted
-//!   to millimetres). Other comments are ignored, as are blank lines anywhere.
+//!   to add) and `# units: mm|cm|dm|m|in` (optional, default millimetres; spelled-out
+//!   names too; values are converted to millimetres). Other comments are ignored, as are
+//!   blank lines anywhere.
 //! - Header row: `frame`, an optional `time` column (seconds; ignored, the rate comes from
 //!   the comment), then three columns per marker named `<label>_x`, `<label>_y`,
 //!   `<label>_z` in that order. Labels may contain underscores: the suffix after the
@@ -35,7 +36,7 @@ use std::fmt::Write as _;
 
 use crate::trc::{
     FrameColumn, GapCounts, Lines, clean_label, parse_number, sample_limit, show, unique_labels,
-    units_to_mm, warn_frame_jumps,
+    warn_frame_jumps,
 };
 use crate::{Capture, CaptureInfo, Format, FormatError, ReadOptions, Trajectories};
 
@@ -89,15 +90,19 @@ pub fn parse(bytes: &[u8], options: &ReadOptions) -> Result<Capture, FormatError
         } else if key.eq_ignore_ascii_case(b"units") {
             let text = String::from_utf8_lossy(value).into_owned();
             if let Some(unit) = options.units {
-                let declared = Some((text.as_str(), units_to_mm(&text)));
+                let declared = Some((text.as_str(), crate::mm_per_unit(&text)));
                 warnings.extend(unit.overriding(declared).map(|w| format!("line {no}: {w}")));
                 units = Some((text, unit.mm()));
                 continue;
             }
-            let scale = units_to_mm(&text).ok_or_else(|| {
+            let scale = crate::mm_per_unit(&text).ok_or_else(|| {
                 FormatError::new(
                     format!("line {no}"),
-                    format!("unknown units `{}` (expected mm, cm or m)", show(value)),
+                    format!(
+                        "unknown units `{}` (expected {})",
+                        show(value),
+                        crate::KNOWN_UNITS
+                    ),
                 )
             })?;
             units = Some((text, scale));

@@ -120,6 +120,23 @@ pub enum LengthUnit {
     In,
 }
 
+/// Millimetres per unit a file's units word names, in any case, or `None` for a word we
+/// do not know: every reader (C3D's POINT:UNITS, TRC's Units, CSV's `# units:`) takes the
+/// same words. "mete" is "meters" cut to the 4-character field some C3D writers use.
+pub(crate) fn mm_per_unit(word: &str) -> Option<f64> {
+    match word.trim().to_ascii_lowercase().as_str() {
+        "mm" | "millimeter" | "millimeters" | "millimetre" | "millimetres" => Some(1.0),
+        "cm" | "centimeter" | "centimeters" | "centimetre" | "centimetres" => Some(10.0),
+        "dm" => Some(100.0),
+        "m" | "mete" | "meter" | "meters" | "metre" | "metres" => Some(1000.0),
+        "in" | "inch" | "inches" => Some(25.4),
+        _ => None,
+    }
+}
+
+/// The units words [`mm_per_unit`] knows, short, for error messages.
+pub(crate) const KNOWN_UNITS: &str = "mm, cm, dm, m or in";
+
 impl LengthUnit {
     /// Millimetres per unit.
     pub fn mm(self) -> f64 {
@@ -268,7 +285,7 @@ fn implausible_spacing(capture: &Capture, options: &ReadOptions) -> Option<Strin
     // The unit the reader applied: the option, else the file's word, else millimetres.
     let applied = options.units.map(LengthUnit::mm).unwrap_or_else(|| {
         let declared = capture.info.declared_units.as_deref();
-        declared.and_then(c3d::unit_factor).unwrap_or(1.0)
+        declared.and_then(mm_per_unit).unwrap_or(1.0)
     });
     let typical = FLOOR_SPACING_MM;
     let suggestion = [
@@ -495,7 +512,16 @@ pub fn write_csv(path: &Path, trajectories: &Trajectories) -> Result<(), IoError
 
 #[cfg(test)]
 mod tests {
-    use super::glob;
+    use super::{glob, mm_per_unit};
+
+    #[test]
+    fn units_words_convert_to_millimetres() {
+        assert_eq!(mm_per_unit("mete"), Some(1000.0));
+        assert_eq!(mm_per_unit(" cm "), Some(10.0));
+        assert_eq!(mm_per_unit("MM"), Some(1.0));
+        assert_eq!(mm_per_unit("Inches"), Some(25.4));
+        assert_eq!(mm_per_unit("furlong"), None);
+    }
 
     #[test]
     fn a_star_stands_for_any_run_of_characters() {

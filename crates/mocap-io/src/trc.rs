@@ -16,8 +16,8 @@
 //!   around a field are ignored, CRLF and LF line endings both work, blank lines are skipped.
 //! - Header values are matched to keys by name (any order, any case); missing
 //!   `OrigDataRate`, `OrigDataStartFrame`, `OrigNumFrames` are fine. A missing `Units`
-//!   means millimetres (with a warning); `mm`, `cm` and `m` are converted to millimetres,
-//!   any other unit is an error naming line 3.
+//!   means millimetres (with a warning); `mm`, `cm`, `dm`, `m` and `in` (or their names
+//!   spelled out) are converted to millimetres, any other unit is an error naming line 3.
 //! - The markers are the labels named on line 4, in order (labels may contain spaces
 //!   when the line is tab separated). A `NumMarkers` that disagrees is a warning; values
 //!   beyond the named markers' columns are ignored with a warning (BTK's `Gait.trc`
@@ -118,7 +118,7 @@ pub fn parse(bytes: &[u8], options: &ReadOptions) -> Result<Capture, FormatError
     let (declared_units, scale) = match (options.units, header.get("Units")) {
         (Some(unit), declared) => {
             let text = declared.map(|(_, text)| String::from_utf8_lossy(text).into_owned());
-            let declared = text.as_deref().map(|t| (t, units_to_mm(t)));
+            let declared = text.as_deref().map(|t| (t, crate::mm_per_unit(t)));
             warnings.extend(
                 unit.overriding(declared)
                     .map(|w| format!("line {values_no}: {w}")),
@@ -127,10 +127,14 @@ pub fn parse(bytes: &[u8], options: &ReadOptions) -> Result<Capture, FormatError
         }
         (None, Some((field, text))) => {
             let units = String::from_utf8_lossy(text).into_owned();
-            let scale = units_to_mm(&units).ok_or_else(|| {
+            let scale = crate::mm_per_unit(&units).ok_or_else(|| {
                 FormatError::new(
                     format!("line {values_no}, field {field}"),
-                    format!("unknown units `{}` (expected mm, cm or m)", show(text)),
+                    format!(
+                        "unknown units `{}` (expected {})",
+                        show(text),
+                        crate::KNOWN_UNITS
+                    ),
                 )
             })?;
             (Some(units), scale)
@@ -639,16 +643,6 @@ pub(crate) fn unique_labels(labels: &mut [String], at: &str, warnings: &mut Vec<
             repeated.join(", "),
             renamed.join(", ")
         ));
-    }
-}
-
-/// Millimetres per declared unit, or `None` for units we do not know.
-pub(crate) fn units_to_mm(units: &str) -> Option<f64> {
-    match units.trim().to_ascii_lowercase().as_str() {
-        "mm" | "millimeter" | "millimeters" | "millimetre" | "millimetres" => Some(1.0),
-        "cm" | "centimeter" | "centimeters" | "centimetre" | "centimetres" => Some(10.0),
-        "m" | "meter" | "meters" | "metre" | "metres" => Some(1000.0),
-        _ => None,
     }
 }
 

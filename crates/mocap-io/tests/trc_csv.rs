@@ -339,7 +339,7 @@ fn malformed_inputs_name_the_line() {
             "not an integer",
         ),
         (
-            "PathFileType\t4\nDataRate\tNumMarkers\tUnits\n100\t1\tinches\n",
+            "PathFileType\t4\nDataRate\tNumMarkers\tUnits\n100\t1\tfurlong\n",
             "line 3, field 3",
             "unknown units",
         ),
@@ -596,6 +596,54 @@ fn a_unit_option_overrides_what_the_file_declares() {
         "{:?}",
         read.info.warnings
     );
+    let _ = std::fs::remove_dir_all(&dir);
+}
+
+/// TRC and CSV take the units words C3D does (OpenSim's TRC files may say `in`): a file
+/// written in millimetres and relabelled reads scaled by the unit's millimetres, and a word
+/// no reader knows is refused with the words it knows.
+#[test]
+fn every_format_takes_the_same_units_words() {
+    let dir = scratch("ossify-unit-words");
+    let t = sample_trajectories(9, 3, 6);
+    let trc_path = dir.join("walk.trc");
+    let csv_path = dir.join("walk.csv");
+    mocap_io::write_trc(&trc_path, &t).unwrap();
+    mocap_io::write_csv(&csv_path, &t).unwrap();
+    let relabel = |path: &Path, units: &str| {
+        let text = std::fs::read_to_string(path).unwrap();
+        let text = if path == csv_path.as_path() {
+            text.replace("# units: mm\n", &format!("# units: {units}\n"))
+        } else {
+            text.replace("\tmm\t", &format!("\t{units}\t"))
+        };
+        let out = dir.join(format!(
+            "{units}-{}",
+            path.file_name().unwrap().to_string_lossy()
+        ));
+        std::fs::write(&out, text).unwrap();
+        out
+    };
+    for path in [&trc_path, &csv_path] {
+        for (units, mm) in [
+            ("in", 25.4),
+            ("inches", 25.4),
+            ("dm", 100.0),
+            ("Metres", 1000.0),
+        ] {
+            let read = mocap_io::read_capture(&relabel(path, units), &opts()).unwrap();
+            for (a, b) in read.trajectories.positions().iter().zip(t.positions()) {
+                for k in 0..3 {
+                    assert!(
+                        a[k].is_nan() && b[k].is_nan() || (a[k] - mm * b[k]).abs() < 1e-2,
+                        "{units}: {a:?} {b:?}"
+                    );
+                }
+            }
+        }
+        let err = mocap_io::read_capture(&relabel(path, "furlong"), &opts()).unwrap_err();
+        assert!(err.to_string().contains("mm, cm, dm, m or in"), "{err}");
+    }
     let _ = std::fs::remove_dir_all(&dir);
 }
 

@@ -92,11 +92,11 @@ pub fn parse(bytes: &[u8], options: &ReadOptions) -> Result<Capture, FormatError
         .filter(|u| !u.is_empty());
     let unit_factor = match (options.units, &declared_units) {
         (Some(unit), declared) => {
-            let declared = declared.as_deref().map(|u| (u, unit_factor(u)));
+            let declared = declared.as_deref().map(|u| (u, crate::mm_per_unit(u)));
             warnings.extend(unit.overriding(declared));
             unit.mm()
         }
-        (None, Some(u)) => unit_factor(u).unwrap_or_else(|| {
+        (None, Some(u)) => crate::mm_per_unit(u).unwrap_or_else(|| {
             warnings.push(format!(
                 "POINT:UNITS is {u:?}, a unit we do not know: read as millimetres"
             ));
@@ -666,19 +666,6 @@ fn labels(params: &Params, points: usize, warnings: &mut Vec<String>) -> Vec<Str
     labels
 }
 
-/// Millimetres per declared unit; `None` for a unit we do not know.
-pub(crate) fn unit_factor(units: &str) -> Option<f64> {
-    match units.trim().to_ascii_lowercase().as_str() {
-        "mm" | "millimeter" | "millimeters" | "millimetre" | "millimetres" => Some(1.0),
-        "cm" | "centimeter" | "centimeters" | "centimetre" | "centimetres" => Some(10.0),
-        "dm" => Some(100.0),
-        // "mete" is "meters" cut to the 4-character field some writers use.
-        "m" | "mete" | "meter" | "meters" | "metre" | "metres" => Some(1000.0),
-        "in" | "inch" | "inches" => Some(25.4),
-        _ => None,
-    }
-}
-
 /// Decodes the data section with the codec for this processor and storage.
 fn decode(
     layout: &Layout,
@@ -935,14 +922,6 @@ mod tests {
                 .iter()
                 .any(|w| w.contains("mocap-io.units"))
         );
-    }
-
-    #[test]
-    fn units_convert_to_millimetres() {
-        assert_eq!(unit_factor("mete"), Some(1000.0));
-        assert_eq!(unit_factor("cm"), Some(10.0));
-        assert_eq!(unit_factor("MM"), Some(1.0));
-        assert_eq!(unit_factor("furlong"), None);
     }
 }
 

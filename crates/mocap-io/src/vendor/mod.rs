@@ -95,7 +95,7 @@ pub(crate) fn scale(
     at: &str,
     warnings: &mut Vec<String>,
 ) -> Result<f64, FormatError> {
-    let known = declared.map(|d| (d, crate::trc::units_to_mm(d)));
+    let known = declared.map(|d| (d, crate::mm_per_unit(d)));
     if let Some(unit) = override_unit {
         warnings.extend(unit.overriding(known).map(|w| format!("{at}: {w}")));
         return Ok(unit.mm());
@@ -105,9 +105,9 @@ pub(crate) fn scale(
         Some((word, None)) => Err(FormatError::new(
             at,
             format!(
-                "unknown length unit `{}` (expected millimetres, centimetres or metres; \
-                 mocap-io.units sets one)",
-                show(word.as_bytes())
+                "unknown length unit `{}` (expected {}; mocap-io.units sets one)",
+                show(word.as_bytes()),
+                crate::KNOWN_UNITS
             ),
         )),
         None => {
