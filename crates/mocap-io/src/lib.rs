@@ -121,8 +121,9 @@ pub enum LengthUnit {
 }
 
 /// Millimetres per unit a file's units word names, in any case, or `None` for a word we
-/// do not know: every reader (C3D's POINT:UNITS, TRC's Units, CSV's `# units:`) takes the
-/// same words. "mete" is "meters" cut to the 4-character field some C3D writers use.
+/// do not know: every reader (C3D's POINT:UNITS, TRC's Units, CSV's `# units:`, the
+/// vendors' length units) takes the same words. "mete" is "meters" cut to the
+/// 4-character field some C3D writers use.
 pub(crate) fn mm_per_unit(word: &str) -> Option<f64> {
     match word.trim().to_ascii_lowercase().as_str() {
         "mm" | "millimeter" | "millimeters" | "millimetre" | "millimetres" => Some(1.0),

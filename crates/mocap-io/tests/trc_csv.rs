@@ -528,17 +528,24 @@ fn a_selection_the_capture_cannot_give_is_an_error() {
     let _ = std::fs::remove_dir_all(&dir);
 }
 
+/// A small capture (`sample_trajectories(seed, 3, 6)`) written in millimetres as a TRC and
+/// as a CSV into a scratch folder `name`: (the folder, the capture, the TRC, the CSV).
+fn walk_in_millimetres(name: &str, seed: u64) -> (PathBuf, Trajectories, PathBuf, PathBuf) {
+    let dir = scratch(name);
+    let t = sample_trajectories(seed, 3, 6);
+    let trc_path = dir.join("walk.trc");
+    let csv_path = dir.join("walk.csv");
+    mocap_io::write_trc(&trc_path, &t).unwrap();
+    mocap_io::write_csv(&csv_path, &t).unwrap();
+    (dir, t, trc_path, csv_path)
+}
+
 /// `mocap-io.units` overrides a TRC's or CSV's declared units (even one we do not know),
 /// or the millimetres assumed where none is declared, and says so; the declared unit
 /// itself gives no warning.
 #[test]
 fn a_unit_option_overrides_what_the_file_declares() {
-    let dir = scratch("ossify-units");
-    let t = sample_trajectories(8, 3, 6);
-    let trc_path = dir.join("walk.trc");
-    let csv_path = dir.join("walk.csv");
-    mocap_io::write_trc(&trc_path, &t).unwrap();
-    mocap_io::write_csv(&csv_path, &t).unwrap();
+    let (dir, t, trc_path, csv_path) = walk_in_millimetres("ossify-units", 8);
     let with = |units| ReadOptions {
         units: Some(units),
         ..ReadOptions::default()
@@ -604,12 +611,7 @@ fn a_unit_option_overrides_what_the_file_declares() {
 /// no reader knows is refused with the words it knows.
 #[test]
 fn every_format_takes_the_same_units_words() {
-    let dir = scratch("ossify-unit-words");
-    let t = sample_trajectories(9, 3, 6);
-    let trc_path = dir.join("walk.trc");
-    let csv_path = dir.join("walk.csv");
-    mocap_io::write_trc(&trc_path, &t).unwrap();
-    mocap_io::write_csv(&csv_path, &t).unwrap();
+    let (dir, t, trc_path, csv_path) = walk_in_millimetres("ossify-unit-words", 9);
     let relabel = |path: &Path, units: &str| {
         let text = std::fs::read_to_string(path).unwrap();
         let text = if path == csv_path.as_path() {

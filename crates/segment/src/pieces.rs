@@ -1007,11 +1007,7 @@ mod tests {
     /// of the first one's shape, and each joins its marker.
     #[test]
     fn markers_come_back_in_their_cluster_join_by_its_shape() {
-        let child: Vec<[f64; 3]> = CHILD
-            .iter()
-            .copied()
-            .chain([[40.0, 10.0, -340.0]])
-            .collect();
+        let child = child_plus_one();
         for seed in 1..=3 {
             assert_eq!(
                 come_back_found(&child, &[5, 6, 7, 8], seed),
@@ -1019,6 +1015,15 @@ mod tests {
                 "seed {seed}"
             );
         }
+    }
+
+    /// `CHILD` with a fifth marker below the rest, along the bone.
+    fn child_plus_one() -> Vec<[f64; 3]> {
+        CHILD
+            .iter()
+            .copied()
+            .chain([[40.0, 10.0, -340.0]])
+            .collect()
     }
 
     /// What `find_pieces` joins in the skin-hinged scene (`PARENT` and `child`, 6 mm of
@@ -1075,11 +1080,7 @@ mod tests {
     /// own distance scatter, well under the tolerance, and each joins as at 4 mm.
     #[test]
     fn a_loose_tolerance_leaves_the_rival_bar_to_the_shapes_own_scatter() {
-        let child: Vec<[f64; 3]> = CHILD
-            .iter()
-            .copied()
-            .chain([[40.0, 10.0, -340.0]])
-            .collect();
+        let child = child_plus_one();
         let arm = [[0.0, 30.0, -100.0], [8.0, 0.0, -160.0], [-8.0, 0.0, -168.0]];
         for seed in 1..=3 {
             assert_eq!(
