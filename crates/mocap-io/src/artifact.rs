@@ -3,7 +3,9 @@
 //! File layout: the CBOR self-describe tag 55799 (bytes `d9 d9 f7`, our magic) around a
 //! map `{ "header": ArtifactHeader, "payload": <stage payload> }`. Bulk floats in a
 //! payload are byte strings (see [`crate::bulk`]). Maps are `BTreeMap`s or structs, never
-//! `HashMap`s, so the same value always encodes to the same bytes.
+//! `HashMap`s, so the same value always encodes to the same bytes. Files are written and
+//! read as they stream ([`write_hashed`], [`read_hashed`]), their content hash taken on the
+//! way, so an artifact of hundreds of megabytes is never whole in memory beside its value.
 
 use std::io::{BufReader, BufWriter, Read, Write};
 use std::path::{Path, PathBuf};
