@@ -283,10 +283,15 @@ fn implausible_spacing(capture: &Capture, options: &ReadOptions) -> Option<Strin
     if (low..=high).contains(&spacing) {
         return None;
     }
-    // The unit the reader applied: the option, else the file's word, else millimetres.
+    // The unit the reader applied: the option, else the file's word, else the format's
+    // assumption (Motive's metres, everyone else's millimetres).
+    let assumed = match capture.format {
+        Format::MotiveCsv => vendor::motive::ASSUMED_UNIT.0,
+        _ => 1.0,
+    };
     let applied = options.units.map(LengthUnit::mm).unwrap_or_else(|| {
         let declared = capture.info.declared_units.as_deref();
-        declared.and_then(mm_per_unit).unwrap_or(1.0)
+        declared.and_then(mm_per_unit).unwrap_or(assumed)
     });
     let typical = FLOOR_SPACING_MM;
     let suggestion = [

@@ -65,7 +65,7 @@ pub(crate) fn parse(bytes: &[u8], options: &ReadOptions) -> Result<Capture, Form
     let scale = scale(
         options.units,
         declared_units,
-        (1000.0, "metres"),
+        ASSUMED_UNIT,
         &at_meta,
         &mut warnings,
     )?;
@@ -235,6 +235,10 @@ pub(crate) fn parse(bytes: &[u8], options: &ReadOptions) -> Result<Capture, Form
     })
 }
 
+/// The unit a Motive export without `Length Units` is read in (Motive's own default):
+/// millimetres per unit and its name.
+pub(crate) const ASSUMED_UNIT: (f64, &str) = (1000.0, "metres");
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -292,6 +296,20 @@ Frame,Time (Seconds),TimeCode,X,Y,Z,W,X,Y,Z,,X,Y,Z,X,Y,Z,X,Y,Z\r
         };
         let c = parse(take.as_bytes(), &options).unwrap();
         assert_eq!(c.trajectories.get(0, 1).map(|p| p[0]), Some(1.5));
+    }
+
+    /// A Motive export without `Length Units` over millimetres is read as metres (its
+    /// markers hundreds of metres apart), and the spacing warning, knowing the unit the
+    /// reader assumed, names millimetres as the unit that fits.
+    #[test]
+    fn millimetres_read_as_assumed_metres_are_said_with_the_unit_that_fits() {
+        let take = TAKE.replace("Length Units,Centimeters,", "");
+        let c = parse(take.as_bytes(), &ReadOptions::default()).unwrap();
+        let warning = crate::implausible_spacing(&c, &ReadOptions::default()).expect("a warning");
+        assert!(
+            warning.contains("--set mocap-io.units=mm reads them so"),
+            "{warning}"
+        );
     }
 
     #[test]
