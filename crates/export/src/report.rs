@@ -370,23 +370,27 @@ fn settings(out: &mut String, doc: &SkeletonJson) {
 /// What the reader said about the file, first: a wrong unit or a guessed rate changes
 /// everything below it.
 fn reader_warnings(out: &mut String, doc: &SkeletonJson) {
-    if doc.reader_warnings.is_empty() {
-        return;
-    }
-    out.push_str("<h2>What the reader said about the file</h2>\n<ul class=\"warn\">\n");
-    for w in &doc.reader_warnings {
-        let _ = writeln!(out, "<li>{}</li>", escape(w));
-    }
-    out.push_str("</ul>\n");
+    text_list(
+        out,
+        "What the reader said about the file",
+        " class=\"warn\"",
+        &doc.reader_warnings,
+    );
 }
 
 fn notes(out: &mut String, doc: &SkeletonJson) {
-    if doc.notes.is_empty() {
+    text_list(out, "Notes", "", &doc.notes);
+}
+
+/// A heading and a list of escaped lines (`ul_attributes` inside the `<ul>` tag); nothing
+/// where there are no lines.
+fn text_list(out: &mut String, heading: &str, ul_attributes: &str, lines: &[String]) {
+    if lines.is_empty() {
         return;
     }
-    out.push_str("<h2>Notes</h2>\n<ul>\n");
-    for n in &doc.notes {
-        let _ = writeln!(out, "<li>{}</li>", escape(n));
+    let _ = writeln!(out, "<h2>{heading}</h2>\n<ul{ul_attributes}>");
+    for line in lines {
+        let _ = writeln!(out, "<li>{}</li>", escape(line));
     }
     out.push_str("</ul>\n");
 }
