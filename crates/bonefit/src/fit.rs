@@ -79,24 +79,25 @@ pub fn run(
     if root >= segments {
         return Err(Error::BadRoot { root, segments });
     }
-    // The tree steps change the pair fits on one working copy, made by the first of them
-    // that runs; the poses are never changed, only the tree pairs' centres and positions.
-    let mut work: Option<PairFits> = None;
+    // The tree steps change the pair fits on one working copy, which holds the tree
+    // pairs' positions (jointfit's artifact leaves them to be derived); the poses are never
+    // changed, only the tree pairs' centres and positions.
+    let mut work = fits.clone();
+    work.fill_positions(topo.joints.iter().map(|j| j.pair));
     // Both tree readings read the segments' precision and poses; built once.
     let tree_poses =
         (params.tree_centres || params.tree_positions).then(|| jointfit::TreePoses::of(fits));
     if params.tree_centres
         && let Some(poses) = &tree_poses
     {
-        let copy = work.get_or_insert_with(|| fits.clone());
-        jointfit::tree_centres(copy, &tree_edges(topo), poses);
+        jointfit::tree_centres(&mut work, &tree_edges(topo), poses);
     }
     // Hinge centres placed on their axes from the tree.
     let mut hinge_shifts = vec![0.0; topo.joints.len()];
     // Per tree joint: its slide ends at a point two segments' fit measured.
     let mut measured_point = vec![false; topo.joints.len()];
     if params.place_hinges {
-        let copy = work.get_or_insert_with(|| fits.clone());
+        let copy = &mut work;
         let edges = tree_edges(topo);
         // What the placement reads as it was before: the tree pairs and their bones.
         let before: Vec<Option<PairFit>> = edges
@@ -199,10 +200,9 @@ pub fn run(
     if params.tree_positions
         && let Some(poses) = &tree_poses
     {
-        let copy = work.get_or_insert_with(|| fits.clone());
-        jointfit::tree_positions(copy, &tree_edges(topo), poses);
+        jointfit::tree_positions(&mut work, &tree_edges(topo), poses);
     }
-    let fits = work.as_ref().unwrap_or(fits);
+    let fits = &work;
     let specs = resolve_joints(fits, topo, frames)?;
 
     let rate = traj.frame_rate();

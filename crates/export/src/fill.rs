@@ -55,6 +55,13 @@ pub(crate) fn filled_markers(input: &Inputs<'_>, params: &Params) -> Result<Fill
                 .any(|g| g.len() > 1 && g[1..].contains(&m))
         })
         .collect();
+    // The tree joints' positions, which jointfit's artifact leaves to be derived.
+    let joint_positions: Vec<Vec<[f64; 3]>> = input
+        .topology
+        .joints
+        .iter()
+        .map(|j| input.fits.joint_positions(j.pair))
+        .collect();
     let mut filled = vec![0; markers];
     for segment in &seg.segments {
         let Some(poses) = input.fits.poses.get(segment.id) else {
@@ -82,7 +89,8 @@ pub(crate) fn filled_markers(input: &Inputs<'_>, params: &Params) -> Result<Fill
             .topology
             .joints
             .iter()
-            .filter_map(|j| {
+            .zip(&joint_positions)
+            .filter_map(|(j, positions)| {
                 let pair = input.fits.pairs.get(j.pair)?;
                 let local = if pair.a == segment.id {
                     pair.centre_in_a
@@ -92,7 +100,7 @@ pub(crate) fn filled_markers(input: &Inputs<'_>, params: &Params) -> Result<Fill
                     return None;
                 };
                 let local = DVec3::from_array(local);
-                local.is_finite().then_some((local, &pair.positions[..]))
+                local.is_finite().then_some((local, &positions[..]))
             })
             .collect();
         for (k, &m) in segment.markers.iter().enumerate() {

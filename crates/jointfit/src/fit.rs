@@ -1,5 +1,5 @@
-//! One segment pair: kind from the relative motion, centre by the chosen method, cost,
-//! residual and per-frame positions.
+//! One segment pair: kind from the relative motion, centre by the chosen method, cost and
+//! residual; and a joint's per-frame positions from its centres and the segments' poses.
 
 use glam::DVec3;
 use mocap_io::Trajectories;
@@ -7,7 +7,7 @@ use mocap_io::Trajectories;
 use crate::aguiar::{self, Cloud, EqTwo};
 use crate::local::{LocalSettings, fit_local};
 use crate::motion::{RelativeMotion, relative_motion};
-use crate::pairfits::{JointKind, PairFit, SegmentPoses};
+use crate::pairfits::{JointKind, PairFit, PairFits, SegmentPoses};
 use crate::params::{Method, Params};
 use crate::poses::{self, Pose, PoseScatter};
 use crate::score::{self, MarkerLine};
@@ -182,7 +182,7 @@ pub(crate) fn fit_pair(
             cost: f64::INFINITY,
             centre_in_a: nan3,
             centre_in_b: nan3,
-            positions: vec![nan3; frames],
+            positions: Vec::new(),
             kind: JointKind::Ball,
             axis_in_a: None,
             axis_in_b: None,
@@ -394,7 +394,6 @@ pub(crate) fn fit_pair(
     };
     let residual = residual_rms(pa, pb, &co, c_a, c_b);
     let misfit_over_noise = misfit_over_noise((c_a, c_b), (&va, &vb), &co);
-    let positions = joint_positions(c_a, c_b, sa.posed(), sb.posed());
     let hinge = kind == JointKind::Hinge;
     PairFit {
         a,
@@ -403,7 +402,7 @@ pub(crate) fn fit_pair(
         cost,
         centre_in_a: c_a.to_array(),
         centre_in_b: c_b.to_array(),
-        positions,
+        positions: Vec::new(),
         kind,
         axis_in_a: hinge.then(|| motion.axis_in_a.to_array()),
         axis_in_b: hinge.then(|| motion.axis_in_b.to_array()),
@@ -557,16 +556,6 @@ impl<'a> PosedSegment<'a> {
     }
 }
 
-impl SegmentView<'_> {
-    /// The segment as [`joint_positions`] reads it.
-    fn posed(&self) -> PosedSegment<'_> {
-        PosedSegment {
-            scatter: self.scatter,
-            track: self.track,
-        }
-    }
-}
-
 /// The joint's global position per frame from its centre in each segment: where both are
 /// posed, both segments' views weighted by how precisely each pose puts its centre
 /// ([`PoseScatter::precision_at`]: a pose fixes a point near its markers better than one
@@ -604,6 +593,41 @@ pub(crate) fn joint_positions(
             (None, None) => [f64::NAN; 3],
         })
         .collect()
+}
+
+impl PairFits {
+    /// Pair `pair`'s joint positions per frame: its `positions` where a caller filled them
+    /// in, else from its centres and both segments' poses ([`joint_positions`]: each
+    /// view weighted by its precision there); empty when there is no such pair.
+    pub fn joint_positions(&self, pair: usize) -> Vec<[f64; 3]> {
+        let Some(fit) = self.pairs.get(pair) else {
+            return Vec::new();
+        };
+        if !fit.positions.is_empty() {
+            return fit.positions.clone();
+        }
+        let (Some(pa), Some(pb)) = (self.poses.get(fit.a), self.poses.get(fit.b)) else {
+            return Vec::new();
+        };
+        let (scatter_a, scatter_b) = (PoseScatter::of(pa), PoseScatter::of(pb));
+        let (track_a, track_b) = (poses::pose_track(pa), poses::pose_track(pb));
+        let posed = |scatter, track| PosedSegment { scatter, track };
+        joint_positions(
+            DVec3::from_array(fit.centre_in_a),
+            DVec3::from_array(fit.centre_in_b),
+            posed(&scatter_a, &track_a),
+            posed(&scatter_b, &track_b),
+        )
+    }
+
+    /// Fills in the `positions` of each of `pairs` left empty ([`PairFits::joint_positions`]).
+    pub fn fill_positions(&mut self, pairs: impl IntoIterator<Item = usize>) {
+        for pair in pairs {
+            if self.pairs.get(pair).is_some_and(|p| p.positions.is_empty()) {
+                self.pairs[pair].positions = self.joint_positions(pair);
+            }
+        }
+    }
 }
 
 /// The least-squares fixed point in `to`'s frame of the point `from` carries at `c`: the
@@ -697,7 +721,6 @@ pub(crate) fn apply_recentred(
     fit.centre_in_b = r.c_b.to_array();
     fit.residual_rms_mm = residual_rms(track_a, track_b, &r.frames, r.c_a, r.c_b);
     fit.frames_used = r.frames.len();
-    fit.positions = r.positions;
     fit.centre_from_distances = true;
     fit.evidence.push_str(&format!(
         "; centre set to {source}, {moved:.1} mm from the pose fit's"

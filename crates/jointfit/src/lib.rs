@@ -4,8 +4,8 @@
 //! [`segment::Segmentation`] (only each segment's marker indices are read) and gives
 //! [`PairFits`]: every segment's rigid pose per frame (Horn's quaternion method on the
 //! visible markers, ≥ 3, against a mean reference shape), and for every pair `a < b` a
-//! joint centre fixed in both segments' local frames, its position per frame, a cost for
-//! the topology stage, the joint kind (ball / hinge / universal / rigid) with its
+//! joint centre fixed in both segments' local frames (its position per frame follows from
+//! them and the poses, [`PairFits::joint_positions`]), a cost for the topology stage, the joint kind (ball / hinge / universal / rigid) with its
 //! evidence, and the hinge axis or a universal joint's two axes. Methods
 //! (`Params::method`): `score` (symmetrical centre of rotation with SARA hinge axes, closed
 //! form, its centres weighted frame by frame by each pose's precision at the centre,
@@ -573,13 +573,19 @@ fn centre_by_distances(
     let Some(moved) = fit::recentre(fit, c.frame, c.centre, posed(fit.a), posed(fit.b)) else {
         return;
     };
-    // Both measured on the positions they write, over the frames both are known.
+    // Both measured on the positions they give, over the frames both are known.
+    let before = fit::joint_positions(
+        DVec3::from_array(fit.centre_in_a),
+        DVec3::from_array(fit.centre_in_b),
+        posed(fit.a),
+        posed(fit.b),
+    );
     let markers = || segments[fit.a].iter().chain(&segments[fit.b]).copied();
     let known = |p: &[f64; 3]| {
         let p = DVec3::from_array(*p);
         p.is_finite().then_some(p)
     };
-    let both = |f: usize| known(&fit.positions[f]).zip(known(&moved.positions[f]));
+    let both = |f: usize| known(&before[f]).zip(known(&moved.positions[f]));
     let now = nearest_marker_mm(traj, markers(), |f| both(f).map(|(old, _)| old));
     let then = nearest_marker_mm(traj, markers(), |f| both(f).map(|(_, new)| new));
     if then <= now + NEARER_TOLERANCE_MM {

@@ -3,7 +3,7 @@
 use serde::{Deserialize, Serialize};
 
 /// Schema version of [`PairFits`]; bump when its fields or the algorithm's output change.
-pub const SCHEMA_VERSION: u32 = 33;
+pub const SCHEMA_VERSION: u32 = 34;
 
 /// Per-frame rigid poses of every segment and the joint fitted to every segment pair.
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
@@ -91,6 +91,11 @@ pub struct PairFit {
     pub centre_in_b: [f64; 3],
     /// Joint centre in the global frame at every frame (mm): both segments' views, each
     /// weighted by how precisely its pose puts the centre; NaN where it cannot be known.
+    /// Empty as the stage writes it: the centres and poses give it
+    /// ([`PairFits::joint_positions`]), and a capture's pairs outnumber its tree's joints
+    /// by the segment count over two (153 pairs, 17 joints for 18 segments), which the
+    /// artifact would hold for every frame. A caller fills in the pairs it reads
+    /// ([`PairFits::fill_positions`]) and may change them there.
     #[serde(with = "mocap_io::bulk::vec3s")]
     pub positions: Vec<[f64; 3]>,
     /// Articulation kind.
