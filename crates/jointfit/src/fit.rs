@@ -597,8 +597,8 @@ pub(crate) fn joint_positions(
 
 impl PairFits {
     /// Pair `pair`'s joint positions per frame: its `positions` where a caller filled them
-    /// in, else from its centres and both segments' poses ([`joint_positions`]: each
-    /// view weighted by its precision there); empty when there is no such pair.
+    /// in, else from its centres and both segments' poses (both views, each weighted by
+    /// how precisely its pose puts the centre); empty when there is no such pair.
     pub fn joint_positions(&self, pair: usize) -> Vec<[f64; 3]> {
         let Some(fit) = self.pairs.get(pair) else {
             return Vec::new();
