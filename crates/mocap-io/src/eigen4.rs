@@ -107,7 +107,15 @@ fn jacobi4<const VECTORS: bool>(mut m: [[f64; 4]; 4]) -> ([[f64; 4]; 4], [[f64; 
 /// (a tenth of the cost of Jacobi sweeps; this runs once per frame per fit). Where the
 /// iteration stalls (a repeated largest root converges only linearly) Jacobi decides.
 pub fn largest_eigenvalue4(m: [[f64; 4]; 4]) -> f64 {
-    largest_root4(m).unwrap_or_else(|| {
+    largest_eigenvalue4_below(m, f64::INFINITY)
+}
+
+/// [`largest_eigenvalue4`] given a bound `upper` at or above the largest eigenvalue: Newton
+/// starts there where it is below the Frobenius norm. For Horn's matrix of centred point
+/// sets P and Q, (|P|² + |Q|²) / 2 is such a bound (QCP's start) and lies within the fit's
+/// residual of the root, a step or two away.
+pub fn largest_eigenvalue4_below(m: [[f64; 4]; 4], upper: f64) -> f64 {
+    largest_root4(m, upper).unwrap_or_else(|| {
         let (d, _) = jacobi4::<false>(m);
         (0..4).map(|r| d[r][r]).fold(f64::NEG_INFINITY, f64::max)
     })
@@ -153,8 +161,9 @@ fn null_vector4(a: &[[f64; 4]; 4]) -> Option<[f64; 4]> {
 const NEWTON_STEPS: usize = 30;
 
 /// The largest root of the characteristic polynomial of symmetric `m` by Newton's method
-/// from the Frobenius norm; `None` if it has not converged within [`NEWTON_STEPS`].
-fn largest_root4(m: [[f64; 4]; 4]) -> Option<f64> {
+/// from the Frobenius norm or `upper`, whichever is less (both at or above the root);
+/// `None` if it has not converged within [`NEWTON_STEPS`].
+fn largest_root4(m: [[f64; 4]; 4], upper: f64) -> Option<f64> {
     // Power sums p_k = tr(mᵏ) (m symmetric: tr(m²) and tr(m⁴) are squared Frobenius
     // norms), then Newton's identities for λ⁴ + c3 λ³ + c2 λ² + c1 λ + c0.
     let mut sq = [[0.0; 4]; 4];
@@ -188,7 +197,7 @@ fn largest_root4(m: [[f64; 4]; 4]) -> Option<f64> {
     // Rounding in the coefficients moves a root by about ε·scale⁴ / P'(root): below this
     // slope (a nearly repeated largest root) that is not good to 1e-12 of the scale.
     let min_slope = 1e-4 * scale * scale * scale;
-    let mut x = scale;
+    let mut x = scale.min(upper);
     for _ in 0..NEWTON_STEPS {
         let p = (((x + c3) * x + c2) * x + c1) * x + c0;
         let dp = ((4.0 * x + 3.0 * c3) * x + 2.0 * c2) * x + c1;
@@ -215,7 +224,7 @@ fn largest_root4(m: [[f64; 4]; 4]) -> Option<f64> {
 /// slope test in `largest_root4` guarantees that). Otherwise cyclic Jacobi with
 /// accumulated rotations.
 pub fn largest_eigenpair4(m: [[f64; 4]; 4]) -> (f64, [f64; 4]) {
-    if let Some(lambda) = largest_root4(m) {
+    if let Some(lambda) = largest_root4(m, f64::INFINITY) {
         let mut a = m;
         (0..4).for_each(|i| a[i][i] -= lambda);
         if let Some(v) = null_vector4(&a) {
@@ -235,7 +244,10 @@ mod tests {
     use rand::{Rng, SeedableRng};
     use rand_chacha::ChaCha8Rng;
 
-    use super::{horn_matrix, jacobi4, largest_eigenpair4, largest_eigenvalue4, largest_root4};
+    use super::{
+        horn_matrix, jacobi4, largest_eigenpair4, largest_eigenvalue4, largest_eigenvalue4_below,
+        largest_root4,
+    };
 
     /// The Newton eigenvalue agrees with Jacobi's to rounding on random symmetric matrices
     /// and on Horn matrices of rigid, noisy, planar and collinear marker sets (the last two
@@ -255,7 +267,8 @@ mod tests {
                 m[i][j] = v;
                 m[j][i] = v;
             }
-            matrices.push(m);
+            // No bound known but the norm.
+            matrices.push((m, f64::INFINITY));
         }
         for shape in 0..3 {
             for _ in 0..200 {
@@ -265,6 +278,8 @@ mod tests {
                 let (c, s) = (angle.cos(), angle.sin());
                 let noise = if rng.random_bool(0.5) { 0.0 } else { 1.0 };
                 let mut cov = [[0.0; 3]; 3];
+                // Σ |p|² + |q|²: twice a bound on the largest eigenvalue (QCP's start).
+                let mut norms = 0.0;
                 for _ in 0..k {
                     let mut p = [0.0; 3];
                     for (i, v) in p.iter_mut().enumerate() {
@@ -282,20 +297,23 @@ mod tests {
                         for col in 0..3 {
                             cov[r][col] += p[r] * q[col];
                         }
+                        norms += p[r] * p[r] + q[r] * q[r];
                     }
                 }
-                matrices.push(horn_matrix(cov));
+                matrices.push((horn_matrix(cov), norms / 2.0));
             }
         }
         let mut newton = 0;
-        for m in matrices {
+        for (m, upper) in matrices {
             let scale = m.iter().flatten().map(|x| x * x).sum::<f64>().sqrt();
-            let (fast, slow) = (largest_eigenvalue4(m), jacobi(m));
-            assert!(
-                (fast - slow).abs() <= 1e-11 * scale.max(1.0),
-                "{fast} vs {slow} (scale {scale}) for {m:?}"
-            );
-            newton += usize::from(largest_root4(m).is_some());
+            let slow = jacobi(m);
+            for fast in [largest_eigenvalue4(m), largest_eigenvalue4_below(m, upper)] {
+                assert!(
+                    (fast - slow).abs() <= 1e-11 * scale.max(1.0),
+                    "{fast} vs {slow} (scale {scale}, bound {upper}) for {m:?}"
+                );
+            }
+            newton += usize::from(largest_root4(m, upper).is_some());
         }
         // The fast path is the common one; Jacobi only settles repeated roots.
         assert!(newton >= 600, "Newton converged on {newton} of 800");

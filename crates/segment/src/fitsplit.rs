@@ -12,7 +12,7 @@ use mocap_io::Trajectories;
 use rayon::prelude::*;
 
 use crate::eigen::symmetric_eigen;
-use crate::eigen4::{horn_matrix, largest_eigenvalue4};
+use crate::eigen4::{horn_matrix, largest_eigenvalue4_below};
 use crate::pairstats::PairStats;
 use crate::reassign::{Pose, horn, locals_in};
 use crate::rigidity::{merge_best_pairs, rms_rho};
@@ -261,7 +261,7 @@ fn fit_residual(
                 }
             }
             let n = horn_matrix(s);
-            let ss = (norms - 2.0 * largest_eigenvalue4(n)).max(0.0);
+            let ss = (norms - 2.0 * largest_eigenvalue4_below(n, norms / 2.0)).max(0.0);
             fit.push(FitResidual { sum_sq: ss, dof });
         }
     }
@@ -445,22 +445,26 @@ fn best_bipartition(
     if !(4..=MAX_ENUMERATED).contains(&n) || whole.is_nan() || whole <= skip_below_mm {
         return Some((whole, None));
     }
-    let mut best: Option<(f64, Vec<usize>, Vec<usize>)> = None;
-    // Masks keep the first marker in part A, so each bipartition is seen once.
-    for mask in 0u32..(1u32 << (n - 1)) {
-        let in_a = |i: usize| i == 0 || (mask >> (i - 1)) & 1 == 0;
-        let a: Vec<usize> = (0..n).filter(|&i| in_a(i)).collect();
-        let b: Vec<usize> = (0..n).filter(|&i| !in_a(i)).collect();
-        if a.len() < 2 || b.len() < 2 {
-            continue;
-        }
-        let (Some(fa), Some(fb)) = (
-            fit_residual(traj, cluster, &dist, &a),
-            fit_residual(traj, cluster, &dist, &b),
-        ) else {
-            continue;
-        };
-        let pooled = robust_sigma(fa.into_iter().zip(fb).map(|(x, y)| x.add(y)));
+    // Masks keep the first marker in part A, so each bipartition is seen once. Each is a
+    // pass over the capture (up to 2^9 of them), so they are fitted in parallel; the pick
+    // runs in mask order.
+    let fitted: Vec<Option<Bipartition>> = (0u32..(1u32 << (n - 1)))
+        .into_par_iter()
+        .map(|mask| {
+            let in_a = |i: usize| i == 0 || (mask >> (i - 1)) & 1 == 0;
+            let a: Vec<usize> = (0..n).filter(|&i| in_a(i)).collect();
+            let b: Vec<usize> = (0..n).filter(|&i| !in_a(i)).collect();
+            if a.len() < 2 || b.len() < 2 {
+                return None;
+            }
+            let fa = fit_residual(traj, cluster, &dist, &a)?;
+            let fb = fit_residual(traj, cluster, &dist, &b)?;
+            let pooled = robust_sigma(fa.into_iter().zip(fb).map(|(x, y)| x.add(y)));
+            Some((pooled, a, b))
+        })
+        .collect();
+    let mut best: Option<Bipartition> = None;
+    for (pooled, a, b) in fitted.into_iter().flatten() {
         if best.as_ref().is_none_or(|(s, _, _)| pooled < *s) {
             let markers = |part: &[usize]| part.iter().map(|&i| cluster[i]).collect();
             best = Some((pooled, markers(&a), markers(&b)));
