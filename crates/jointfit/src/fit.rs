@@ -620,7 +620,8 @@ impl PairFits {
         )
     }
 
-    /// Fills in the `positions` of each of `pairs` left empty ([`PairFits::joint_positions`]).
+    /// Fills in the `positions` of each of `pairs` left empty
+    /// ([`PairFits::joint_positions`]).
     pub fn fill_positions(&mut self, pairs: impl IntoIterator<Item = usize>) {
         for pair in pairs {
             if self.pairs.get(pair).is_some_and(|p| p.positions.is_empty()) {

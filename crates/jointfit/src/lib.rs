@@ -5,8 +5,9 @@
 //! [`PairFits`]: every segment's rigid pose per frame (Horn's quaternion method on the
 //! visible markers, ≥ 3, against a mean reference shape), and for every pair `a < b` a
 //! joint centre fixed in both segments' local frames (its position per frame follows from
-//! them and the poses, [`PairFits::joint_positions`]), a cost for the topology stage, the joint kind (ball / hinge / universal / rigid) with its
-//! evidence, and the hinge axis or a universal joint's two axes. Methods
+//! them and the poses, [`PairFits::joint_positions`]), a cost for the topology stage, the
+//! joint kind (ball / hinge / universal / rigid) with its evidence, and the hinge axis or
+//! a universal joint's two axes. Methods
 //! (`Params::method`): `score` (symmetrical centre of rotation with SARA hinge axes, closed
 //! form, its centres weighted frame by frame by each pose's precision at the centre,
 //! `Params::weighted_centres`, and held between the two segments where the motion barely

@@ -112,8 +112,8 @@ pub fn largest_eigenvalue4(m: [[f64; 4]; 4]) -> f64 {
 
 /// [`largest_eigenvalue4`] given a bound `upper` at or above the largest eigenvalue: Newton
 /// starts there where it is below the Frobenius norm. For Horn's matrix of centred point
-/// sets P and Q, (|P|² + |Q|²) / 2 is such a bound (QCP's start) and lies within the fit's
-/// residual of the root, a step or two away.
+/// sets P and Q, (|P|² + |Q|²) / 2 is such a bound (QCP's start): it exceeds the root by
+/// half the fit's residual sum of squares, so for a good fit Newton starts next to it.
 pub fn largest_eigenvalue4_below(m: [[f64; 4]; 4], upper: f64) -> f64 {
     largest_root4(m, upper).unwrap_or_else(|| {
         let (d, _) = jacobi4::<false>(m);
