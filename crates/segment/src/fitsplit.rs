@@ -445,31 +445,37 @@ fn best_bipartition(
     if !(4..=MAX_ENUMERATED).contains(&n) || whole.is_nan() || whole <= skip_below_mm {
         return Some((whole, None));
     }
-    // Masks keep the first marker in part A, so each bipartition is seen once. Each is a
-    // pass over the capture (up to 2^9 of them), so they are fitted in parallel; the pick
-    // runs in mask order.
-    let fitted: Vec<Option<Bipartition>> = (0u32..(1u32 << (n - 1)))
+    // Masks keep the first marker in part A, so each bipartition is seen once (parts as
+    // positions in the cluster). Each is a pass over the capture (up to 2^9 of them), so
+    // they are fitted in parallel; the pick runs in mask order.
+    let parts = |mask: u32| -> (Vec<usize>, Vec<usize>) {
+        (0..n).partition(|&i| i == 0 || (mask >> (i - 1)) & 1 == 0)
+    };
+    let pooled: Vec<Option<f64>> = (0u32..(1u32 << (n - 1)))
         .into_par_iter()
         .map(|mask| {
-            let in_a = |i: usize| i == 0 || (mask >> (i - 1)) & 1 == 0;
-            let a: Vec<usize> = (0..n).filter(|&i| in_a(i)).collect();
-            let b: Vec<usize> = (0..n).filter(|&i| !in_a(i)).collect();
+            let (a, b) = parts(mask);
             if a.len() < 2 || b.len() < 2 {
                 return None;
             }
             let fa = fit_residual(traj, cluster, &dist, &a)?;
             let fb = fit_residual(traj, cluster, &dist, &b)?;
-            let pooled = robust_sigma(fa.into_iter().zip(fb).map(|(x, y)| x.add(y)));
-            Some((pooled, a, b))
+            Some(robust_sigma(fa.into_iter().zip(fb).map(|(x, y)| x.add(y))))
         })
         .collect();
-    let mut best: Option<Bipartition> = None;
-    for (pooled, a, b) in fitted.into_iter().flatten() {
-        if best.as_ref().is_none_or(|(s, _, _)| pooled < *s) {
-            let markers = |part: &[usize]| part.iter().map(|&i| cluster[i]).collect();
-            best = Some((pooled, markers(&a), markers(&b)));
+    let mut least: Option<(f64, u32)> = None;
+    for (mask, sigma) in (0u32..).zip(pooled) {
+        if let Some(sigma) = sigma
+            && least.is_none_or(|(s, _)| sigma < s)
+        {
+            least = Some((sigma, mask));
         }
     }
+    let best = least.map(|(sigma, mask)| {
+        let (a, b) = parts(mask);
+        let markers = |part: &[usize]| part.iter().map(|&i| cluster[i]).collect();
+        (sigma, markers(&a), markers(&b))
+    });
     Some((whole, best))
 }
 
