@@ -572,18 +572,29 @@ mod tests {
         }
     }
 
+    /// The default capture run once, quietly, into a fresh directory named `name`: the
+    /// directory, the capture, the run's arguments and its report.
+    fn first_run(name: &str) -> (TempDir, PathBuf, Args, Report) {
+        let dir = TempDir::new(name).unwrap();
+        let input = capture(dir.path());
+        let a = args(&input, dir.path(), &[]);
+        let first = execute(&a, &Progress::hidden()).unwrap();
+        (dir, input, a, first)
+    }
+
+    /// skeleton.json as a run into `dir` wrote it.
+    fn skeleton_json(dir: &TempDir) -> Vec<u8> {
+        std::fs::read(dir.path().join("out/skeleton.json")).unwrap()
+    }
+
     fn cached(report: &Report) -> Vec<bool> {
         report.stages.iter().map(|s| s.cached).collect()
     }
 
     #[test]
     fn reruns_reuse_exactly_what_did_not_change() {
-        let dir = TempDir::new("run").unwrap();
-        let input = capture(dir.path());
+        let (dir, input, a, first) = first_run("run");
         let quiet = Progress::hidden();
-        let a = args(&input, dir.path(), &[]);
-
-        let first = execute(&a, &quiet).unwrap();
         assert_eq!(cached(&first), [false; 6]);
         let names: Vec<_> = first.stages.iter().map(|s| s.name).collect();
         assert_eq!(
@@ -592,17 +603,14 @@ mod tests {
                 "mocap-io", "segment", "jointfit", "topo", "bonefit", "export"
             ]
         );
-        let json = std::fs::read(dir.path().join("out/skeleton.json")).unwrap();
+        let json = skeleton_json(&dir);
         assert!(dir.path().join("out/skeleton.bvh").is_file());
         assert!(dir.path().join("cache/CACHEDIR.TAG").is_file());
 
         // Nothing changed: every stage from the cache, same bytes out.
         let again = execute(&a, &quiet).unwrap();
         assert_eq!(cached(&again), [true; 6]);
-        assert_eq!(
-            std::fs::read(dir.path().join("out/skeleton.json")).unwrap(),
-            json
-        );
+        assert_eq!(skeleton_json(&dir), json);
 
         // A jointfit parameter: jointfit and downstream rerun, upstream reused.
         let set = execute(&args(&input, dir.path(), &["jointfit.alpha=0.25"]), &quiet).unwrap();
@@ -634,35 +642,25 @@ mod tests {
         let repaired = execute(&a, &quiet).unwrap();
         assert_eq!(cached(&repaired), [true, false, true, true, true, true]);
         assert_eq!(std::fs::read(&seg).unwrap(), bytes);
-        assert_eq!(
-            std::fs::read(dir.path().join("out/skeleton.json")).unwrap(),
-            json
-        );
+        assert_eq!(skeleton_json(&dir), json);
     }
 
     /// A stage whose cache entry cannot be written still gives its artifact's hash, so the
     /// stages after it find their entries as before: the run is whole, only not cached.
     #[test]
     fn an_entry_that_cannot_be_written_leaves_the_run_whole() {
-        let dir = TempDir::new("run-unwritable").unwrap();
-        let input = capture(dir.path());
-        let quiet = Progress::hidden();
-        let a = args(&input, dir.path(), &[]);
-        let first = execute(&a, &quiet).unwrap();
-        let json = std::fs::read(dir.path().join("out/skeleton.json")).unwrap();
+        let (dir, _, a, first) = first_run("run-unwritable");
+        let json = skeleton_json(&dir);
         let cache = Cache::open(&dir.path().join("cache")).unwrap();
         let entry = cache.entry_path("jointfit", jointfit::SCHEMA_VERSION, &first.stages[2].key);
         std::fs::remove_file(&entry).unwrap();
         std::fs::create_dir(&entry).unwrap();
-        let again = execute(&a, &quiet).unwrap();
+        let again = execute(&a, &Progress::hidden()).unwrap();
         assert_eq!(cached(&again), [true, true, false, true, true, true]);
         let hashes = |r: &Report| r.stages.iter().map(|s| s.hash.clone()).collect::<Vec<_>>();
         assert_eq!(hashes(&again), hashes(&first));
         assert!(entry.is_dir());
-        assert_eq!(
-            std::fs::read(dir.path().join("out/skeleton.json")).unwrap(),
-            json
-        );
+        assert_eq!(skeleton_json(&dir), json);
     }
 
     /// The findings name what skeleton.json flags, and only that.
