@@ -86,14 +86,16 @@ pub fn main(args: &Args) -> Result<()> {
     // The runner's own path: cold cache (compute + encode + write), then warm (all hits).
     let cache_dir = TempDir::new("bench-cache")?;
     let cache = Cache::open(cache_dir.path())?;
+    let out = dir.path().join("out");
     let start = Instant::now();
-    pipeline::run_cached(&c3d, &params, &cache, None, &Progress::hidden())?;
+    pipeline::run_cached(&c3d, &params, &cache, None, &Progress::hidden(), &out)?;
     let cold_s = start.elapsed().as_secs_f64();
     let mut warm_s = f64::INFINITY;
     let mut all_cached = true;
     for _ in 0..args.warm_runs.max(1) {
         let start = Instant::now();
-        let (_, runs) = pipeline::run_cached(&c3d, &params, &cache, None, &Progress::hidden())?;
+        let (_, runs, _) =
+            pipeline::run_cached(&c3d, &params, &cache, None, &Progress::hidden(), &out)?;
         warm_s = warm_s.min(start.elapsed().as_secs_f64());
         all_cached &= runs.iter().all(|r| r.cached);
     }

@@ -13,13 +13,13 @@
 //! (role "capture", the blake3 of the file's bytes).
 
 use std::collections::BTreeMap;
-use std::path::Path;
+use std::path::{Path, PathBuf};
 use std::time::Instant;
 
 use anyhow::{Context as _, Result, anyhow, bail};
 use bonefit::Skeleton;
 use jointfit::PairFits;
-use mocap_io::artifact::{self, ArtifactHeader, InputHash};
+use mocap_io::artifact::{self, ArtifactHeader, ByteMapReader, ByteMapWriter, FileSet, InputHash};
 use mocap_io::{Capture, ReadOptions};
 use segment::Segmentation;
 use serde::Serialize;
@@ -521,19 +521,190 @@ impl Products {
                 &params.bonefit,
             )?),
             StageId::Export => {
-                let inputs = export::Inputs {
-                    trajectories: &capture()?.trajectories,
-                    segmentation: seg()?,
-                    fits: fits()?,
-                    topology: topology()?,
-                    skeleton: need(&self.skeleton, StageId::Bonefit)?,
-                    settings: &params.changed()?,
-                    reader_warnings: &capture()?.info.warnings,
-                };
-                Payload::Outputs(export::run(&inputs, &params.export)?)
+                Payload::Outputs(self.with_export_inputs(params, |inputs| {
+                    Ok(export::run(inputs, &params.export)?)
+                })?)
             }
         })
     }
+
+    /// Calls `f` with export's inputs: every earlier stage's output and the run's settings.
+    pub fn with_export_inputs<R>(
+        &self,
+        params: &Params,
+        f: impl FnOnce(&export::Inputs<'_>) -> Result<R>,
+    ) -> Result<R> {
+        let capture = need(&self.capture, StageId::MocapIo)?;
+        let inputs = export::Inputs {
+            trajectories: &capture.trajectories,
+            segmentation: need(&self.segmentation, StageId::Segment)?,
+            fits: need(&self.fits, StageId::Jointfit)?,
+            topology: need(&self.topology, StageId::Topo)?,
+            skeleton: need(&self.skeleton, StageId::Bonefit)?,
+            settings: &params.changed()?,
+            reader_warnings: &capture.info.warnings,
+        };
+        f(&inputs)
+    }
+
+    /// Runs export, each file written as it is made (see [`ExportSink`]) into `dir` and
+    /// into the `artifact` (path, header) given; the artifact's writer comes back to be
+    /// finished.
+    pub fn export_to(
+        &self,
+        params: &Params,
+        dir: Option<&Path>,
+        artifact: Option<(&Path, &ArtifactHeader)>,
+    ) -> Result<(Exported, Option<ByteMapWriter>)> {
+        self.with_export_inputs(params, |inputs| {
+            let writer = artifact.map(|(path, header)| {
+                ByteMapWriter::create(
+                    path,
+                    header,
+                    OUTPUTS_FIELD,
+                    export::file_names(inputs).len(),
+                )
+            });
+            let mut sink = ExportSink::new(dir, writer)?;
+            // Writing (the output folder and the cache entry: twice the files' bytes) goes
+            // on beside the making of the next file; one file waits between them at most.
+            std::thread::scope(|scope| {
+                let (to_writer, files) = std::sync::mpsc::sync_channel::<(String, Vec<u8>)>(1);
+                let writing = scope.spawn(move || -> Result<ExportSink> {
+                    for (name, bytes) in files {
+                        sink.file(&name, bytes)?;
+                    }
+                    Ok(sink)
+                });
+                let made = export::run_each(inputs, &params.export, |name, bytes| {
+                    // A send fails only where the writer stopped at an error, told below.
+                    to_writer
+                        .send((name.to_owned(), bytes))
+                        .map_err(|_| anyhow!("the output writer stopped"))
+                });
+                drop(to_writer);
+                let written = writing
+                    .join()
+                    .map_err(|_| anyhow!("the output writer panicked"))?;
+                let sink = written?;
+                made?;
+                sink.finish()
+            })
+        })
+    }
+}
+
+/// The field of export's artifact payload that holds its files (`export::Outputs::files`).
+const OUTPUTS_FIELD: &str = "files";
+
+/// What export wrote into an output folder.
+#[derive(Debug)]
+pub struct Exported {
+    /// Every file written, in the order written.
+    pub files: Vec<PathBuf>,
+    /// skeleton.json's bytes (the run's findings are read from them).
+    pub skeleton_json: Vec<u8>,
+}
+
+/// Export's files as they come: each to a temporary beside its place in the output folder,
+/// if any (the set renamed into place only when all came, see [`artifact::FileSet`]), and
+/// into the export artifact being written, if any; skeleton.json's bytes are kept. Only
+/// one file's bytes are in memory at a time.
+struct ExportSink {
+    dir: Option<PathBuf>,
+    set: FileSet,
+    artifact: Option<ByteMapWriter>,
+    skeleton_json: Option<Vec<u8>>,
+}
+
+impl ExportSink {
+    fn new(dir: Option<&Path>, artifact: Option<ByteMapWriter>) -> Result<Self> {
+        if let Some(dir) = dir {
+            std::fs::create_dir_all(dir)
+                .with_context(|| format!("{}: cannot create", dir.display()))?;
+        }
+        Ok(Self {
+            dir: dir.map(Path::to_path_buf),
+            set: FileSet::default(),
+            artifact,
+            skeleton_json: None,
+        })
+    }
+
+    fn file(&mut self, name: &str, bytes: Vec<u8>) -> Result<()> {
+        check_output_name(name)?;
+        if let Some(dir) = &self.dir {
+            self.set.add(&dir.join(name), &bytes)?;
+        }
+        if let Some(artifact) = &mut self.artifact {
+            artifact.push(name, &bytes)?;
+        }
+        if name == "skeleton.json" {
+            self.skeleton_json = Some(bytes);
+        }
+        Ok(())
+    }
+
+    /// Renames the files into place; gives the artifact writer back to be finished.
+    fn finish(self) -> Result<(Exported, Option<ByteMapWriter>)> {
+        let skeleton_json = self
+            .skeleton_json
+            .context("the export stage wrote no skeleton.json")?;
+        let files: Vec<PathBuf> = self.set.paths().map(Path::to_path_buf).collect();
+        self.set.commit()?;
+        Ok((
+            Exported {
+                files,
+                skeleton_json,
+            },
+            self.artifact,
+        ))
+    }
+}
+
+/// Streams a cached export artifact's files into `dir` (each written as it is read, the
+/// set renamed into place when all came), with its content hash; `None` (after a warning)
+/// where the entry is damaged or does not match `expected`, the header it should have, so
+/// export runs again. A file that cannot be written into `dir` is an error.
+fn export_from_cache(
+    path: &Path,
+    expected: &ArtifactHeader,
+    dir: &Path,
+    progress: &Progress,
+) -> Result<Option<(Exported, String)>> {
+    let damaged = |e: &dyn std::fmt::Display| {
+        progress.warn(&format!("damaged cache entry, recomputing: {e:#}"));
+        Ok(None)
+    };
+    let (mut reader, header) = match ByteMapReader::open(path, OUTPUTS_FIELD) {
+        Ok(opened) => opened,
+        Err(e) => return damaged(&e),
+    };
+    if let Err(e) = check_stage(StageId::Export, &header, path) {
+        return damaged(&e);
+    }
+    // The tool version may differ: the key deliberately leaves it out.
+    if header.params != expected.params || header.inputs != expected.inputs {
+        progress.warn(&format!(
+            "{}: cache entry does not match its key (parameters or inputs differ); recomputing",
+            path.display()
+        ));
+        return Ok(None);
+    }
+    let mut sink = ExportSink::new(Some(dir), None)?;
+    loop {
+        match reader.next_entry() {
+            Ok(Some((name, bytes))) => sink.file(&name, bytes)?,
+            Ok(None) => break,
+            Err(e) => return damaged(&e),
+        }
+    }
+    let hash = match reader.finish() {
+        Ok(hash) => hash,
+        Err(e) => return damaged(&e),
+    };
+    let (exported, _) = sink.finish()?;
+    Ok(Some((exported, hash)))
 }
 
 /// What happened to one stage in a run.
@@ -564,18 +735,21 @@ pub fn header(stage: StageId, params: &Params, inputs: Vec<InputHash>) -> Result
     })
 }
 
-/// Runs the whole pipeline on a capture file with the cache.
+/// Runs the whole pipeline on a capture file with the cache, and writes the output files
+/// into `out` (as a set, only when every stage succeeded).
 ///
 /// `force_from`: that stage and everything downstream are recomputed even when cached.
-/// Returns the products and one [`StageRun`] per stage. A failing stage's error names
-/// the stage and the capture file.
+/// Returns the products (export's files are not among them: they went to `out` one at a
+/// time, see [`ExportSink`]), one [`StageRun`] per stage and what was written. A failing
+/// stage's error names the stage and the capture file.
 pub fn run_cached(
     capture_file: &Path,
     params: &Params,
     cache: &Cache,
     force_from: Option<StageId>,
     progress: &Progress,
-) -> Result<(Products, Vec<StageRun>)> {
+    out: &Path,
+) -> Result<(Products, Vec<StageRun>, Exported)> {
     let file_bytes = std::fs::read(capture_file)
         .with_context(|| format!("{}: cannot read", capture_file.display()))?;
     let file_hash = artifact::content_hash(&file_bytes);
@@ -583,6 +757,22 @@ pub fn run_cached(
 
     let mut products = Products::default();
     let mut runs: Vec<StageRun> = Vec::new();
+    let mut exported = None;
+    // What the reader said about the file often explains a later failure (every sample
+    // flagged invalid, units guessed).
+    let failed = |products: &Products, e: anyhow::Error, stage: StageId| {
+        progress.abandon();
+        if let Some(capture) = &products.capture {
+            for w in &capture.info.warnings {
+                progress.warn(&format!("{}: {w}", capture_file.display()));
+            }
+        }
+        e.context(format!(
+            "stage {} failed on {}",
+            stage.name(),
+            capture_file.display()
+        ))
+    };
     for stage in StageId::ALL {
         let start = Instant::now();
         progress.start(stage.name());
@@ -609,50 +799,55 @@ pub fn run_cached(
             &header.inputs,
         );
         let forced = force_from.is_some_and(|f| stage >= f);
-        let hit = if forced {
-            None
-        } else {
-            load_checked(cache, stage, &key, &header, progress)
-        };
-        let (cached, hash) = match hit {
-            Some((payload, hash)) => {
-                products.put(payload);
-                (true, hash)
-            }
-            None => {
-                let payload = products
-                    .compute(stage, params, Some(capture_file))
-                    .with_context(|| {
-                        format!(
-                            "stage {} failed on {}",
-                            stage.name(),
-                            capture_file.display()
-                        )
-                    });
-                let payload = match payload {
-                    Ok(p) => p,
-                    Err(e) => {
-                        progress.abandon();
-                        // What the reader said about the file often explains a later
-                        // failure (every sample flagged invalid, units guessed).
-                        if let Some(capture) = &products.capture {
-                            for w in &capture.info.warnings {
-                                progress.warn(&format!("{}: {w}", capture_file.display()));
-                            }
-                        }
-                        return Err(e);
-                    }
-                };
-                let entry = cache.entry_path(stage.name(), stage.schema_version(), &key);
-                let hash = match payload.write(&entry, &header) {
-                    Ok(hash) => hash,
-                    Err(e) => {
+        let entry = cache.entry_path(stage.name(), stage.schema_version(), &key);
+        let (cached, hash) = if stage == StageId::Export {
+            // The files go straight to `out`, from the cache or as export makes them.
+            let hit = if forced || !entry.exists() {
+                None
+            } else {
+                export_from_cache(&entry, &header, out, progress)?
+            };
+            let (files, cached, hash) = match hit {
+                Some((files, hash)) => (files, true, hash),
+                None => {
+                    let (files, writer) = products
+                        .export_to(params, Some(out), Some((&entry, &header)))
+                        .map_err(|e| failed(&products, e, stage))?;
+                    let writer = writer.context("export's artifact writer went missing")?;
+                    let (hash, written) = writer.finish();
+                    if let Err(e) = written {
                         progress.warn(&format!("not cached: {e:#}"));
-                        payload.content_hash(&header)?
                     }
-                };
-                products.put(payload);
-                (false, hash)
+                    (files, false, hash)
+                }
+            };
+            exported = Some(files);
+            (cached, hash)
+        } else {
+            let hit = if forced {
+                None
+            } else {
+                load_checked(cache, stage, &key, &header, progress)
+            };
+            match hit {
+                Some((payload, hash)) => {
+                    products.put(payload);
+                    (true, hash)
+                }
+                None => {
+                    let payload = products
+                        .compute(stage, params, Some(capture_file))
+                        .map_err(|e| failed(&products, e, stage))?;
+                    let hash = match payload.write(&entry, &header) {
+                        Ok(hash) => hash,
+                        Err(e) => {
+                            progress.warn(&format!("not cached: {e:#}"));
+                            payload.content_hash(&header)?
+                        }
+                    };
+                    products.put(payload);
+                    (false, hash)
+                }
             }
         };
         let seconds = start.elapsed().as_secs_f64();
@@ -665,7 +860,8 @@ pub fn run_cached(
             hash,
         });
     }
-    Ok((products, runs))
+    let exported = exported.context("the export stage did not run")?;
+    Ok((products, runs, exported))
 }
 
 /// A cache entry decoded and checked against the header it should have; `None` (after a
@@ -758,31 +954,21 @@ pub fn check_output_name(name: &str) -> Result<()> {
     }
 }
 
-/// Writes output files into a folder as a set; only called once every stage succeeded.
-///
-/// Every file goes to a temporary first and the renames follow, so a failure leaves the
-/// previous set (or none), never a new skeleton.json next to an old skeleton.bvh.
-pub fn write_outputs(outputs: &export::Outputs, dir: &Path) -> Result<Vec<std::path::PathBuf>> {
-    for name in outputs.files.keys() {
-        check_output_name(name)?;
-    }
-    std::fs::create_dir_all(dir).with_context(|| format!("{}: cannot create", dir.display()))?;
-    let written: Vec<std::path::PathBuf> = outputs.files.keys().map(|n| dir.join(n)).collect();
-    let files: Vec<(&Path, &[u8])> = written
-        .iter()
-        .zip(outputs.files.values())
-        .map(|(p, b)| (p.as_path(), b.as_slice()))
-        .collect();
-    artifact::write_atomic_all(&files)?;
-    Ok(written)
-}
-
 #[cfg(test)]
 mod tests {
     use std::collections::BTreeMap;
 
     use super::*;
     use crate::tempdir::TempDir;
+
+    /// Writes `outputs` into `dir` through export's sink, as a run writes them.
+    fn write_outputs(outputs: &export::Outputs, dir: &Path) -> Result<Vec<PathBuf>> {
+        let mut sink = ExportSink::new(Some(dir), None)?;
+        for (name, bytes) in &outputs.files {
+            sink.file(name, bytes.clone())?;
+        }
+        Ok(sink.finish()?.0.files)
+    }
 
     fn outputs(tag: &str) -> export::Outputs {
         let files: BTreeMap<String, Vec<u8>> = ["joints.csv", "skeleton.bvh", "skeleton.json"]

@@ -265,20 +265,11 @@ pub fn execute(args: &Args, progress: &Progress) -> Result<Report> {
         None => PathBuf::from("out").join(stem_of(&input)),
     };
     let cache = Cache::open(&cache::resolve_root(args.cache.as_deref()))?;
-    let (products, stages) = pipeline::run_cached(&input, &params, &cache, force_from, progress)?;
-    let outputs = products
-        .outputs
-        .as_ref()
-        .context("the export stage produced no outputs")?;
-    let files = pipeline::write_outputs(outputs, &out)
-        .with_context(|| format!("writing the outputs of {}", input.display()))?;
-    let document: export::SkeletonJson = serde_json::from_slice(
-        outputs
-            .files
-            .get("skeleton.json")
-            .context("the export stage wrote no skeleton.json")?,
-    )
-    .context("reading back skeleton.json")?;
+    let (products, stages, exported) =
+        pipeline::run_cached(&input, &params, &cache, force_from, progress, &out)?;
+    let document: export::SkeletonJson =
+        serde_json::from_slice(&exported.skeleton_json).context("reading back skeleton.json")?;
+    let files = exported.files;
     Ok(Report {
         stages,
         out,
@@ -606,6 +597,28 @@ mod tests {
         let json = skeleton_json(&dir);
         assert!(dir.path().join("out/skeleton.bvh").is_file());
         assert!(dir.path().join("cache/CACHEDIR.TAG").is_file());
+        // export's entry, streamed file by file, is the artifact its files encode to, and
+        // each file is the one written out.
+        let cache = Cache::open(&dir.path().join("cache")).unwrap();
+        let export_entry = cache.entry_path("export", export::SCHEMA_VERSION, &first.stages[5].key);
+        let export_bytes = std::fs::read(&export_entry).unwrap();
+        let (header, payload, hash) =
+            pipeline::read_payload(StageId::Export, &export_entry).unwrap();
+        assert_eq!(hash, first.stages[5].hash);
+        let pipeline::Payload::Outputs(outputs) = payload else {
+            panic!("export's entry holds another stage's payload")
+        };
+        assert_eq!(
+            mocap_io::artifact::encode(&header, &outputs).unwrap(),
+            export_bytes
+        );
+        assert_eq!(outputs.files.len(), first.files.len());
+        for (name, bytes) in &outputs.files {
+            assert_eq!(
+                &std::fs::read(dir.path().join("out").join(name)).unwrap(),
+                bytes
+            );
+        }
 
         // Nothing changed: every stage from the cache, same bytes out.
         let again = execute(&a, &quiet).unwrap();
@@ -635,13 +648,18 @@ mod tests {
 
         // A damaged entry is recomputed, not trusted and not a crash; a recomputed
         // artifact has the same bytes, so downstream stays cached.
-        let cache = Cache::open(&dir.path().join("cache")).unwrap();
         let seg = cache.entry_path("segment", segment::SCHEMA_VERSION, &first.stages[1].key);
         let bytes = std::fs::read(&seg).unwrap();
         std::fs::write(&seg, &bytes[..bytes.len() / 2]).unwrap();
         let repaired = execute(&a, &quiet).unwrap();
         assert_eq!(cached(&repaired), [true, false, true, true, true, true]);
         assert_eq!(std::fs::read(&seg).unwrap(), bytes);
+        assert_eq!(skeleton_json(&dir), json);
+        // So is export's, read file by file into the output folder: a cut inside a file.
+        std::fs::write(&export_entry, &export_bytes[..export_bytes.len() / 2]).unwrap();
+        let repaired = execute(&a, &quiet).unwrap();
+        assert_eq!(cached(&repaired), [true, true, true, true, true, false]);
+        assert_eq!(std::fs::read(&export_entry).unwrap(), export_bytes);
         assert_eq!(skeleton_json(&dir), json);
     }
 
@@ -660,6 +678,16 @@ mod tests {
         let hashes = |r: &Report| r.stages.iter().map(|s| s.hash.clone()).collect::<Vec<_>>();
         assert_eq!(hashes(&again), hashes(&first));
         assert!(entry.is_dir());
+        assert_eq!(skeleton_json(&dir), json);
+        // export's entry is written as its files are made: blocked, the files still come.
+        let entry = cache.entry_path("export", export::SCHEMA_VERSION, &first.stages[5].key);
+        std::fs::remove_file(&entry).unwrap();
+        std::fs::create_dir(&entry).unwrap();
+        std::fs::remove_file(dir.path().join("out/skeleton.json")).unwrap();
+        let again = execute(&a, &Progress::hidden()).unwrap();
+        assert_eq!(cached(&again), [true, true, false, true, true, false]);
+        assert_eq!(hashes(&again), hashes(&first));
+        assert_eq!(again.files, first.files);
         assert_eq!(skeleton_json(&dir), json);
     }
 

@@ -163,23 +163,31 @@ pub fn execute(args: &Args) -> Result<Vec<PathBuf>> {
         (inputs, None)
     };
 
-    let payload = products
-        .compute(stage, &params, capture_file)
-        .with_context(|| format!("stage {} failed on {}", stage.name(), names()))?;
+    let failed = || format!("stage {} failed on {}", stage.name(), names());
     let header = pipeline::header(stage, &params, inputs)?;
-    let to_folder = stage == StageId::Export
-        && !args
+    if stage == StageId::Export {
+        // Export's files are written one at a time as they are made, into the folder or
+        // into the artifact, never all in memory.
+        let to_artifact = args
             .out
             .extension()
             .is_some_and(|e| e.eq_ignore_ascii_case("cbor"));
-    if to_folder {
-        products.put(payload);
-        let outputs = products
-            .outputs
-            .as_ref()
-            .context("the export stage produced no outputs")?;
-        return pipeline::write_outputs(outputs, &args.out);
+        if !to_artifact {
+            let (exported, _) = products
+                .export_to(&params, Some(&args.out), None)
+                .with_context(failed)?;
+            return Ok(exported.files);
+        }
+        let (_, writer) = products
+            .export_to(&params, None, Some((&args.out, &header)))
+            .with_context(failed)?;
+        let writer = writer.context("export's artifact writer went missing")?;
+        writer.finish().1?;
+        return Ok(vec![args.out.clone()]);
     }
+    let payload = products
+        .compute(stage, &params, capture_file)
+        .with_context(failed)?;
     payload.write(&args.out, &header)?;
     Ok(vec![args.out.clone()])
 }

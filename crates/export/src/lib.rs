@@ -1,8 +1,9 @@
 //! export: the skeleton as files people open.
 //!
 //! Takes the capture (with what its reader warned), segmentation, pair fits, topology and
-//! [`bonefit::Skeleton`] (as [`Inputs`]) and gives [`Outputs`]: file name → bytes. It is
-//! the only stage that makes file bytes, and it still writes nothing: the runner does.
+//! [`bonefit::Skeleton`] (as [`Inputs`]) and gives [`Outputs`]: file name → bytes, or hands
+//! the files over one at a time ([`run_each`]) so a long capture's are never all in memory.
+//! It is the only stage that makes file bytes, and it still writes nothing: the runner does.
 //! - `skeleton.json`: DESIGN.md's output contract (units, frame_rate, frame_count,
 //!   segments, unassigned_markers, root_segment, joints with name, parent/child segment,
 //!   kind and one position per frame or null), then quality fields beside them (see
@@ -140,57 +141,104 @@ pub const PARAM_DOCS: &[(&str, &str)] = &[
 
 /// Makes skeleton.json, skeleton.bvh, skeleton.glb, joints.csv, joints.trc, joints.c3d,
 /// markers.trc, markers.c3d (each C3D where the capture fits C3D's 65535 frames),
-/// skeleton.osim, skeleton.mot and report.html.
+/// skeleton.osim, skeleton.mot and report.html, all held at once; [`run_each`] hands them
+/// over one by one.
 pub fn run(input: &Inputs<'_>, params: &Params) -> Result<Outputs, Error> {
-    // The document first: it checks that the inputs belong together, which the files
-    // below take for granted.
-    let mut document = json::document(input)?;
-    // markers.trc is the biggest text (every marker at every frame; number formatting is
-    // most of export's time): it is made beside the skeleton's files.
-    let (markers, skeleton_files) = rayon::join(
-        || -> Result<_, Error> {
-            let markers = fill::filled_markers(input, params)?;
-            let files = marker_files("markers", &markers.trajectories)?;
-            Ok((markers.filled, files))
-        },
-        || -> Result<_, Error> {
-            let mut files = BTreeMap::new();
-            files.insert("skeleton.bvh".to_owned(), bvh::write(input, params)?);
-            files.insert("skeleton.glb".to_owned(), glb::write(input, params)?);
-            files.insert("joints.csv".to_owned(), csv::write(input.skeleton));
-            let joints = trc::joint_trajectories(input, params)?;
-            files.extend(marker_files("joints", &joints)?);
-            let (model, motion) = osim::write(input, params)?;
-            files.insert("skeleton.osim".to_owned(), model);
-            files.insert("skeleton.mot".to_owned(), motion);
-            Ok(files)
-        },
-    );
-    let (filled, mut files) = markers?;
-    files.extend(skeleton_files?);
-    for (entry, &count) in document.markers.iter_mut().zip(&filled) {
-        entry.filled_frames = count;
-    }
-    files.insert("skeleton.json".to_owned(), json::to_bytes(&document)?);
-    files.insert("report.html".to_owned(), report::write(&document));
+    let mut files = BTreeMap::new();
+    run_each(input, params, |name, bytes| -> Result<(), Error> {
+        files.insert(name.to_owned(), bytes);
+        Ok(())
+    })?;
     Ok(Outputs { files })
 }
 
-/// `<name>.trc` and `<name>.c3d` (where the capture fits C3D's frame numbers) of `tracks`.
-fn marker_files(
-    name: &str,
-    tracks: &mocap_io::Trajectories,
-) -> Result<BTreeMap<String, Vec<u8>>, Error> {
-    let mut files = BTreeMap::new();
-    files.insert(
-        format!("{name}.trc"),
-        mocap_io::trc::write(tracks).into_bytes(),
+/// The names of the files [`run_each`] makes of `input`, in the order it makes them
+/// (increasing).
+pub fn file_names(input: &Inputs<'_>) -> Vec<&'static str> {
+    let with_c3d = fits_c3d(input.trajectories);
+    [
+        "joints.c3d",
+        "joints.csv",
+        "joints.trc",
+        "markers.c3d",
+        "markers.trc",
+        "report.html",
+        "skeleton.bvh",
+        "skeleton.glb",
+        "skeleton.json",
+        "skeleton.mot",
+        "skeleton.osim",
+    ]
+    .into_iter()
+    .filter(|name| with_c3d || !name.ends_with(".c3d"))
+    .collect()
+}
+
+/// Makes the files of [`run`] and hands each to `emit` as it is made, in the order of
+/// [`file_names`], so a long capture's files are never all in memory at once. An error
+/// can come after some files were emitted: the caller keeps them only when all came.
+pub fn run_each<E: From<Error> + Send>(
+    input: &Inputs<'_>,
+    params: &Params,
+    mut emit: impl FnMut(&str, Vec<u8>) -> Result<(), E> + Send,
+) -> Result<(), E> {
+    // The document first: it checks that the inputs belong together, which the files
+    // below take for granted.
+    let mut document = json::document(input)?;
+    let with_c3d = fits_c3d(input.trajectories);
+    // The trajectory files (markers.trc the biggest text: every marker at every frame) are
+    // made and handed over first, beside the skeleton's files, which wait for their turn.
+    let (skeleton_files, filled) = rayon::join(
+        || -> Result<_, Error> {
+            let (model, motion) = osim::write(input, params)?;
+            Ok([
+                ("skeleton.bvh", bvh::write(input, params)?),
+                ("skeleton.glb", glb::write(input, params)?),
+                ("skeleton.mot", motion),
+                ("skeleton.osim", model),
+            ])
+        },
+        || -> Result<_, E> {
+            let (markers, joints) = rayon::join(
+                || fill::filled_markers(input, params),
+                || trc::joint_trajectories(input, params),
+            );
+            let joints = joints?;
+            if with_c3d && let Some(c3d) = trc::c3d(&joints, "joints.c3d")? {
+                emit("joints.c3d", c3d)?;
+            }
+            emit("joints.csv", csv::write(input.skeleton))?;
+            emit("joints.trc", mocap_io::trc::write(&joints).into_bytes())?;
+            drop(joints);
+            let markers = markers?;
+            if with_c3d && let Some(c3d) = trc::c3d(&markers.trajectories, "markers.c3d")? {
+                emit("markers.c3d", c3d)?;
+            }
+            emit(
+                "markers.trc",
+                mocap_io::trc::write(&markers.trajectories).into_bytes(),
+            )?;
+            Ok(markers.filled)
+        },
     );
-    let c3d_name = format!("{name}.c3d");
-    if let Some(c3d) = trc::c3d(tracks, &c3d_name)? {
-        files.insert(c3d_name, c3d);
+    let [bvh, glb, mot, osim] = skeleton_files?;
+    for (entry, &count) in document.markers.iter_mut().zip(&filled?) {
+        entry.filled_frames = count;
     }
-    Ok(files)
+    emit("report.html", report::write(&document))?;
+    for (name, bytes) in [bvh, glb] {
+        emit(name, bytes)?;
+    }
+    emit("skeleton.json", json::to_bytes(&document)?)?;
+    for (name, bytes) in [mot, osim] {
+        emit(name, bytes)?;
+    }
+    Ok(())
+}
+
+/// True when a capture's frames fit C3D's 16-bit frame numbers (the C3D files are made).
+pub(crate) fn fits_c3d(capture: &mocap_io::Trajectories) -> bool {
+    capture.frames() <= usize::from(u16::MAX)
 }
 
 /// File bytes as CBOR byte strings, not arrays of small integers.

@@ -5,7 +5,7 @@ use std::f64::consts::FRAC_PI_2;
 use glam::{DQuat, DVec3};
 use serde_json::Value;
 
-use crate::{Inputs, Params, run};
+use crate::{Error, Inputs, Params, run};
 
 /// A run at every parameter's default: nothing set.
 static NO_SETTINGS: std::collections::BTreeMap<String, Value> = std::collections::BTreeMap::new();
@@ -967,6 +967,21 @@ fn outputs_are_deterministic_and_round_trip_through_serde() {
     let json_bytes = serde_json::to_vec(&a).unwrap_or_default();
     let back: crate::Outputs = serde_json::from_slice(&json_bytes).unwrap_or_default();
     assert_eq!(back, a);
+    // One at a time, the same files in the order `file_names` announces.
+    let skeleton = skeleton(&s);
+    let input = inputs(&s, &s.segmentation, &skeleton);
+    let mut emitted = Vec::new();
+    crate::run_each(
+        &input,
+        &Params::default(),
+        |name, bytes| -> Result<(), Error> {
+            assert!(a.files.get(name) == Some(&bytes), "{name} differs");
+            emitted.push(name.to_owned());
+            Ok(())
+        },
+    )
+    .unwrap_or_else(|e| panic!("{e}"));
+    assert_eq!(emitted, crate::file_names(&input));
 }
 
 #[test]

@@ -47,10 +47,10 @@ pub(crate) fn joint_trajectories(
 /// capture's numbers), and one longer than 65535 frames gets no C3D (`None`).
 pub(crate) fn c3d(tracks: &mocap_io::Trajectories, name: &str) -> Result<Option<Vec<u8>>, Error> {
     const LAST: i64 = u16::MAX as i64;
-    let frames = tracks.frames() as i64;
-    if frames > LAST {
+    if !crate::fits_c3d(tracks) {
         return Ok(None);
     }
+    let frames = tracks.frames() as i64;
     let first = tracks.first_frame();
     let renumbered;
     let tracks = if first >= 1 && first + frames - 1 <= LAST {

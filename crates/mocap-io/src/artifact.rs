@@ -15,6 +15,9 @@ use serde::{Deserialize, Serialize, de::DeserializeOwned};
 
 use crate::error::IoError;
 
+mod byte_map;
+pub use byte_map::{ByteMapReader, ByteMapWriter};
+
 /// The CBOR self-describe tag that opens every artifact.
 pub const MAGIC: [u8; 3] = [0xd9, 0xd9, 0xf7];
 const SELF_DESCRIBE_TAG: u64 = 55799;
@@ -78,6 +81,7 @@ fn encode_into<P: Serialize>(
 
 /// Bytes passing through, hashed on the way (blake3), so an artifact's [`content_hash`]
 /// comes without holding its bytes: a payload can be hundreds of megabytes.
+#[derive(Debug)]
 struct Hashing<T> {
     inner: T,
     hasher: blake3::Hasher,
@@ -236,13 +240,28 @@ fn write_temp(path: &Path, bytes: &[u8]) -> Result<PathBuf, IoError> {
 
 /// Creates a uniquely named temporary file beside `path`, lets `fill` write it, and syncs
 /// it; returns its path, or removes it on any error.
-///
-/// The name carries the process id and a process-wide counter, so threads of one process
-/// and concurrent runs never write the same temporary file.
 fn write_temp_with(
     path: &Path,
     fill: impl FnOnce(&mut std::fs::File) -> std::io::Result<()>,
 ) -> Result<PathBuf, IoError> {
+    let (mut f, tmp) = create_temp(path)?;
+    let result = fill(&mut f).and_then(|()| f.sync_all());
+    if let Err(source) = result {
+        let _ = std::fs::remove_file(&tmp);
+        return Err(IoError::Write {
+            path: path.to_path_buf(),
+            source,
+        });
+    }
+    Ok(tmp)
+}
+
+/// Creates a uniquely named temporary file beside `path` (and `path`'s folder if need be);
+/// returns it open for writing with its path.
+///
+/// The name carries the process id and a process-wide counter, so threads of one process
+/// and concurrent runs never write the same temporary file.
+fn create_temp(path: &Path) -> Result<(std::fs::File, PathBuf), IoError> {
     static COUNTER: AtomicU64 = AtomicU64::new(0);
     let err = |source| IoError::Write {
         path: path.to_path_buf(),
@@ -265,16 +284,8 @@ fn write_temp_with(
         .unwrap_or_default();
     let n = COUNTER.fetch_add(1, Ordering::Relaxed);
     let tmp = dir.join(format!(".{name}.tmp-{}-{n}", std::process::id()));
-    let result = (|| {
-        let mut f = std::fs::File::create(&tmp)?;
-        fill(&mut f)?;
-        f.sync_all()
-    })();
-    if let Err(source) = result {
-        let _ = std::fs::remove_file(&tmp);
-        return Err(err(source));
-    }
-    Ok(tmp)
+    let f = std::fs::File::create(&tmp).map_err(err)?;
+    Ok((f, tmp))
 }
 
 /// Writes bytes atomically: a uniquely named temporary file beside `path`, then a rename.
@@ -291,30 +302,60 @@ pub fn write_atomic(path: &Path, bytes: &[u8]) -> Result<(), IoError> {
 /// failing after earlier renames succeeded can still mix; renames within one folder
 /// practically fail only when the folder itself goes away.)
 pub fn write_atomic_all(files: &[(&Path, &[u8])]) -> Result<(), IoError> {
-    let mut temps: Vec<PathBuf> = Vec::with_capacity(files.len());
+    let mut set = FileSet::default();
     for (path, bytes) in files {
-        match write_temp(path, bytes) {
-            Ok(tmp) => temps.push(tmp),
-            Err(e) => {
-                temps.iter().for_each(|t| {
+        set.add(path, bytes)?;
+    }
+    set.commit()
+}
+
+/// Files written as a set, one at a time as each is made ([`write_atomic_all`] with the
+/// bytes of only one file in hand): each goes to a temporary file beside its destination,
+/// and [`FileSet::commit`] renames them all into place. A set dropped uncommitted (an
+/// error on the way) removes its temporaries and leaves every destination as it was.
+#[derive(Debug, Default)]
+pub struct FileSet {
+    /// (temporary, destination) of every file added.
+    temps: Vec<(PathBuf, PathBuf)>,
+}
+
+impl FileSet {
+    /// Writes `bytes` to a temporary file that [`FileSet::commit`] renames onto `path`.
+    pub fn add(&mut self, path: &Path, bytes: &[u8]) -> Result<(), IoError> {
+        let tmp = write_temp(path, bytes)?;
+        self.temps.push((tmp, path.to_path_buf()));
+        Ok(())
+    }
+
+    /// The destinations added so far, in order.
+    pub fn paths(&self) -> impl Iterator<Item = &Path> {
+        self.temps.iter().map(|(_, dest)| dest.as_path())
+    }
+
+    /// Renames every file into place, in the order added.
+    pub fn commit(mut self) -> Result<(), IoError> {
+        let temps = std::mem::take(&mut self.temps);
+        for (i, (tmp, path)) in temps.iter().enumerate() {
+            if let Err(source) = std::fs::rename(tmp, path) {
+                temps.iter().skip(i).for_each(|(t, _)| {
                     let _ = std::fs::remove_file(t);
                 });
-                return Err(e);
+                return Err(IoError::Write {
+                    path: path.clone(),
+                    source,
+                });
             }
         }
+        Ok(())
     }
-    for (i, ((path, _), tmp)) in files.iter().zip(&temps).enumerate() {
-        if let Err(source) = std::fs::rename(tmp, path) {
-            temps.iter().skip(i).for_each(|t| {
-                let _ = std::fs::remove_file(t);
-            });
-            return Err(IoError::Write {
-                path: path.to_path_buf(),
-                source,
-            });
+}
+
+impl Drop for FileSet {
+    fn drop(&mut self) {
+        for (tmp, _) in &self.temps {
+            let _ = std::fs::remove_file(tmp);
         }
     }
-    Ok(())
 }
 
 /// Renames a temporary file onto `path`, removing it if that fails.
