@@ -352,7 +352,7 @@ pub fn findings(document: &export::SkeletonJson, spin_limit_deg: f64) -> Vec<Str
         .markers
         .iter()
         .filter(|m| m.glitch_frames > 0)
-        .map(|m| format!("{} ({} frames)", m.label, m.glitch_frames))
+        .map(|m| format!("{} ({})", m.label, export::frame_count(m.glitch_frames)))
         .collect();
     if !glitching.is_empty() {
         out.push(listed(
@@ -712,6 +712,7 @@ mod tests {
         }
         doc.markers[9].slides = true;
         doc.markers[10].glitch_frames = 26;
+        doc.markers[11].glitch_frames = 1;
         doc.detached_segments = vec![2];
         doc.notes = vec!["a rigid pair".into()];
         doc.segments[1].spin_deg = Some(14.2);
@@ -770,8 +771,8 @@ mod tests {
         );
         assert!(found.contains(&format!(
             "markers that jumped off their partners in some frames (those samples read as \
-             gaps): 1 — {} (26 frames)",
-            doc.markers[10].label
+             gaps): 2 — {} (26 frames); {} (1 frame)",
+            doc.markers[10].label, doc.markers[11].label
         )));
         assert!(found.contains(&format!(
             "segments that may be two turning little about a joint (the joint test came near \

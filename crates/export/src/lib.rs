@@ -71,7 +71,7 @@ use serde::{Deserialize, Serialize};
 pub const STAGE: &str = "export";
 
 /// Schema version of [`Outputs`] and of skeleton.json's layout; bump when either changes.
-pub const SCHEMA_VERSION: u32 = 21;
+pub const SCHEMA_VERSION: u32 = 22;
 
 /// Everything the files are made from.
 #[derive(Clone, Copy, Debug)]
@@ -234,6 +234,15 @@ pub fn run_each<E: From<Error> + Send>(
         emit(name, bytes)?;
     }
     Ok(())
+}
+
+/// "1 frame", "26 frames": how the report and the run's findings count frames.
+pub fn frame_count(n: usize) -> String {
+    if n == 1 {
+        "1 frame".to_owned()
+    } else {
+        format!("{n} frames")
+    }
 }
 
 /// True when a capture's frames fit C3D's 16-bit frame numbers (the C3D files are made).

@@ -323,7 +323,10 @@ fn markers(out: &mut String, doc: &SkeletonJson) {
         .markers
         .iter()
         .filter(|m| m.glitch_frames > 0)
-        .map(|m| format!("{} ({} frames)", escape(&m.label), m.glitch_frames))
+        .map(|m| {
+            let frames = crate::frame_count(m.glitch_frames);
+            format!("{} ({frames})", escape(&m.label))
+        })
         .collect();
     if !glitching.is_empty() {
         let _ = writeln!(
