@@ -739,9 +739,15 @@ pub fn header(stage: StageId, params: &Params, inputs: Vec<InputHash>) -> Result
 /// into `out` (as a set, only when every stage succeeded).
 ///
 /// `force_from`: that stage and everything downstream are recomputed even when cached.
-/// Returns the products (export's files are not among them: they went to `out` one at a
-/// time, see [`ExportSink`]), one [`StageRun`] per stage and what was written. A failing
+/// Returns the products, one [`StageRun`] per stage and what was written. A failing
 /// stage's error names the stage and the capture file.
+///
+/// A cached stage's output is decoded only where a stage to compute reads it: a run whose
+/// every stage is cached reads the headers and hashes of the entries and streams export's
+/// files out, so its products hold nothing, and export's files are never among them (they
+/// went to `out` one at a time, see [`ExportSink`]). An entry found damaged when decoded
+/// has already keyed the stages after it by its hash, so the run starts over with that
+/// stage recomputed.
 pub fn run_cached(
     capture_file: &Path,
     params: &Params,
@@ -754,148 +760,235 @@ pub fn run_cached(
         .with_context(|| format!("{}: cannot read", capture_file.display()))?;
     let file_hash = artifact::content_hash(&file_bytes);
     drop(file_bytes);
-
-    let mut products = Products::default();
-    let mut runs: Vec<StageRun> = Vec::new();
-    let mut exported = None;
-    // What the reader said about the file often explains a later failure (every sample
-    // flagged invalid, units guessed).
-    let failed = |products: &Products, e: anyhow::Error, stage: StageId| {
-        progress.abandon();
-        if let Some(capture) = &products.capture {
-            for w in &capture.info.warnings {
-                progress.warn(&format!("{}: {w}", capture_file.display()));
-            }
+    let mut distrusted = Vec::new();
+    loop {
+        let run = CachedRun {
+            capture_file,
+            file_hash: &file_hash,
+            params,
+            cache,
+            force_from,
+            progress,
+            out,
+        };
+        match run.pass(&distrusted)? {
+            Pass::Done(done) => return Ok(*done),
+            // Each pass distrusts one more stage, so at most one pass per stage follows.
+            Pass::Damaged(stage) => distrusted.push(stage),
         }
-        e.context(format!(
-            "stage {} failed on {}",
-            stage.name(),
-            capture_file.display()
-        ))
-    };
-    for stage in StageId::ALL {
-        let start = Instant::now();
-        progress.start(stage.name());
-        let inputs: Vec<InputHash> = if stage == StageId::MocapIo {
-            vec![InputHash {
-                role: CAPTURE_ROLE.into(),
-                blake3: file_hash.clone(),
-            }]
-        } else {
-            stage
-                .inputs()
-                .iter()
-                .map(|up| InputHash {
-                    role: up.name().into(),
-                    blake3: runs[*up as usize].hash.clone(),
-                })
-                .collect()
-        };
-        let header = header(stage, params, inputs)?;
-        let key = cache::cache_key(
-            stage.name(),
-            stage.schema_version(),
-            &cache::encode(&header.params),
-            &header.inputs,
-        );
-        let forced = force_from.is_some_and(|f| stage >= f);
-        let entry = cache.entry_path(stage.name(), stage.schema_version(), &key);
-        let (cached, hash) = if stage == StageId::Export {
-            // The files go straight to `out`, from the cache or as export makes them.
-            let hit = if forced || !entry.exists() {
-                None
-            } else {
-                export_from_cache(&entry, &header, out, progress)?
-            };
-            let (files, cached, hash) = match hit {
-                Some((files, hash)) => (files, true, hash),
-                None => {
-                    let (files, writer) = products
-                        .export_to(params, Some(out), Some((&entry, &header)))
-                        .map_err(|e| failed(&products, e, stage))?;
-                    let writer = writer.context("export's artifact writer went missing")?;
-                    let (hash, written) = writer.finish();
-                    if let Err(e) = written {
-                        progress.warn(&format!("not cached: {e:#}"));
-                    }
-                    (files, false, hash)
-                }
-            };
-            exported = Some(files);
-            (cached, hash)
-        } else {
-            let hit = if forced {
-                None
-            } else {
-                load_checked(cache, stage, &key, &header, progress)
-            };
-            match hit {
-                Some((payload, hash)) => {
-                    products.put(payload);
-                    (true, hash)
-                }
-                None => {
-                    let payload = products
-                        .compute(stage, params, Some(capture_file))
-                        .map_err(|e| failed(&products, e, stage))?;
-                    let hash = match payload.write(&entry, &header) {
-                        Ok(hash) => hash,
-                        Err(e) => {
-                            progress.warn(&format!("not cached: {e:#}"));
-                            payload.content_hash(&header)?
-                        }
-                    };
-                    products.put(payload);
-                    (false, hash)
-                }
-            }
-        };
-        let seconds = start.elapsed().as_secs_f64();
-        progress.finish();
-        runs.push(StageRun {
-            name: stage.name(),
-            cached,
-            seconds,
-            key,
-            hash,
-        });
     }
-    let exported = exported.context("the export stage did not run")?;
-    Ok((products, runs, exported))
 }
 
-/// A cache entry decoded and checked against the header it should have; `None` (after a
-/// warning for a damaged or foreign entry) when there is no usable entry.
-fn load_checked(
-    cache: &Cache,
+/// How one pass of [`run_cached`] ended.
+enum Pass {
+    /// Every stage ran or came from the cache: the products, the runs, what was written.
+    Done(Box<(Products, Vec<StageRun>, Exported)>),
+    /// A stage's cache entry, taken by its header and hash, did not decode when a later
+    /// stage needed it.
+    Damaged(StageId),
+}
+
+/// What one pass of [`run_cached`] works with.
+struct CachedRun<'a> {
+    capture_file: &'a Path,
+    file_hash: &'a str,
+    params: &'a Params,
+    cache: &'a Cache,
+    force_from: Option<StageId>,
+    progress: &'a Progress,
+    out: &'a Path,
+}
+
+impl CachedRun<'_> {
+    /// Runs every stage, recomputing `distrusted` ones and those `force_from` names.
+    fn pass(&self, distrusted: &[StageId]) -> Result<Pass> {
+        let (params, progress, capture_file) = (self.params, self.progress, self.capture_file);
+        let mut products = Products::default();
+        let mut runs: Vec<StageRun> = Vec::new();
+        let mut exported = None;
+        // Cached entries taken by header and hash, not decoded yet: (path, hash) by stage.
+        let mut unread: BTreeMap<StageId, (PathBuf, String)> = BTreeMap::new();
+        // What the reader said about the file often explains a later failure (every sample
+        // flagged invalid, units guessed).
+        let failed = |products: &Products, e: anyhow::Error, stage: StageId| {
+            progress.abandon();
+            if let Some(capture) = &products.capture {
+                for w in &capture.info.warnings {
+                    progress.warn(&format!("{}: {w}", capture_file.display()));
+                }
+            }
+            e.context(format!(
+                "stage {} failed on {}",
+                stage.name(),
+                capture_file.display()
+            ))
+        };
+        for stage in StageId::ALL {
+            let start = Instant::now();
+            progress.start(stage.name());
+            let inputs: Vec<InputHash> = if stage == StageId::MocapIo {
+                vec![InputHash {
+                    role: CAPTURE_ROLE.into(),
+                    blake3: self.file_hash.to_owned(),
+                }]
+            } else {
+                stage
+                    .inputs()
+                    .iter()
+                    .map(|up| InputHash {
+                        role: up.name().into(),
+                        blake3: runs[*up as usize].hash.clone(),
+                    })
+                    .collect()
+            };
+            let header = header(stage, params, inputs)?;
+            let key = cache::cache_key(
+                stage.name(),
+                stage.schema_version(),
+                &cache::encode(&header.params),
+                &header.inputs,
+            );
+            let trusted = self.force_from.is_none_or(|f| stage < f) && !distrusted.contains(&stage);
+            let entry = self
+                .cache
+                .entry_path(stage.name(), stage.schema_version(), &key);
+            let (cached, hash) = if stage == StageId::Export {
+                // The files go straight to `out`, from the cache or as export makes them.
+                let hit = if trusted && entry.exists() {
+                    export_from_cache(&entry, &header, self.out, progress)?
+                } else {
+                    None
+                };
+                let (files, cached, hash) = match hit {
+                    Some((files, hash)) => (files, true, hash),
+                    None => {
+                        if let Some(damaged) =
+                            read_unread(&mut products, stage.inputs(), &mut unread, progress)
+                        {
+                            return Ok(Pass::Damaged(damaged));
+                        }
+                        let (files, writer) = products
+                            .export_to(params, Some(self.out), Some((&entry, &header)))
+                            .map_err(|e| failed(&products, e, stage))?;
+                        let writer = writer.context("export's artifact writer went missing")?;
+                        let (hash, written) = writer.finish();
+                        if let Err(e) = written {
+                            progress.warn(&format!("not cached: {e:#}"));
+                        }
+                        (files, false, hash)
+                    }
+                };
+                exported = Some(files);
+                (cached, hash)
+            } else {
+                let hit = if trusted {
+                    peek_checked(&entry, stage, &header, progress)
+                } else {
+                    None
+                };
+                match hit {
+                    Some(hash) => {
+                        unread.insert(stage, (entry, hash.clone()));
+                        (true, hash)
+                    }
+                    None => {
+                        if let Some(damaged) =
+                            read_unread(&mut products, stage.inputs(), &mut unread, progress)
+                        {
+                            return Ok(Pass::Damaged(damaged));
+                        }
+                        let payload = products
+                            .compute(stage, params, Some(capture_file))
+                            .map_err(|e| failed(&products, e, stage))?;
+                        let hash = match payload.write(&entry, &header) {
+                            Ok(hash) => hash,
+                            Err(e) => {
+                                progress.warn(&format!("not cached: {e:#}"));
+                                payload.content_hash(&header)?
+                            }
+                        };
+                        products.put(payload);
+                        (false, hash)
+                    }
+                }
+            };
+            let seconds = start.elapsed().as_secs_f64();
+            progress.finish();
+            runs.push(StageRun {
+                name: stage.name(),
+                cached,
+                seconds,
+                key,
+                hash,
+            });
+        }
+        let exported = exported.context("the export stage did not run")?;
+        Ok(Pass::Done(Box::new((products, runs, exported))))
+    }
+}
+
+/// A cache entry's content hash, its header checked against the one it should have and
+/// its payload left undecoded (see [`read_unread`]); `None` (after a warning for a damaged
+/// or foreign entry) when there is no usable entry.
+fn peek_checked(
+    path: &Path,
     stage: StageId,
-    key: &str,
     expected: &ArtifactHeader,
     progress: &Progress,
-) -> Option<(Payload, String)> {
-    let path = cache.entry_path(stage.name(), stage.schema_version(), key);
+) -> Option<String> {
     if !path.exists() {
         return None;
     }
-    match read_payload(stage, &path) {
-        Ok((header, payload, hash)) => {
-            // The tool version may differ: the key deliberately leaves it out.
-            let same = header.params == expected.params && header.inputs == expected.inputs;
-            if same {
-                Some((payload, hash))
-            } else {
-                progress.warn(&format!(
-                    "{}: cache entry does not match its key (parameters or inputs differ); recomputing",
-                    path.display()
-                ));
-                None
-            }
+    let checked = artifact::read_header_hashed(path)
+        .map_err(anyhow::Error::from)
+        .and_then(|(header, hash)| check_stage(stage, &header, path).map(|()| (header, hash)));
+    match checked {
+        // The tool version may differ: the key deliberately leaves it out.
+        Ok((header, hash))
+            if header.params == expected.params && header.inputs == expected.inputs =>
+        {
+            Some(hash)
+        }
+        Ok(_) => {
+            progress.warn(&format!(
+                "{}: cache entry does not match its key (parameters or inputs differ); recomputing",
+                path.display()
+            ));
+            None
         }
         Err(e) => {
             progress.warn(&format!("damaged cache entry, recomputing: {e:#}"));
             None
         }
     }
+}
+
+/// Decodes the cached outputs of `stages` that are still unread into `products`. The
+/// first that does not decode, or whose file no longer has the hash it was taken with,
+/// is returned (after a warning): it keyed later stages, so the run must start over.
+fn read_unread(
+    products: &mut Products,
+    stages: &[StageId],
+    unread: &mut BTreeMap<StageId, (PathBuf, String)>,
+    progress: &Progress,
+) -> Option<StageId> {
+    for &stage in stages {
+        let Some((path, hash)) = unread.remove(&stage) else {
+            continue;
+        };
+        let problem = match read_payload(stage, &path) {
+            Ok((_, payload, read)) if read == hash => {
+                products.put(payload);
+                continue;
+            }
+            Ok(_) => format!("{}: changed while this run read it", path.display()),
+            Err(e) => format!("{e:#}"),
+        };
+        progress.warn(&format!("damaged cache entry, recomputing: {problem}"));
+        progress.abandon();
+        return Some(stage);
+    }
+    None
 }
 
 /// Runs segment → export in memory on a capture already read (no cache, no files).

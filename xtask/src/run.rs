@@ -265,32 +265,24 @@ pub fn execute(args: &Args, progress: &Progress) -> Result<Report> {
         None => PathBuf::from("out").join(stem_of(&input)),
     };
     let cache = Cache::open(&cache::resolve_root(args.cache.as_deref()))?;
-    let (products, stages, exported) =
+    let (_, stages, exported) =
         pipeline::run_cached(&input, &params, &cache, force_from, progress, &out)?;
+    // The counts and the reader's warnings come from skeleton.json: a run served from the
+    // cache decodes no stage's output.
     let document: export::SkeletonJson =
         serde_json::from_slice(&exported.skeleton_json).context("reading back skeleton.json")?;
-    let files = exported.files;
     Ok(Report {
         stages,
         out,
-        segments: products
-            .segmentation
-            .as_ref()
-            .map_or(0, |s| s.segments.len()),
-        joints: products.topology.as_ref().map_or(0, |t| t.joints.len()),
-        files,
+        segments: document.segments.len(),
+        joints: document.joints.len(),
+        files: exported.files,
         findings: findings(&document, params.jointfit.max_spin_deg),
-        warnings: products
-            .capture
-            .as_ref()
-            .map(|c| {
-                c.info
-                    .warnings
-                    .iter()
-                    .map(|w| format!("{}: {w}", input.display()))
-                    .collect()
-            })
-            .unwrap_or_default(),
+        warnings: document
+            .reader_warnings
+            .iter()
+            .map(|w| format!("{}: {w}", input.display()))
+            .collect(),
     })
 }
 
@@ -624,6 +616,19 @@ mod tests {
         let again = execute(&a, &quiet).unwrap();
         assert_eq!(cached(&again), [true; 6]);
         assert_eq!(skeleton_json(&dir), json);
+        // ...and no stage's output decoded: entries read by header and hash, export's
+        // files streamed out. A changed jointfit parameter decodes what jointfit reads.
+        let run = |set: &[&str]| {
+            let params = run_params(&args(&input, dir.path(), set)).unwrap();
+            let out = dir.path().join("out");
+            pipeline::run_cached(&input, &params, &cache, None, &quiet, &out).unwrap()
+        };
+        let (products, _, _) = run(&[]);
+        assert!(products.capture.is_none() && products.segmentation.is_none());
+        assert!(products.fits.is_none() && products.skeleton.is_none());
+        let (products, _, _) = run(&["jointfit.alpha=0.3"]);
+        assert!(products.capture.is_some() && products.segmentation.is_some());
+        assert!(products.fits.is_some() && products.skeleton.is_some());
 
         // A jointfit parameter: jointfit and downstream rerun, upstream reused.
         let set = execute(&args(&input, dir.path(), &["jointfit.alpha=0.25"]), &quiet).unwrap();

@@ -16,7 +16,7 @@ use serde::{Deserialize, Serialize, de::DeserializeOwned};
 use crate::error::IoError;
 
 mod byte_map;
-pub use byte_map::{ByteMapReader, ByteMapWriter};
+pub use byte_map::{ByteMapReader, ByteMapWriter, read_header_hashed};
 
 /// The CBOR self-describe tag that opens every artifact.
 pub const MAGIC: [u8; 3] = [0xd9, 0xd9, 0xf7];

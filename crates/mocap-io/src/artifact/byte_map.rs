@@ -186,6 +186,14 @@ impl Drop for ByteMapWriter {
     }
 }
 
+/// Any artifact's header and the [`super::content_hash`] of the whole file, its payload
+/// hashed as it streams past but not decoded: what a cache needs to key the stages after
+/// an entry it may never have to read. A damaged payload shows only when it is decoded.
+pub fn read_header_hashed(path: &Path) -> Result<(ArtifactHeader, String), IoError> {
+    let (r, header) = ByteMapReader::open_header(path)?;
+    Ok((header, r.finish()?))
+}
+
 /// An artifact of a byte map read entry by entry, as it streams in.
 #[derive(Debug)]
 pub struct ByteMapReader {
@@ -199,6 +207,16 @@ impl ByteMapReader {
     /// Opens the artifact at `path` and reads its header, up to the first entry of the
     /// map under `field`.
     pub fn open(path: &Path, field: &str) -> Result<(Self, ArtifactHeader), IoError> {
+        let (mut r, header) = Self::open_header(path)?;
+        r.expect_text("payload")?;
+        r.expect_head(MAP, 1, "the payload")?;
+        r.expect_text(field)?;
+        r.left = r.read_head(MAP, "the entries")?;
+        Ok((r, header))
+    }
+
+    /// Opens any artifact and reads its header, up to its payload.
+    fn open_header(path: &Path) -> Result<(Self, ArtifactHeader), IoError> {
         let file = std::fs::File::open(path).map_err(|source| IoError::Read {
             path: path.to_path_buf(),
             source,
@@ -219,10 +237,6 @@ impl ByteMapReader {
         r.expect_text("header")?;
         let header: ArtifactHeader =
             ciborium::from_reader(&mut r.input).map_err(|e| r.bad(format!("header: {e}")))?;
-        r.expect_text("payload")?;
-        r.expect_head(MAP, 1, "the payload")?;
-        r.expect_text(field)?;
-        r.left = r.read_head(MAP, "the entries")?;
         Ok((r, header))
     }
 
@@ -406,6 +420,23 @@ mod tests {
         }
         assert_eq!(got, entries());
         assert_eq!(r.finish().unwrap(), hash);
+        std::fs::remove_dir_all(&dir).unwrap();
+    }
+
+    #[test]
+    fn any_artifacts_header_and_hash_come_without_its_payload() {
+        let dir = scratch("header");
+        let path = dir.join("e.cbor");
+        let hash = write_all(&path);
+        assert_eq!(read_header_hashed(&path).unwrap(), (header(), hash));
+        let other = dir.join("t.cbor");
+        let bytes = encode(&header(), &[1.5f64, 2.5]).unwrap();
+        std::fs::write(&other, &bytes).unwrap();
+        let expected = (header(), super::super::content_hash(&bytes));
+        assert_eq!(read_header_hashed(&other).unwrap(), expected);
+        std::fs::write(&other, &bytes[..20]).unwrap();
+        let err = read_header_hashed(&other).unwrap_err().to_string();
+        assert!(err.contains("t.cbor"), "{err}");
         std::fs::remove_dir_all(&dir).unwrap();
     }
 
