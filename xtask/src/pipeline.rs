@@ -443,12 +443,6 @@ fn check_stage(stage: StageId, header: &ArtifactHeader, path: &Path) -> Result<(
     Ok(())
 }
 
-/// Reads only an artifact's header (the payload is skipped, not decoded).
-pub fn read_header(bytes: &[u8], path: &Path) -> Result<ArtifactHeader> {
-    let (header, _) = artifact::decode::<serde::de::IgnoredAny>(bytes, path)?;
-    Ok(header)
-}
-
 /// The decoded artifacts of one pipeline run, as far as it got.
 #[derive(Default)]
 pub struct Products {

@@ -106,9 +106,9 @@ pub fn execute(args: &Args) -> Result<Vec<PathBuf>> {
         let mut hashes = BTreeMap::new();
         let mut headers = BTreeMap::new();
         for path in &args.inputs {
-            let bytes =
-                std::fs::read(path).with_context(|| format!("{}: cannot read", path.display()))?;
-            let header = pipeline::read_header(&bytes, path)?;
+            // Header and hash first, then the payload: each read as the file streams in,
+            // never the whole file in memory beside its value.
+            let (header, hash) = artifact::read_header_hashed(path)?;
             let from = StageId::from_name(&header.stage)
                 .with_context(|| format!("{}: artifact of an unknown stage", path.display()))?;
             if !stage.inputs().contains(&from) {
@@ -123,9 +123,12 @@ pub fn execute(args: &Args) -> Result<Vec<PathBuf>> {
             if hashes.contains_key(&from) {
                 bail!("{}: a second {} artifact", path.display(), from.name());
             }
-            let (_, payload) = pipeline::decode_payload(from, &bytes, path)?;
+            let (_, payload, read) = pipeline::read_payload(from, path)?;
+            if read != hash {
+                bail!("{}: changed while it was read", path.display());
+            }
             products.put(payload);
-            hashes.insert(from, artifact::content_hash(&bytes));
+            hashes.insert(from, hash);
             headers.insert(from, (path.as_path(), header));
         }
         check_consistent(&headers, &hashes)?;
