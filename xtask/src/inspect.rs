@@ -184,14 +184,20 @@ fn percent(part: usize, whole: usize) -> f64 {
 }
 
 fn inspect_artifact(path: &Path) -> Result<Report> {
-    let bytes = std::fs::read(path).with_context(|| format!("{}: cannot read", path.display()))?;
-    let (header, payload): (ArtifactHeader, ciborium::Value) = artifact::decode(&bytes, path)?;
+    // Read as it streams, twice (generic, then typed), so an artifact of hundreds of
+    // megabytes is never in memory more than once.
+    let (header, payload, hash): (ArtifactHeader, ciborium::Value, String) =
+        artifact::read_hashed(path)?;
     let keys = payload_keys(&payload);
+    drop(payload);
+    let size = std::fs::metadata(path)
+        .with_context(|| format!("{}: cannot read", path.display()))?
+        .len();
     // A known stage's payload is decoded with its own type for a domain summary; a payload
     // that does not decode (older schema, damage) is reported, not fatal.
     let domain = match StageId::from_name(&header.stage) {
-        Ok(stage) => match pipeline::decode_payload(stage, &bytes, path) {
-            Ok((_, payload)) => payload.summary(),
+        Ok(stage) => match pipeline::read_payload(stage, path) {
+            Ok((_, payload, _)) => payload.summary(),
             Err(e) => json!({ "error": format!("{e:#}") }),
         },
         Err(_) => Json::Null,
@@ -199,8 +205,8 @@ fn inspect_artifact(path: &Path) -> Result<Report> {
     let params_json = cbor_to_json(&header.params);
     let json = json!({
         "kind": "artifact",
-        "bytes": bytes.len(),
-        "blake3": artifact::content_hash(&bytes),
+        "bytes": size,
+        "blake3": &hash,
         "header": {
             "stage": header.stage,
             "schema_version": header.schema_version,
@@ -213,13 +219,8 @@ fn inspect_artifact(path: &Path) -> Result<Report> {
     });
 
     let mut text = String::new();
-    let _ = writeln!(
-        text,
-        "artifact      {} ({} bytes)",
-        path.display(),
-        bytes.len()
-    );
-    let _ = writeln!(text, "blake3        {}", artifact::content_hash(&bytes));
+    let _ = writeln!(text, "artifact      {} ({size} bytes)", path.display(),);
+    let _ = writeln!(text, "blake3        {hash}");
     let _ = writeln!(
         text,
         "stage         {} (schema v{})",
@@ -291,10 +292,21 @@ fn describe(v: &ciborium::Value) -> (&'static str, usize) {
     }
 }
 
+/// The length of `v` encoded, counted rather than kept.
 fn encoded_len(v: &ciborium::Value) -> usize {
-    let mut out = Vec::new();
-    match ciborium::into_writer(v, &mut out) {
-        Ok(()) => out.len(),
+    struct Count(usize);
+    impl std::io::Write for Count {
+        fn write(&mut self, buf: &[u8]) -> std::io::Result<usize> {
+            self.0 += buf.len();
+            Ok(buf.len())
+        }
+        fn flush(&mut self) -> std::io::Result<()> {
+            Ok(())
+        }
+    }
+    let mut count = Count(0);
+    match ciborium::into_writer(v, &mut count) {
+        Ok(()) => count.0,
         Err(_) => 0,
     }
 }

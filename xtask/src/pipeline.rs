@@ -380,32 +380,6 @@ impl Payload {
     }
 }
 
-/// Decodes artifact bytes as `stage`'s payload, checking the header's stage and schema.
-pub fn decode_payload(
-    stage: StageId,
-    bytes: &[u8],
-    path: &Path,
-) -> Result<(ArtifactHeader, Payload)> {
-    fn typed<P: serde::de::DeserializeOwned>(
-        bytes: &[u8],
-        path: &Path,
-        wrap: fn(P) -> Payload,
-    ) -> Result<(ArtifactHeader, Payload)> {
-        let (h, p) = artifact::decode::<P>(bytes, path)?;
-        Ok((h, wrap(p)))
-    }
-    let (header, payload) = match stage {
-        StageId::MocapIo => typed(bytes, path, Payload::Capture)?,
-        StageId::Segment => typed(bytes, path, Payload::Segmentation)?,
-        StageId::Jointfit => typed(bytes, path, Payload::PairFits)?,
-        StageId::Topo => typed(bytes, path, Payload::Topology)?,
-        StageId::Bonefit => typed(bytes, path, Payload::Skeleton)?,
-        StageId::Export => typed(bytes, path, Payload::Outputs)?,
-    };
-    check_stage(stage, &header, path)?;
-    Ok((header, payload))
-}
-
 /// Reads an artifact file as `stage`'s payload as it streams in (its bytes never all in
 /// memory), checking the header's stage and schema; returns the file's content hash too.
 pub fn read_payload(stage: StageId, path: &Path) -> Result<(ArtifactHeader, Payload, String)> {
