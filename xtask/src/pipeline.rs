@@ -237,8 +237,10 @@ impl Params {
     /// read from their inputs, so an export records the settings `run` would).
     pub fn take_recorded(&mut self, stage: StageId, recorded: &ciborium::Value) -> Result<()> {
         let unread = |e: ciborium::value::Error| {
+            let ciborium::value::Error::Custom(problem) = e;
             anyhow!(
-                "the {} artifact's recorded parameters do not read: {e}",
+                "the {} artifact's recorded parameters do not read (made by another version of \
+                 ossify?): {problem}",
                 stage.name()
             )
         };

@@ -170,10 +170,34 @@ pub fn read_hashed<P: DeserializeOwned>(
     }
     let mut envelope = (&head[..]).chain(&mut input);
     let env: ciborium::tag::Required<Envelope<ArtifactHeader, P>, SELF_DESCRIBE_TAG> =
-        ciborium::from_reader(&mut envelope).map_err(|e| bad(e.to_string()))?;
+        ciborium::from_reader(&mut envelope).map_err(|e| bad(cbor_problem(&e, 0, io_problem)))?;
     // Bytes after the envelope are hashed too: the hash is the file's.
     std::io::copy(&mut input, &mut std::io::sink()).map_err(|e| bad(e.to_string()))?;
     Ok((env.0.header, env.0.payload, input.hash()))
+}
+
+/// A decoding failure in a user's words: where the bytes stop making sense (counted from
+/// the file's start: `base` is where the decoding began), or that the file ends early.
+/// `read_failure` words a failed read, `None` where it was the end of the input.
+fn cbor_problem<T>(
+    e: &ciborium::de::Error<T>,
+    base: usize,
+    read_failure: impl Fn(&T) -> Option<String>,
+) -> String {
+    use ciborium::de::Error as E;
+    match e {
+        E::Io(io) => read_failure(io)
+            .unwrap_or_else(|| "the file ends inside the artifact (cut short?)".to_owned()),
+        E::Syntax(at) => format!("not valid CBOR at byte {}", base + at),
+        E::Semantic(Some(at), what) => format!("byte {}: {what}", base + at),
+        E::Semantic(None, what) => what.clone(),
+        E::RecursionLimitExceeded => "nested too deeply to be an artifact".to_owned(),
+    }
+}
+
+/// A failed read as [`cbor_problem`] words it.
+fn io_problem(e: &std::io::Error) -> Option<String> {
+    (e.kind() != std::io::ErrorKind::UnexpectedEof).then(|| format!("cannot read: {e}"))
 }
 
 /// Reads into `buf` until it is full or the input ends; returns how much was read.
@@ -208,7 +232,7 @@ pub fn decode<P: DeserializeOwned>(
         ));
     }
     let env: ciborium::tag::Required<Envelope<ArtifactHeader, P>, SELF_DESCRIBE_TAG> =
-        ciborium::from_reader(bytes).map_err(|e| bad(e.to_string()))?;
+        ciborium::from_reader(bytes).map_err(|e| bad(cbor_problem(&e, 0, |_| None)))?;
     Ok((env.0.header, env.0.payload))
 }
 
@@ -476,11 +500,22 @@ mod tests {
         let bytes = encode(&header(), &sample()).unwrap();
         for cut in 0..bytes.len() {
             std::fs::write(&path, &bytes[..cut]).unwrap();
-            let err = read_hashed::<Trajectories>(&path).unwrap_err();
-            assert!(err.to_string().contains("cut.cbor"), "{cut}: {err}");
+            let err = read_hashed::<Trajectories>(&path).unwrap_err().to_string();
+            assert!(err.contains("cut.cbor"), "{cut}: {err}");
+            // Past the tag, the error says the file was cut, in words.
+            assert!(
+                cut < MAGIC.len() || err.contains("cut short"),
+                "{cut}: {err}"
+            );
         }
         std::fs::write(&path, b"hello").unwrap();
         assert!(read_hashed::<Trajectories>(&path).is_err());
+        // A byte no CBOR item starts with, where the header's first key should be.
+        let mut flipped = bytes.clone();
+        flipped[MAGIC.len() + 1] = 0x1c;
+        std::fs::write(&path, &flipped).unwrap();
+        let err = read_hashed::<Trajectories>(&path).unwrap_err().to_string();
+        assert!(err.ends_with("not valid CBOR at byte 4"), "{err}");
         let missing = read_hashed::<Trajectories>(&dir.join("none.cbor")).unwrap_err();
         assert!(missing.to_string().contains("none.cbor"), "{missing}");
         std::fs::remove_dir_all(&dir).unwrap();

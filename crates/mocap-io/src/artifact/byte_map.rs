@@ -9,7 +9,10 @@
 use std::io::{BufReader, BufWriter, Read, Write};
 use std::path::{Path, PathBuf};
 
-use super::{ArtifactHeader, Hashing, MAGIC, STREAM_BUFFER, create_temp, read_up_to, rename_into};
+use super::{
+    ArtifactHeader, Hashing, MAGIC, STREAM_BUFFER, cbor_problem, create_temp, io_problem,
+    read_up_to, rename_into,
+};
 use crate::error::IoError;
 
 /// CBOR major types this layout uses (RFC 8949 §3.1).
@@ -235,8 +238,9 @@ impl ByteMapReader {
         }
         r.expect_head(MAP, 2, "the envelope")?;
         r.expect_text("header")?;
-        let header: ArtifactHeader =
-            ciborium::from_reader(&mut r.input).map_err(|e| r.bad(format!("header: {e}")))?;
+        // The header starts after the tag (3 bytes), the envelope's head (1) and its key (7).
+        let header: ArtifactHeader = ciborium::from_reader(&mut r.input)
+            .map_err(|e| r.bad(format!("header: {}", cbor_problem(&e, 11, io_problem))))?;
         Ok((r, header))
     }
 
