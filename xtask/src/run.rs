@@ -321,7 +321,9 @@ pub fn findings(document: &export::SkeletonJson, spin_limit_deg: f64) -> Vec<Str
         .iter()
         .filter(|m| m.segment.is_none())
         .map(|m| match &m.unassigned_reason {
-            Some(why) => format!("{} ({why})", m.label),
+            // The reasons carry parentheses of their own: "visible in 0 of 180 frames
+            // (needs 10)".
+            Some(why) => format!("{}: {why}", m.label),
             None => m.label.clone(),
         })
         .collect();
@@ -766,7 +768,7 @@ mod tests {
             .find(|f| f.starts_with("markers in no segment: 8 — "))
             .unwrap_or_else(|| panic!("{found:?}"));
         assert!(
-            unassigned.contains("(visible in 3 of 150 frames)")
+            unassigned.contains(": visible in 3 of 150 frames;")
                 && unassigned.ends_with("and 2 more")
         );
         assert!(
