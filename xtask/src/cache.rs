@@ -6,6 +6,7 @@
 //! ```text
 //! <cache>/CACHEDIR.TAG                      marks the folder as a cache for backup tools
 //! <cache>/<stage>-v<schema>/<key>.cbor      one artifact per stage run
+//! <cache>/<stage>-v<schema>/<key>.blake3    its content hash as it was stored
 //! ```
 //!
 //! `<key>` is the hex blake3 of the stage name, its schema version, the canonical CBOR of
@@ -15,8 +16,10 @@
 //! through the changed artifact hash, everything downstream rerun, nothing upstream.
 //!
 //! Entries are written atomically (temporary file + rename). An entry is never trusted
-//! blindly: the runner decodes it and checks its header against the key's ingredients,
-//! and recomputes (with a warning) when that fails. Bumping a stage's schema version
+//! blindly: the runner checks its header against the key's ingredients and its content
+//! hash against the one recorded when it was stored, and recomputes (with a warning) when
+//! either fails, or (silently) when no hash was recorded; it decodes the payload only
+//! where a stage to compute reads it, and recomputes one that fails to decode then. Bumping a stage's schema version
 //! starts a new bucket; `cargo xtask cache prune` drops buckets no stage uses any more.
 
 use std::path::{Path, PathBuf};
@@ -147,6 +150,22 @@ impl Cache {
         self.root
             .join(Self::bucket_name(stage, schema_version))
             .join(format!("{key}.cbor"))
+    }
+
+    /// Records an entry's content hash as stored (`<key>.blake3` beside `<key>.cbor`), so
+    /// a later run can tell an entry changed on disk from the one written.
+    pub fn record_hash(entry: &Path, hash: &str) -> Result<()> {
+        Ok(write_atomic(
+            &entry.with_extension("blake3"),
+            hash.as_bytes(),
+        )?)
+    }
+
+    /// The content hash recorded when `entry` was stored; `None` where none was (an
+    /// entry of an older ossify, or its record could not be written).
+    pub fn recorded_hash(entry: &Path) -> Option<String> {
+        let text = std::fs::read_to_string(entry.with_extension("blake3")).ok()?;
+        Some(text.trim().to_owned())
     }
 
     /// Removes buckets not in `known` (`<stage>-v<schema>` names), or every bucket with

@@ -661,6 +661,9 @@ fn export_from_cache(
         ));
         return Ok(None);
     }
+    if Cache::recorded_hash(path).is_none() {
+        return Ok(None);
+    }
     let mut sink = ExportSink::new(Some(dir), None)?;
     loop {
         match reader.next_entry() {
@@ -673,6 +676,10 @@ fn export_from_cache(
         Ok(hash) => hash,
         Err(e) => return damaged(&e),
     };
+    // Checked once streamed: the files written so far go with the set if it differs.
+    if !unchanged_since_stored(path, &hash, progress) {
+        return Ok(None);
+    }
     let (exported, _) = sink.finish()?;
     Ok(Some((exported, hash)))
 }
@@ -842,8 +849,9 @@ impl CachedRun<'_> {
                             .map_err(|e| failed(&products, e, stage))?;
                         let writer = writer.context("export's artifact writer went missing")?;
                         let (hash, written) = writer.finish();
-                        if let Err(e) = written {
-                            progress.warn(&format!("not cached: {e:#}"));
+                        match written {
+                            Ok(()) => record_hash(&entry, &hash, progress),
+                            Err(e) => progress.warn(&format!("not cached: {e:#}")),
                         }
                         (files, false, hash)
                     }
@@ -871,7 +879,10 @@ impl CachedRun<'_> {
                             .compute(stage, params, Some(capture_file))
                             .map_err(|e| failed(&products, e, stage))?;
                         let hash = match payload.write(&entry, &header) {
-                            Ok(hash) => hash,
+                            Ok(hash) => {
+                                record_hash(&entry, &hash, progress);
+                                hash
+                            }
                             Err(e) => {
                                 progress.warn(&format!("not cached: {e:#}"));
                                 payload.content_hash(&header)?
@@ -917,7 +928,7 @@ fn peek_checked(
         Ok((header, hash))
             if header.params == expected.params && header.inputs == expected.inputs =>
         {
-            Some(hash)
+            unchanged_since_stored(path, &hash, progress).then_some(hash)
         }
         Ok(_) => {
             progress.warn(&format!(
@@ -930,6 +941,31 @@ fn peek_checked(
             progress.warn(&format!("damaged cache entry, recomputing: {e:#}"));
             None
         }
+    }
+}
+
+/// Records a stored entry's content hash; where that fails the entry will be recomputed
+/// next time (it has no record), which is worth a warning, not a failed run.
+fn record_hash(entry: &Path, hash: &str, progress: &Progress) {
+    if let Err(e) = Cache::record_hash(entry, hash) {
+        progress.warn(&format!("not cached: {e:#}"));
+    }
+}
+
+/// True when `entry`'s content hash is the one recorded when it was stored; false (after
+/// a warning where a different one was recorded) otherwise.
+fn unchanged_since_stored(entry: &Path, hash: &str, progress: &Progress) -> bool {
+    match Cache::recorded_hash(entry) {
+        Some(recorded) if recorded == hash => true,
+        Some(_) => {
+            progress.warn(&format!(
+                "damaged cache entry, recomputing: {}: its content differs from what was \
+                 stored (blake3 {hash})",
+                entry.display()
+            ));
+            false
+        }
+        None => false,
     }
 }
 

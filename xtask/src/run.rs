@@ -662,6 +662,21 @@ mod tests {
         assert_eq!(cached(&repaired), [true, false, true, true, true, true]);
         assert_eq!(std::fs::read(&seg).unwrap(), bytes);
         assert_eq!(skeleton_json(&dir), json);
+        // A changed byte that still decodes is caught by the hash recorded at storing; an
+        // entry with no record (an older ossify's) is recomputed too.
+        let fits = cache.entry_path("jointfit", jointfit::SCHEMA_VERSION, &first.stages[2].key);
+        let fits_bytes = std::fs::read(&fits).unwrap();
+        let mut flipped = fits_bytes.clone();
+        let last = flipped.len() - 1;
+        flipped[last] ^= 1;
+        std::fs::write(&fits, &flipped).unwrap();
+        let repaired = execute(&a, &quiet).unwrap();
+        assert_eq!(cached(&repaired), [true, true, false, true, true, true]);
+        assert_eq!(std::fs::read(&fits).unwrap(), fits_bytes);
+        std::fs::remove_file(fits.with_extension("blake3")).unwrap();
+        let repaired = execute(&a, &quiet).unwrap();
+        assert_eq!(cached(&repaired), [true, true, false, true, true, true]);
+        assert_eq!(skeleton_json(&dir), json);
         // So is export's, read file by file into the output folder: a cut inside a file.
         std::fs::write(&export_entry, &export_bytes[..export_bytes.len() / 2]).unwrap();
         let repaired = execute(&a, &quiet).unwrap();
