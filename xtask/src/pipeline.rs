@@ -583,6 +583,8 @@ pub struct Exported {
 struct ExportSink {
     dir: Option<PathBuf>,
     set: FileSet,
+    /// Every file of the folder, written now or already holding these bytes.
+    files: Vec<PathBuf>,
     artifact: Option<ByteMapWriter>,
     skeleton_json: Option<Vec<u8>>,
 }
@@ -596,6 +598,7 @@ impl ExportSink {
         Ok(Self {
             dir: dir.map(Path::to_path_buf),
             set: FileSet::default(),
+            files: Vec::new(),
             artifact,
             skeleton_json: None,
         })
@@ -604,7 +607,13 @@ impl ExportSink {
     fn file(&mut self, name: &str, bytes: Vec<u8>) -> Result<()> {
         check_output_name(name)?;
         if let Some(dir) = &self.dir {
-            self.set.add(&dir.join(name), &bytes)?;
+            let path = dir.join(name);
+            // A rerun into the same folder rewrites only what changed: writing (and
+            // syncing) hundreds of megabytes again is most of a cached run's time.
+            if !holds(&path, &bytes) {
+                self.set.add(&path, &bytes)?;
+            }
+            self.files.push(path);
         }
         if let Some(artifact) = &mut self.artifact {
             artifact.push(name, &bytes)?;
@@ -620,16 +629,36 @@ impl ExportSink {
         let skeleton_json = self
             .skeleton_json
             .context("the export stage wrote no skeleton.json")?;
-        let files: Vec<PathBuf> = self.set.paths().map(Path::to_path_buf).collect();
         self.set.commit()?;
         Ok((
             Exported {
-                files,
+                files: self.files,
                 skeleton_json,
             },
             self.artifact,
         ))
     }
+}
+
+/// True when `path` is a file holding exactly `bytes` (compared block by block).
+fn holds(path: &Path, bytes: &[u8]) -> bool {
+    use std::io::Read as _;
+    let same_size =
+        std::fs::metadata(path).is_ok_and(|m| m.is_file() && m.len() == bytes.len() as u64);
+    let Some(mut file) = same_size.then(|| std::fs::File::open(path).ok()).flatten() else {
+        return false;
+    };
+    let mut block = vec![0u8; 1 << 16];
+    let mut at = 0;
+    while at < bytes.len() {
+        match file.read(&mut block) {
+            Ok(n) if n > 0 && at + n <= bytes.len() && block[..n] == bytes[at..at + n] => {
+                at += n;
+            }
+            _ => return false,
+        }
+    }
+    true
 }
 
 /// Streams a cached export artifact's files into `dir` (each written as it is read, the
@@ -1123,5 +1152,23 @@ mod tests {
         write_outputs(&outputs("new"), &out).unwrap();
         assert_eq!(read("skeleton.bvh"), "new skeleton.bvh");
         assert_eq!(read("skeleton.json"), "new skeleton.json");
+
+        // Written again, a file already holding its bytes is left as it is (same inode),
+        // one that differs is replaced, and every file is listed either way.
+        #[cfg(unix)]
+        {
+            use std::os::unix::fs::MetadataExt as _;
+            let inode = |n: &str| std::fs::metadata(out.join(n)).unwrap().ino();
+            let before = (inode("joints.csv"), inode("skeleton.bvh"));
+            let mut again = outputs("new");
+            again
+                .files
+                .insert("skeleton.bvh".into(), b"newer skeleton.bvh".to_vec());
+            let listed = write_outputs(&again, &out).unwrap();
+            assert_eq!(listed.len(), 3);
+            assert_eq!(inode("joints.csv"), before.0);
+            assert_ne!(inode("skeleton.bvh"), before.1);
+            assert_eq!(read("skeleton.bvh"), "newer skeleton.bvh");
+        }
     }
 }

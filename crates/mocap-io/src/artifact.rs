@@ -351,11 +351,6 @@ impl FileSet {
         Ok(())
     }
 
-    /// The destinations added so far, in order.
-    pub fn paths(&self) -> impl Iterator<Item = &Path> {
-        self.temps.iter().map(|(_, dest)| dest.as_path())
-    }
-
     /// Renames every file into place, in the order added.
     pub fn commit(mut self) -> Result<(), IoError> {
         let temps = std::mem::take(&mut self.temps);
