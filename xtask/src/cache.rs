@@ -19,8 +19,9 @@
 //! blindly: the runner checks its header against the key's ingredients and its content
 //! hash against the one recorded when it was stored, and recomputes (with a warning) when
 //! either fails, or (silently) when no hash was recorded; it decodes the payload only
-//! where a stage to compute reads it, and recomputes one that fails to decode then. Bumping a stage's schema version
-//! starts a new bucket; `cargo xtask cache prune` drops buckets no stage uses any more.
+//! where a stage to compute reads it, and recomputes one that fails to decode then.
+//! Bumping a stage's schema version starts a new bucket; `cargo xtask cache prune` drops
+//! buckets no stage uses any more.
 
 use std::path::{Path, PathBuf};
 

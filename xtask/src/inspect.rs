@@ -219,7 +219,7 @@ fn inspect_artifact(path: &Path) -> Result<Report> {
     });
 
     let mut text = String::new();
-    let _ = writeln!(text, "artifact      {} ({size} bytes)", path.display(),);
+    let _ = writeln!(text, "artifact      {} ({size} bytes)", path.display());
     let _ = writeln!(text, "blake3        {hash}");
     let _ = writeln!(
         text,

@@ -570,16 +570,18 @@ const OUTPUTS_FIELD: &str = "files";
 /// What export wrote into an output folder.
 #[derive(Debug)]
 pub struct Exported {
-    /// Every file written, in the order written.
+    /// Every file of the set, in name order: written now, or left as it was where it
+    /// already held these bytes (none when export wrote only an artifact).
     pub files: Vec<PathBuf>,
     /// skeleton.json's bytes (the run's findings are read from them).
     pub skeleton_json: Vec<u8>,
 }
 
 /// Export's files as they come: each to a temporary beside its place in the output folder,
-/// if any (the set renamed into place only when all came, see [`artifact::FileSet`]), and
-/// into the export artifact being written, if any; skeleton.json's bytes are kept. Only
-/// one file's bytes are in memory at a time.
+/// if any (the set renamed into place only when all came, see [`artifact::FileSet`]; a
+/// file already holding its bytes is left as it is), and into the export artifact being
+/// written, if any; skeleton.json's bytes are kept. Only one file's bytes are in memory
+/// at a time.
 struct ExportSink {
     dir: Option<PathBuf>,
     set: FileSet,
@@ -662,9 +664,10 @@ fn holds(path: &Path, bytes: &[u8]) -> bool {
 }
 
 /// Streams a cached export artifact's files into `dir` (each written as it is read, the
-/// set renamed into place when all came), with its content hash; `None` (after a warning)
-/// where the entry is damaged or does not match `expected`, the header it should have, so
-/// export runs again. A file that cannot be written into `dir` is an error.
+/// set renamed into place when all came), with its content hash; `None` where the entry
+/// is damaged, changed since it was stored or does not match `expected`, the header it
+/// should have (after a warning), or has no recorded hash (silently), so export runs
+/// again. A file that cannot be written into `dir` is an error.
 fn export_from_cache(
     path: &Path,
     expected: &ArtifactHeader,
@@ -789,8 +792,8 @@ pub fn run_cached(
 enum Pass {
     /// Every stage ran or came from the cache: the products, the runs, what was written.
     Done(Box<(Products, Vec<StageRun>, Exported)>),
-    /// A stage's cache entry, taken by its header and hash, did not decode when a later
-    /// stage needed it.
+    /// A stage's cache entry, taken by its header and hash, did not decode (or had
+    /// changed) when a later stage needed it.
     Damaged(StageId),
 }
 
@@ -938,8 +941,9 @@ impl CachedRun<'_> {
 }
 
 /// A cache entry's content hash, its header checked against the one it should have and
-/// its payload left undecoded (see [`read_unread`]); `None` (after a warning for a damaged
-/// or foreign entry) when there is no usable entry.
+/// its hash against the one recorded when it was stored, its payload left undecoded (see
+/// [`read_unread`]); `None` when there is no usable entry (after a warning for a damaged,
+/// changed or foreign one; silently for one with no recorded hash).
 fn peek_checked(
     path: &Path,
     stage: StageId,

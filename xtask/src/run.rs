@@ -64,7 +64,7 @@ pub struct Report {
     pub segments: usize,
     /// Joints in the tree.
     pub joints: usize,
-    /// Files written.
+    /// The output files: written, or left as they were where they held their bytes.
     pub files: Vec<PathBuf>,
     /// What the reader warned about the capture (units guessed, points not read, ...).
     pub warnings: Vec<String>,

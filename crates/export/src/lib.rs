@@ -3,7 +3,8 @@
 //! Takes the capture (with what its reader warned), segmentation, pair fits, topology and
 //! [`bonefit::Skeleton`] (as [`Inputs`]) and gives [`Outputs`]: file name → bytes, or hands
 //! the files over one at a time ([`run_each`]) so a long capture's are never all in memory.
-//! It is the only stage that makes file bytes, and it still writes nothing: the runner does.
+//! It is the only stage that makes file bytes, and it still writes nothing: the runner
+//! does.
 //! - `skeleton.json`: DESIGN.md's output contract (units, frame_rate, frame_count,
 //!   segments, unassigned_markers, root_segment, joints with name, parent/child segment,
 //!   kind and one position per frame or null), then quality fields beside them (see

@@ -238,7 +238,8 @@ impl ByteMapReader {
         }
         r.expect_head(MAP, 2, "the envelope")?;
         r.expect_text("header")?;
-        // The header starts after the tag (3 bytes), the envelope's head (1) and its key (7).
+        // The header starts after the tag (3 bytes), the envelope's head (1) and its key
+        // (7): where a decoding error counts its bytes from.
         let header: ArtifactHeader = ciborium::from_reader(&mut r.input)
             .map_err(|e| r.bad(format!("header: {}", cbor_problem(&e, 11, io_problem))))?;
         Ok((r, header))
