@@ -84,7 +84,8 @@ pub fn main(args: &Args) -> Result<()> {
     let stages_s = start.elapsed().as_secs_f64();
 
     // The runner's own path: cold cache (compute + encode + store, files written), then
-    // warm (all hits: entries checked by header and hash, export's files streamed out).
+    // warm (all hits: entries checked by header and hash, export's files streamed out and
+    // left where the folder holds them already).
     let cache_dir = TempDir::new("bench-cache")?;
     let cache = Cache::open(cache_dir.path())?;
     let out = dir.path().join("out");
@@ -124,7 +125,8 @@ pub fn main(args: &Args) -> Result<()> {
         "| `run`, warm cache | {warm_s:.4} | best of {}; {} |",
         args.warm_runs.max(1),
         if all_cached {
-            "every stage a cache hit (header and hash checked, export's files streamed out)"
+            "every stage a cache hit (header and hash checked; export's files streamed out, \
+             those the folder holds already left as they are)"
         } else {
             "NOT all cached"
         }

@@ -186,7 +186,6 @@ pub fn run_each<E: From<Error> + Send>(
     // The document first: it checks that the inputs belong together, which the files
     // below take for granted.
     let mut document = json::document(input)?;
-    let with_c3d = fits_c3d(input.trajectories);
     // The trajectory files (markers.trc the biggest text: every marker at every frame) are
     // made and handed over first, beside the skeleton's files, which wait for their turn.
     let (skeleton_files, filled) = rayon::join(
@@ -205,14 +204,15 @@ pub fn run_each<E: From<Error> + Send>(
                 || trc::joint_trajectories(input, params),
             );
             let joints = joints?;
-            if with_c3d && let Some(c3d) = trc::c3d(&joints, "joints.c3d")? {
+            // `trc::c3d` gives none where the capture does not fit C3D (`file_names`).
+            if let Some(c3d) = trc::c3d(&joints, "joints.c3d")? {
                 emit("joints.c3d", c3d)?;
             }
             emit("joints.csv", csv::write(input.skeleton))?;
             emit("joints.trc", mocap_io::trc::write(&joints).into_bytes())?;
             drop(joints);
             let markers = markers?;
-            if with_c3d && let Some(c3d) = trc::c3d(&markers.trajectories, "markers.c3d")? {
+            if let Some(c3d) = trc::c3d(&markers.trajectories, "markers.c3d")? {
                 emit("markers.c3d", c3d)?;
             }
             emit(
