@@ -71,6 +71,9 @@ pub struct Report {
     /// What skeleton.json says deserves a look: joint warnings, unassigned and sliding
     /// markers, detached segments, the topology's remarks.
     pub findings: Vec<String>,
+    /// Where the capture holds several bodies (skeleton.json's `bodies`), each other body's
+    /// run, its files in `<out>/<body name>/`.
+    pub other_bodies: Vec<Report>,
 }
 
 impl Report {
@@ -84,6 +87,7 @@ impl Report {
             "files": self.files,
             "warnings": self.warnings,
             "findings": self.findings,
+            "other_bodies": self.other_bodies.iter().map(Report::json).collect::<Vec<_>>(),
         })
     }
 }
@@ -141,12 +145,15 @@ pub fn main(args: &Args) -> Result<()> {
     Ok(())
 }
 
-/// Warnings, then the summary, on stderr.
+/// Warnings, then the summary (and each other body's), on stderr.
 fn print_report(report: &Report) {
     for w in &report.warnings {
         eprintln!("warning: {w}");
     }
     eprintln!("{}", summary(report));
+    for body in &report.other_bodies {
+        eprintln!("{}", summary(body));
+    }
 }
 
 /// The captures of a batch with each one's output folder, or `None` for a single capture
@@ -265,15 +272,49 @@ pub fn execute(args: &Args, progress: &Progress) -> Result<Report> {
         None => PathBuf::from("out").join(stem_of(&input)),
     };
     let cache = Cache::open(&cache::resolve_root(args.cache.as_deref()))?;
+    let (mut report, document) = run_body(&input, &params, &cache, force_from, progress, &out)?;
+    // Every other body from the same cached stages up to topo, which builds its tree.
+    let force_from = force_from.map(|stage| stage.max(StageId::Topo));
+    for body in &document.bodies {
+        if document.body.as_ref() == Some(&body.name) {
+            continue;
+        }
+        let mut body_params = params.clone();
+        body_params.topo.root = None;
+        body_params.topo.body = body.segments.first().map(|&s| topo::SegmentRef::Id(s));
+        let body_out = out.join(&body.name);
+        let (body_report, _) = run_body(
+            &input,
+            &body_params,
+            &cache,
+            force_from,
+            progress,
+            &body_out,
+        )?;
+        report.other_bodies.push(body_report);
+    }
+    Ok(report)
+}
+
+/// Runs the pipeline on `input` with `params` into `out`: the report (no other bodies)
+/// and the skeleton.json it wrote.
+fn run_body(
+    input: &Path,
+    params: &Params,
+    cache: &Cache,
+    force_from: Option<StageId>,
+    progress: &Progress,
+    out: &Path,
+) -> Result<(Report, export::SkeletonJson)> {
     let (_, stages, exported) =
-        pipeline::run_cached(&input, &params, &cache, force_from, progress, &out)?;
+        pipeline::run_cached(input, params, cache, force_from, progress, out)?;
     // The counts and the reader's warnings come from skeleton.json: a run served from the
     // cache decodes no stage's output.
     let document: export::SkeletonJson =
         serde_json::from_slice(&exported.skeleton_json).context("reading back skeleton.json")?;
-    Ok(Report {
+    let report = Report {
         stages,
-        out,
+        out: out.to_path_buf(),
         segments: document.segments.len(),
         joints: document.joints.len(),
         files: exported.files,
@@ -283,7 +324,9 @@ pub fn execute(args: &Args, progress: &Progress) -> Result<Report> {
             .iter()
             .map(|w| format!("{}: {w}", input.display()))
             .collect(),
-    })
+        other_bodies: Vec::new(),
+    };
+    Ok((report, document))
 }
 
 /// Most markers named in one finding line; the rest are counted.
@@ -542,6 +585,44 @@ mod tests {
         let path = dir.join("snowman.c3d");
         mocap_io::write_c3d(&path, &trial.trajectories).unwrap();
         path
+    }
+
+    /// A human and, 3 m along x, a snowman, moving each on its own in one capture written
+    /// as C3D into `dir`, and each one's true segment count (the human has more).
+    fn two_body_capture(dir: &Path) -> (PathBuf, [usize; 2]) {
+        let trial = |subject, seed| {
+            let config = synth::SynthConfig {
+                subject,
+                frames: 240,
+                seed,
+                ..synth::SynthConfig::default()
+            };
+            synth::generate(&config).unwrap()
+        };
+        let (a, b) = (
+            trial(synth::Subject::Human, 31),
+            trial(synth::Subject::Snowman, 32),
+        );
+        let (ta, tb) = (&a.trajectories, &b.trajectories);
+        let mut labels = ta.labels().to_vec();
+        labels.extend(tb.labels().iter().map(|l| format!("S{l}")));
+        let mut positions = Vec::with_capacity(labels.len() * ta.frames());
+        for f in 0..ta.frames() {
+            positions.extend_from_slice(ta.frame(f));
+            positions.extend(tb.frame(f).iter().map(|p| [p[0] + 3000.0, p[1], p[2]]));
+        }
+        let both = mocap_io::Trajectories::new(
+            labels,
+            ta.frame_rate(),
+            ta.first_frame(),
+            ta.frames(),
+            positions,
+        )
+        .unwrap();
+        let path = dir.join("two.c3d");
+        mocap_io::write_c3d(&path, &both).unwrap();
+        let segments = [a.truth.segments.len(), b.truth.segments.len()];
+        (path, segments)
     }
 
     fn args(input: &Path, dir: &Path, set: &[&str]) -> Args {
@@ -812,6 +893,38 @@ mod tests {
             })
             .contains("worth a look")
         );
+    }
+
+    #[test]
+    fn each_body_of_a_capture_gets_its_own_files() {
+        let dir = TempDir::new("run-bodies").unwrap();
+        let (input, true_segments) = two_body_capture(dir.path());
+        assert!(true_segments[0] > true_segments[1]);
+        let report = execute(&args(&input, dir.path(), &[]), &Progress::hidden()).unwrap();
+        let read = |path: PathBuf| -> export::SkeletonJson {
+            serde_json::from_slice(&std::fs::read(path).unwrap()).unwrap()
+        };
+        let first = read(dir.path().join("out/skeleton.json"));
+        let second = read(dir.path().join("out/body2/skeleton.json"));
+        assert_eq!(report.other_bodies.len(), 1);
+        assert_eq!(report.other_bodies[0].out, dir.path().join("out/body2"));
+        assert_eq!(first.bodies, second.bodies);
+        let names: Vec<&str> = first.bodies.iter().map(|b| b.name.as_str()).collect();
+        assert_eq!(names, ["body1", "body2"]);
+        for (k, doc) in [&first, &second].into_iter().enumerate() {
+            assert_eq!(doc.body.as_deref(), Some(names[k]));
+            let body = &doc.bodies[k].segments;
+            assert_eq!(body.len(), true_segments[k]);
+            assert_eq!(doc.joints.len(), true_segments[k] - 1);
+            assert!(body.contains(&doc.root_segment));
+            for j in &doc.joints {
+                assert!(body.contains(&j.parent_segment) && body.contains(&j.child_segment));
+            }
+            // Each body's markers are its own subject's: the snowman's were renamed S….
+            let markers = doc.segments.iter().filter(|s| body.contains(&s.id));
+            let snowman = markers.flat_map(|s| &s.markers).all(|m| m.starts_with('S'));
+            assert_eq!(snowman, k == 1);
+        }
     }
 
     #[test]

@@ -1872,6 +1872,8 @@ mod tests {
             joints: Vec::new(),
             detached_segments: vec![0, 1, 3],
             notes: Vec::new(),
+            bodies: Vec::new(),
+            body: None,
         };
         let k = run_on(&s, &s.fits, &topo).unwrap_or_else(|e| panic!("{e}"));
         assert!(k.joints.is_empty());

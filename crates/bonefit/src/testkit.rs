@@ -191,6 +191,8 @@ pub fn scene(frames: usize, rate: f64) -> Scene {
             .collect(),
         detached_segments: Vec::new(),
         notes: Vec::new(),
+        bodies: Vec::new(),
+        body: None,
     };
     Scene {
         trajectories,

@@ -89,6 +89,14 @@ pub struct SkeletonJson {
     pub markers: Vec<MarkerJson>,
     /// Segments not connected to the tree.
     pub detached_segments: Vec<usize>,
+    /// Every body the capture holds where it holds more than one (two subjects, or a
+    /// subject and a prop; no pair between two is a joint), biggest first; empty for one.
+    /// `cargo xtask run` writes each other body's files into `<out>/<its name>/`.
+    #[serde(default)]
+    pub bodies: Vec<BodyJson>,
+    /// The name of the body this file's tree spans (one of `bodies`); null for one body.
+    #[serde(default)]
+    pub body: Option<String>,
     /// Remarks from the topology stage, in words.
     pub notes: Vec<String>,
     /// Pairs of markers whose trajectories the capture had exchanged for a while (a
@@ -105,6 +113,18 @@ pub struct SkeletonJson {
     /// as missing); empty where it said nothing.
     #[serde(default)]
     pub reader_warnings: Vec<String>,
+}
+
+/// One of several bodies in a capture.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+pub struct BodyJson {
+    /// "body1", "body2", ... biggest first: the folder `cargo xtask run` writes it into,
+    /// where it is not the body of the file that lists it.
+    pub name: String,
+    /// Its segments' ids, ascending.
+    pub segments: Vec<usize>,
+    /// Markers on those segments.
+    pub marker_count: usize,
 }
 
 /// Two markers whose trajectories were exchanged, and when.
@@ -606,6 +626,22 @@ pub(crate) fn document(input: &Inputs<'_>) -> Result<SkeletonJson, Error> {
         },
         markers,
         detached_segments: input.topology.detached_segments.clone(),
+        bodies: input
+            .topology
+            .bodies
+            .iter()
+            .enumerate()
+            .map(|(k, segments)| BodyJson {
+                name: topo::body_name(k),
+                segments: segments.clone(),
+                marker_count: segments
+                    .iter()
+                    .filter_map(|&s| input.segmentation.segments.get(s))
+                    .map(|s| s.markers.len())
+                    .sum(),
+            })
+            .collect(),
+        body: input.topology.body.map(topo::body_name),
         notes: input.topology.notes.clone(),
         label_swaps,
         settings: input.settings.clone(),

@@ -60,8 +60,8 @@ mod trc;
 
 pub use error::Error;
 pub use json::{
-    JointJson, LabelSwapJson, MarkerJson, NearJointJson, RootJson, RunnerUpJson, SegmentJson,
-    SkeletonJson, runner_up_applies,
+    BodyJson, JointJson, LabelSwapJson, MarkerJson, NearJointJson, RootJson, RunnerUpJson,
+    SegmentJson, SkeletonJson, runner_up_applies,
 };
 
 use std::collections::BTreeMap;
@@ -72,7 +72,7 @@ use serde::{Deserialize, Serialize};
 pub const STAGE: &str = "export";
 
 /// Schema version of [`Outputs`] and of skeleton.json's layout; bump when either changes.
-pub const SCHEMA_VERSION: u32 = 22;
+pub const SCHEMA_VERSION: u32 = 23;
 
 /// Everything the files are made from.
 #[derive(Clone, Copy, Debug)]

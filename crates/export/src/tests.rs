@@ -1143,6 +1143,8 @@ fn single_segment_bvh_ends_the_root_in_an_end_site_and_parses_back() {
         joints: Vec::new(),
         detached_segments: vec![0, 1, 3],
         notes: Vec::new(),
+        bodies: Vec::new(),
+        body: None,
     };
     let out = files(&s, &Params::default());
     let text = text(&out, "skeleton.bvh");

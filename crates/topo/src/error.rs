@@ -53,6 +53,14 @@ pub enum Error {
         /// Segments of the tree that could be the root.
         tree: Vec<usize>,
     },
+    /// The segment `topo.body` names is not one of the segmentation's.
+    #[error("topo: topo.body = {body} is not usable: {reason}")]
+    BadBody {
+        /// The requested segment, as given.
+        body: String,
+        /// Why it cannot be used.
+        reason: String,
+    },
     /// A pair `topo.joints` names cannot be a tree edge.
     #[error("topo: topo.joints pair [{a}, {b}]: {reason}")]
     BadJoint {

@@ -72,7 +72,7 @@ mod topology;
 mod twins;
 
 pub use error::Error;
-pub use mst::run;
+pub use mst::{body_name, run, typical_joint_residual};
 pub use topology::*;
 
 use serde::{Deserialize, Serialize};
@@ -86,6 +86,9 @@ pub const STAGE: &str = "topo";
 pub struct Params {
     /// Segment to force as the root; `None` (default) picks the tree's centre.
     pub root: Option<SegmentRef>,
+    /// Where the capture holds several bodies, a segment of the one whose tree to build;
+    /// `None` (default) builds the biggest's.
+    pub body: Option<SegmentRef>,
     /// Take `rigid` pairs before all other edges (default true); false uses their cost as is.
     pub rigid_first: bool,
     /// Costs within this much (cost units, mm for `score`) of a run's cheapest cost are
@@ -129,6 +132,9 @@ pub struct Params {
     /// Pairs of segments the tree joins before any other edge, as the user knows them
     /// (default none).
     pub joints: Vec<[SegmentRef; 2]>,
+    /// A pair whose fit residual exceeds this many times the typical joint's is no joint:
+    /// two bodies (default 40; 0 = off; see [`typical_joint_residual`]).
+    pub max_residual_ratio: f64,
 }
 
 /// A segment as the user names it: by id, or by the label of a marker it holds (ids follow
@@ -178,6 +184,7 @@ impl Default for Params {
     fn default() -> Self {
         Self {
             root: None,
+            body: None,
             rigid_first: true,
             tie_absolute: 0.1,
             tie_relative: 0.0,
@@ -192,6 +199,7 @@ impl Default for Params {
             twin_leaf_cost_ratio: 3.0,
             twin_leaf_anchor_ratio: 1.5,
             joints: Vec::new(),
+            max_residual_ratio: 40.0,
         }
     }
 }
@@ -208,6 +216,28 @@ pub const PARAM_DOCS: &[(&str, &str)] = &[
          they hardly decide); the rules after the spanning tree (twin_*) leave these joints \
          alone. An id the segmentation has not, a pair without a usable joint fit, or pairs \
          that close a loop are errors; default []",
+    ),
+    (
+        "max_residual_ratio",
+        "a pair whose fit residual (skeleton.json's residual_rms_mm: how far the two segments \
+         disagree about their common centre) exceeds this many times the typical joint's is \
+         not a joint and never an edge: two bodies that share no joint (two subjects, or a \
+         subject and a prop, in one capture), whose junction would bend both skeletons. The \
+         typical joint's residual is the lower median over the edges of the pairs' plain \
+         minimum spanning tree, and at least the segmentation's rigidity tolerance. True \
+         joints stay far below: at most 14.6 times it on the real captures in \
+         ../shared/data (c3d.org sample 34's body-model points, 24.8 mm against 1.7 mm) and \
+         6.4 on the hard preset (84 trials, seven subjects, seeds 20001-20012); two synthetic \
+         subjects in one capture (hard) joined at 167-361 times it. A pair topo.joints names \
+         is joined whatever its residual; dimensionless; 0 = off; default 40",
+    ),
+    (
+        "body",
+        "where the capture holds several bodies (two subjects, or a subject and a prop; see \
+         max_residual_ratio), the one whose tree to build, by the id of a segment in it or the \
+         label of a marker on it; `cargo xtask run` writes every other body's files into \
+         <out>/body<k>/ with this set; default none: the biggest body (most segments, then \
+         markers)",
     ),
     (
         "root",

@@ -38,6 +38,35 @@ pub fn run(seg: &Segmentation, fits: &PairFits, params: &Params) -> Result<Topol
     }
 
     let named = named_pairs(seg, fits, &params.joints)?;
+    // Pairs that are no joint leave every rule below as pairs without a usable fit do.
+    let (refused, bodies) = refused_pairs(fits, &named, seg.tolerance_mm, &marker_count, params);
+    let masked;
+    let fits = if refused.is_empty() {
+        fits
+    } else {
+        masked = without_pairs(fits, &refused);
+        let sizes: Vec<usize> = bodies.iter().map(Vec::len).collect();
+        notes.push(format!(
+            "{} bodies, of {sizes:?} segments (two subjects, or a subject and a prop): the \
+             pairs that fit a joint (a residual at most topo.max_residual_ratio {} times the \
+             typical joint's) join the segments so, and the {} pair(s) from one body to \
+             another disagree about a common centre by more: no joint",
+            bodies.len(),
+            params.max_residual_ratio,
+            refused.len()
+        ));
+        &masked
+    };
+    let body_segment = params
+        .body
+        .as_ref()
+        .map(|r| {
+            segment_of(seg, r).map_err(|reason| Error::BadBody {
+                body: r.to_string(),
+                reason,
+            })
+        })
+        .transpose()?;
     let forced_root = params
         .root
         .as_ref()
@@ -136,25 +165,31 @@ pub fn run(seg: &Segmentation, fits: &PairFits, params: &Params) -> Result<Topol
         members[r].push(s);
     }
     let components: Vec<&Vec<usize>> = members.iter().filter(|m| !m.is_empty()).collect();
-    let tree_set: Vec<usize> = match forced_root {
-        Some(root) => {
+    let tree_set: Vec<usize> = match (forced_root, body_segment) {
+        (Some(root), Some(b)) if sets.find(root) != sets.find(b) => {
+            return Err(Error::BadRoot {
+                root: root.to_string(),
+                reason: format!("it lies in another body than topo.body's segment {b}"),
+                tree: members[sets.find(b)].clone(),
+            });
+        }
+        (Some(root), _) => {
             notes.push(format!("root forced to segment {root} (topo.root)"));
             members[sets.find(root)].clone()
         }
-        None => components
+        (None, Some(b)) => {
+            notes.push(format!("the tree of segment {b}'s body (topo.body)"));
+            members[sets.find(b)].clone()
+        }
+        (None, None) => components
             .iter()
-            .max_by(|x, y| {
-                let mx: usize = x.iter().map(|&s| marker_count[s]).sum();
-                let my: usize = y.iter().map(|&s| marker_count[s]).sum();
-                x.len()
-                    .cmp(&y.len())
-                    .then(mx.cmp(&my))
-                    // Lower smallest id wins the tie, so compare reversed.
-                    .then(y[0].cmp(&x[0]))
-            })
+            .min_by(|x, y| bigger_first(x, y, &marker_count))
             .map(|c| (*c).clone())
             .unwrap_or_default(),
     };
+    let body = bodies
+        .iter()
+        .position(|b| tree_set.first().is_some_and(|s| b.contains(s)));
     let mut in_tree = vec![false; n];
     for &s in &tree_set {
         in_tree[s] = true;
@@ -168,7 +203,17 @@ pub fn run(seg: &Segmentation, fits: &PairFits, params: &Params) -> Result<Topol
     }
     let detached_segments: Vec<usize> = (0..n).filter(|&s| !in_tree[s]).collect();
     for &s in &detached_segments {
-        if has_edge[s] {
+        // Another body is said once, by its segments, not segment by segment.
+        if let Some(k) = bodies.iter().position(|b| b.contains(&s)) {
+            if bodies[k].first() == Some(&s) {
+                notes.push(format!(
+                    "segments {:?} are another body ({}): no pair between it and the tree fits \
+                     a joint",
+                    bodies[k],
+                    body_name(k)
+                ));
+            }
+        } else if has_edge[s] {
             let comp = &members[sets.find(s)];
             notes.push(format!(
                 "segment {s} is detached: its component {comp:?} has no finite-cost pair with the tree"
@@ -235,7 +280,111 @@ pub fn run(seg: &Segmentation, fits: &PairFits, params: &Params) -> Result<Topol
         joints,
         detached_segments,
         notes,
+        bodies,
+        body,
     })
+}
+
+/// The pairs (indices into `fits.pairs`) between bodies, and the bodies (segments
+/// ascending, [`bigger_first`]; empty for one body): where the pairs whose residual is
+/// at most `max_residual_ratio` times the typical joint's ([`typical_joint_residual`], at
+/// least `floor_mm`) or that the user named join the segments into more than one body, the
+/// finite-cost pairs from one body to another. Within one body nothing is refused, so a
+/// capture of one subject keeps every pair as it was.
+fn refused_pairs(
+    fits: &PairFits,
+    named: &[usize],
+    floor_mm: f64,
+    marker_count: &[usize],
+    params: &Params,
+) -> (Vec<usize>, Vec<Vec<usize>>) {
+    if params.max_residual_ratio <= 0.0 {
+        return (Vec::new(), Vec::new());
+    }
+    let Some(typical) = typical_joint_residual(fits) else {
+        return (Vec::new(), Vec::new());
+    };
+    let limit = params.max_residual_ratio * typical.max(floor_mm);
+    let n = fits.poses.len();
+    let usable = |i: usize| {
+        let p = &fits.pairs[i];
+        p.cost.is_finite() && p.a < p.b && p.b < n
+    };
+    let mut bodies = DisjointSets::new(n);
+    let mut paired = vec![false; n];
+    for i in (0..fits.pairs.len()).filter(|&i| usable(i)) {
+        let p = &fits.pairs[i];
+        (paired[p.a], paired[p.b]) = (true, true);
+        if p.residual_rms_mm <= limit || named.contains(&i) {
+            bodies.union(p.a, p.b);
+        }
+    }
+    let mut members: Vec<Vec<usize>> = vec![Vec::new(); n];
+    for s in (0..n).filter(|&s| paired[s]) {
+        members[bodies.find(s)].push(s);
+    }
+    let mut members: Vec<Vec<usize>> = members.into_iter().filter(|m| !m.is_empty()).collect();
+    if members.len() < 2 {
+        return (Vec::new(), Vec::new());
+    }
+    members.sort_by(|x, y| bigger_first(x, y, marker_count));
+    let refused = (0..fits.pairs.len())
+        .filter(|&i| usable(i) && bodies.find(fits.pairs[i].a) != bodies.find(fits.pairs[i].b))
+        .collect();
+    (refused, members)
+}
+
+/// The name of the `k`-th body (0-based, biggest first, `Topology::bodies`) of a capture
+/// that holds several: "body1", "body2", ...
+pub fn body_name(k: usize) -> String {
+    format!("body{}", k + 1)
+}
+
+/// Orders sets of segments biggest first: more segments, then more markers, then the lower
+/// smallest id (the tree's body, where nothing else chooses it).
+fn bigger_first(x: &[usize], y: &[usize], marker_count: &[usize]) -> std::cmp::Ordering {
+    let markers = |set: &[usize]| set.iter().map(|&s| marker_count[s]).sum::<usize>();
+    y.len()
+        .cmp(&x.len())
+        .then(markers(y).cmp(&markers(x)))
+        .then(x.first().cmp(&y.first()))
+}
+
+/// The typical joint's residual (mm): the lower median of `residual_rms_mm` over the edges
+/// of the plain minimum spanning tree of the finite costs (Kruskal, no rule of the tree's);
+/// `None` without such an edge. Two bodies in one capture add one edge between them to that
+/// tree for every body after the first, so the median stays a joint's.
+pub fn typical_joint_residual(fits: &PairFits) -> Option<f64> {
+    let mut order: Vec<usize> = (0..fits.pairs.len())
+        .filter(|&i| {
+            let p = &fits.pairs[i];
+            p.cost.is_finite() && p.a < p.b && p.b < fits.poses.len()
+        })
+        .collect();
+    order.sort_by(|&x, &y| {
+        fits.pairs[x]
+            .cost
+            .total_cmp(&fits.pairs[y].cost)
+            .then(x.cmp(&y))
+    });
+    let mut sets = DisjointSets::new(fits.poses.len());
+    let mut residuals: Vec<f64> = order
+        .into_iter()
+        .filter(|&i| sets.union(fits.pairs[i].a, fits.pairs[i].b))
+        .map(|i| fits.pairs[i].residual_rms_mm)
+        .filter(|r| r.is_finite())
+        .collect();
+    residuals.sort_by(f64::total_cmp);
+    residuals.get(residuals.len().checked_sub(1)? / 2).copied()
+}
+
+/// A copy of `fits` in which the `refused` pairs have no usable fit (cost NaN).
+fn without_pairs(fits: &PairFits, refused: &[usize]) -> PairFits {
+    let mut masked = fits.clone();
+    for &i in refused {
+        masked.pairs[i].cost = f64::NAN;
+    }
+    masked
 }
 
 /// Per tree joint (in `joints`' order, parents first), the cheapest finite-cost pair
@@ -1427,6 +1576,91 @@ mod tests {
         (pair.kind, pair.first_pass_kind) = (JointKind::Rigid, Some(JointKind::Ball));
         let t = run(&seg, &f, &Params::default()).unwrap();
         assert_eq!(edge_set(&t), vec![(0, 1), (1, 2)]);
+    }
+
+    /// Segments 0-1-2 and 3-4, each a chain of joints fitting within 5 mm, and every pair
+    /// across them `across_mm` off; the cheapest pair of all (2, 3) is across.
+    fn two_bodies(across_mm: f64) -> (Segmentation, PairFits) {
+        let body = |s: usize| usize::from(s >= 3);
+        let mut f = fits(5, tree_costs(&[(0, 1), (1, 2), (3, 4)]));
+        for p in &mut f.pairs {
+            p.residual_rms_mm = if body(p.a) == body(p.b) {
+                5.0
+            } else {
+                across_mm
+            };
+        }
+        fit_mut(&mut f, 0, 2).residual_rms_mm = 30.0;
+        fit_mut(&mut f, 2, 3).cost = 0.5;
+        (segmentation(&[4, 3, 3, 5, 4]), f)
+    }
+
+    #[test]
+    fn two_bodies_make_two_trees_and_no_pair_joins_them() {
+        let (seg, f) = two_bodies(1000.0);
+        assert_eq!(typical_joint_residual(&f), Some(5.0));
+        let t = run(&seg, &f, &Params::default()).unwrap();
+        assert_eq!(edge_set(&t), vec![(0, 1), (1, 2)]);
+        assert_eq!(t.detached_segments, vec![3, 4]);
+        assert_eq!(t.bodies, vec![vec![0, 1, 2], vec![3, 4]]);
+        assert_eq!(t.body, Some(0));
+        assert!(
+            t.notes
+                .iter()
+                .any(|n| n.starts_with("2 bodies, of [3, 2] segments"))
+        );
+        assert!(
+            t.notes
+                .iter()
+                .any(|n| n.contains("segments [3, 4] are another body (body2)"))
+        );
+        // No pair from the other body stands in for one of the tree's joints.
+        let runner_ups: Vec<_> = t
+            .joints
+            .iter()
+            .filter_map(|j| j.runner_up.as_ref())
+            .collect();
+        assert!(
+            runner_ups
+                .iter()
+                .all(|r| r.parent_side < 3 && r.child_side < 3)
+        );
+
+        let other = Params {
+            body: Some(SegmentRef::Marker("M14".into())),
+            ..Params::default()
+        };
+        let t = run(&seg, &f, &other).unwrap();
+        assert_eq!(edge_set(&t), vec![(3, 4)]);
+        assert_eq!(
+            (t.detached_segments.clone(), t.body),
+            (vec![0, 1, 2], Some(1))
+        );
+
+        let apart = Params {
+            root: Some(SegmentRef::Id(0)),
+            ..other.clone()
+        };
+        let e = run(&seg, &f, &apart).unwrap_err().to_string();
+        assert!(e.contains("another body than topo.body's segment 3"), "{e}");
+        let missing = Params {
+            body: Some(SegmentRef::Id(7)),
+            ..Params::default()
+        };
+        let e = run(&seg, &f, &missing).unwrap_err().to_string();
+        assert!(e.starts_with("topo: topo.body = 7 is not usable"), "{e}");
+
+        // Off, or pairs across that fit a joint well enough: one body, as before.
+        let off = Params {
+            max_residual_ratio: 0.0,
+            ..Params::default()
+        };
+        for (across, params) in [(1000.0, &off), (150.0, &Params::default())] {
+            let (seg, f) = two_bodies(across);
+            let t = run(&seg, &f, params).unwrap();
+            assert_eq!(edge_set(&t), vec![(0, 1), (1, 2), (2, 3), (3, 4)]);
+            assert!(t.bodies.is_empty() && t.body.is_none());
+        }
     }
 
     #[test]

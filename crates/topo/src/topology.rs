@@ -3,7 +3,7 @@
 use serde::{Deserialize, Serialize};
 
 /// Schema version of [`Topology`]; bump when its fields or the algorithm's output change.
-pub const SCHEMA_VERSION: u32 = 7;
+pub const SCHEMA_VERSION: u32 = 8;
 
 /// A tree over the segments: a root and one joint per edge, parent to child.
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
@@ -18,6 +18,15 @@ pub struct Topology {
     /// segments and why, a forced root).
     #[serde(default)]
     pub notes: Vec<String>,
+    /// Every body the capture holds, where it holds more than one (two subjects, or a
+    /// subject and a prop): each body's segments ascending, biggest body first; empty for
+    /// one. Pairs from one body to another are no joint (`Params::max_residual_ratio`).
+    #[serde(default)]
+    pub bodies: Vec<Vec<usize>>,
+    /// Index in `bodies` of the body the tree spans; `None` where `bodies` is empty or
+    /// holds none of the tree's segments.
+    #[serde(default)]
+    pub body: Option<usize>,
 }
 
 /// One edge of the tree.
