@@ -114,6 +114,94 @@ fn cmu_02_01_limb_lengths_match_the_vicon_skeleton() {
     }
 }
 
+/// Two CMU subjects in one capture, 4 m apart (02_01's walk, and 49_04's markers renamed
+/// `<label>_B`): two bodies, each its own tree of its own markers, and 02_01's thighs and
+/// shanks still within 5 % of its Vicon skeleton.
+#[test]
+fn two_real_subjects_in_one_capture_come_out_as_two_skeletons() {
+    let Some(data) = mocap_io::testdata::shared_data_dir("two_real_subjects") else {
+        return;
+    };
+    let read = |file: &str| {
+        let options = mocap_io::ReadOptions::default();
+        mocap_io::read_capture(&data.join(file), &options)
+            .unwrap()
+            .trajectories
+    };
+    let (walk, other) = (read("c3d/cmu/02_01.c3d"), read("c3d/cmu/49_04.c3d"));
+    assert_eq!(walk.frame_rate(), other.frame_rate());
+    let frames = walk.frames().min(other.frames());
+    let mut labels = walk.labels().to_vec();
+    labels.extend(other.labels().iter().map(|l| format!("{l}_B")));
+    let mut positions = Vec::with_capacity(frames * labels.len());
+    for f in 0..frames {
+        positions.extend_from_slice(walk.frame(f));
+        positions.extend(other.frame(f).iter().map(|p| [p[0] + 4000.0, p[1], p[2]]));
+    }
+    let both = mocap_io::Trajectories::new(
+        labels,
+        walk.frame_rate(),
+        walk.first_frame(),
+        frames,
+        positions,
+    )
+    .unwrap();
+    let tmp = Scratch::new("two_real_subjects");
+    let input = tmp.path("two.c3d");
+    mocap_io::write_c3d(&input, &both).unwrap();
+    let out = tmp.run(&input);
+    let first = read_json(&out.join("skeleton.json"));
+    let second = read_json(&out.join("body2/skeleton.json"));
+    let bodies = first["bodies"].as_array().unwrap();
+    assert_eq!(bodies.len(), 2, "{}", first["notes"]);
+    let mut walks = 0;
+    for (k, doc) in [&first, &second].into_iter().enumerate() {
+        assert_eq!(doc["body"], bodies[k]["name"]);
+        let body: Vec<u64> = bodies[k]["segments"]
+            .as_array()
+            .unwrap()
+            .iter()
+            .map(|s| s.as_u64().unwrap())
+            .collect();
+        let joints = doc["joints"].as_array().unwrap();
+        assert_eq!(joints.len() + 1, body.len());
+        for j in joints {
+            for side in ["parent_segment", "child_segment"] {
+                assert!(body.contains(&j[side].as_u64().unwrap()), "{j}");
+            }
+        }
+        let labels: Vec<&str> = doc["segments"]
+            .as_array()
+            .unwrap()
+            .iter()
+            .filter(|s| body.contains(&s["id"].as_u64().unwrap()))
+            .flat_map(|s| s["markers"].as_array().unwrap())
+            .map(|m| m.as_str().unwrap())
+            .collect();
+        let renamed = labels.iter().filter(|l| l.ends_with("_B")).count();
+        assert!(renamed == 0 || renamed == labels.len(), "{labels:?}");
+        if renamed == 0 {
+            walks += 1;
+            let reference = asf_lengths(&data.join("skeletons/cmu/02.asf"));
+            for (asf, m1, m2, m3) in [
+                ("lfemur", "LFWT", "LTHI", "LSHN"),
+                ("rfemur", "RFWT", "RTHI", "RSHN"),
+                ("ltibia", "LTHI", "LSHN", "LHEE"),
+                ("rtibia", "RTHI", "RSHN", "RHEE"),
+            ] {
+                let got = bone(doc, m1, m2, m3).unwrap_or(f64::INFINITY);
+                let rel = (got - reference[asf]).abs() / reference[asf];
+                assert!(
+                    rel <= 0.05,
+                    "{asf}: {got:.1} mm, Vicon {:.1}",
+                    reference[asf]
+                );
+            }
+        }
+    }
+    assert_eq!(walks, 1);
+}
+
 /// giant.c3d flags every sample invalid: the run fails for want of segments, and says why
 /// (the reader's warning, naming the switch) before the error; with the switch it runs.
 #[test]
