@@ -478,11 +478,28 @@ pub fn findings(document: &export::SkeletonJson, spin_limit_deg: f64) -> Vec<Str
             near.join("; ")
         ));
     }
-    if !document.detached_segments.is_empty() {
+    let others: Vec<&export::BodyJson> = document
+        .bodies
+        .iter()
+        .filter(|b| document.body.as_ref() != Some(&b.name))
+        .collect();
+    for b in &others {
         out.push(format!(
-            "segments not in the tree: {:?}",
-            document.detached_segments
+            "another body, {}: {} segments, {} markers, a skeleton of its own (no pair \
+             between it and this tree fits a joint)",
+            b.name,
+            b.segments.len(),
+            b.marker_count
         ));
+    }
+    let detached: Vec<usize> = document
+        .detached_segments
+        .iter()
+        .copied()
+        .filter(|s| !others.iter().any(|b| b.segments.contains(s)))
+        .collect();
+    if !detached.is_empty() {
+        out.push(format!("segments not in the tree: {detached:?}"));
     }
     out.extend(document.notes.iter().map(|n| format!("topology: {n}")));
     out
@@ -908,6 +925,21 @@ mod tests {
         let second = read(dir.path().join("out/body2/skeleton.json"));
         assert_eq!(report.other_bodies.len(), 1);
         assert_eq!(report.other_bodies[0].out, dir.path().join("out/body2"));
+        for (r, other) in [(&report, "body2"), (&report.other_bodies[0], "body1")] {
+            let said = format!("another body, {other}: ");
+            assert!(
+                r.findings.iter().any(|f| f.starts_with(&said)),
+                "{:?}",
+                r.findings
+            );
+            assert!(
+                !r.findings
+                    .iter()
+                    .any(|f| f.starts_with("segments not in the tree"))
+            );
+        }
+        let page = std::fs::read_to_string(dir.path().join("out/report.html")).unwrap();
+        assert!(page.contains("The capture holds 2 bodies, no joint between them: this is body1"));
         assert_eq!(first.bodies, second.bodies);
         let names: Vec<&str> = first.bodies.iter().map(|b| b.name.as_str()).collect();
         assert_eq!(names, ["body1", "body2"]);

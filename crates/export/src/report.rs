@@ -90,6 +90,23 @@ fn summary(out: &mut String, doc: &SkeletonJson) {
         doc.detached_segments.len(),
         escape(&doc.units),
     );
+    if let Some(body) = &doc.body {
+        let others: Vec<String> = doc
+            .bodies
+            .iter()
+            .filter(|b| &b.name != body)
+            .map(|b| format!("{} ({} segments)", escape(&b.name), b.segments.len()))
+            .collect();
+        let _ = writeln!(
+            out,
+            "<p>The capture holds {} bodies, no joint between them: this is {}; the others, \
+             {}, have skeletons of their own (their files: the folders named after them \
+             beside the biggest body's).</p>",
+            doc.bodies.len(),
+            escape(body),
+            others.join(", ")
+        );
+    }
 }
 
 /// The frame with the most joint positions known (the earliest of those).
@@ -235,12 +252,18 @@ fn segments(out: &mut String, doc: &SkeletonJson) {
     );
     for s in &doc.segments {
         let labels: Vec<String> = s.markers.iter().map(|m| escape(m)).collect();
-        let detached = if doc.detached_segments.contains(&s.id) {
-            " <span class=\"warn\">(outside the tree)</span>"
+        let other_body = doc
+            .bodies
+            .iter()
+            .find(|b| b.segments.contains(&s.id) && doc.body.as_ref() != Some(&b.name));
+        let detached = if let Some(b) = other_body {
+            format!(" ({}, another body)", escape(&b.name))
+        } else if doc.detached_segments.contains(&s.id) {
+            " <span class=\"warn\">(outside the tree)</span>".to_owned()
         } else if s.id == doc.root_segment {
-            " (root)"
+            " (root)".to_owned()
         } else {
-            ""
+            String::new()
         };
         let near = s.near_joint.as_ref().map_or(String::new(), |n| {
             let part = |p: &[String]| p.iter().map(|m| escape(m)).collect::<Vec<_>>().join(", ");
