@@ -336,6 +336,18 @@ const NAMED_MARKERS: usize = 6;
 /// segments whose spin is known less well than `spin_limit_deg` (jointfit's
 /// `max_spin_deg`; 0 = not listed) are among it.
 pub fn findings(document: &export::SkeletonJson, spin_limit_deg: f64) -> Vec<String> {
+    // Where the capture holds several bodies, each body's files say what concerns its own
+    // markers and segments, and the biggest body's what concerns the whole capture.
+    let own = document
+        .bodies
+        .iter()
+        .find(|b| document.body.as_ref() == Some(&b.name))
+        .map(|b| b.segments.as_slice());
+    let mine = |segment: Option<usize>| own.is_none_or(|o| segment.is_some_and(|s| o.contains(&s)));
+    let whole_capture = document
+        .bodies
+        .first()
+        .is_none_or(|b| document.body.as_ref() == Some(&b.name));
     let mut out = Vec::new();
     for j in &document.joints {
         for w in &j.warnings {
@@ -370,13 +382,13 @@ pub fn findings(document: &export::SkeletonJson, spin_limit_deg: f64) -> Vec<Str
             None => m.label.clone(),
         })
         .collect();
-    if !unassigned.is_empty() {
+    if whole_capture && !unassigned.is_empty() {
         out.push(listed("markers in no segment", unassigned));
     }
     let sliding: Vec<String> = document
         .markers
         .iter()
-        .filter(|m| m.slides)
+        .filter(|m| m.slides && mine(m.segment))
         .map(|m| m.label.clone())
         .collect();
     if !sliding.is_empty() {
@@ -388,7 +400,7 @@ pub fn findings(document: &export::SkeletonJson, spin_limit_deg: f64) -> Vec<Str
     let glitching: Vec<String> = document
         .markers
         .iter()
-        .filter(|m| m.glitch_frames > 0)
+        .filter(|m| m.glitch_frames > 0 && mine(m.segment))
         .map(|m| format!("{} ({})", m.label, export::frame_count(m.glitch_frames)))
         .collect();
     if !glitching.is_empty() {
@@ -418,7 +430,7 @@ pub fn findings(document: &export::SkeletonJson, spin_limit_deg: f64) -> Vec<Str
             )
         })
         .collect();
-    if !swaps.is_empty() {
+    if whole_capture && !swaps.is_empty() {
         out.push(listed(
             "label swaps found and undone (trajectories exchanged; frames as in the capture)",
             swaps,
@@ -427,6 +439,7 @@ pub fn findings(document: &export::SkeletonJson, spin_limit_deg: f64) -> Vec<Str
     let loose: Vec<String> = document
         .segments
         .iter()
+        .filter(|s| mine(Some(s.id)))
         .filter_map(|s| {
             let spin = s
                 .spin_deg
@@ -448,7 +461,7 @@ pub fn findings(document: &export::SkeletonJson, spin_limit_deg: f64) -> Vec<Str
         ));
     }
     let loose_groups = named_groups_not_rigid(document);
-    if !loose_groups.is_empty() {
+    if whole_capture && !loose_groups.is_empty() {
         out.push(format!(
             "segments segment.groups named whose markers do not keep their distances as one \
              body's do (check each group: markers across a joint, or a wrong label?): {}",
@@ -458,6 +471,7 @@ pub fn findings(document: &export::SkeletonJson, spin_limit_deg: f64) -> Vec<Str
     let near: Vec<String> = document
         .segments
         .iter()
+        .filter(|s| mine(Some(s.id)))
         .filter_map(|s| {
             let n = s.near_joint.as_ref()?;
             Some(format!(
@@ -910,6 +924,63 @@ mod tests {
             })
             .contains("worth a look")
         );
+
+        // As the smaller of two bodies, one segment none of the above is on: that
+        // segment's findings, and nothing of the other body's or of the whole capture.
+        let taken: Vec<Option<usize>> = (9..12)
+            .map(|m| doc.markers[m].segment)
+            .chain([Some(doc.segments[0].id), Some(2)])
+            .collect();
+        let own = doc
+            .segments
+            .iter()
+            .map(|s| s.id)
+            .find(|&id| !taken.contains(&Some(id)))
+            .unwrap();
+        doc.segments
+            .iter_mut()
+            .find(|s| s.id == own)
+            .unwrap()
+            .spin_deg = Some(15.0);
+        let others = doc.segments.iter().map(|s| s.id).filter(|&id| id != own);
+        doc.bodies = vec![
+            export::BodyJson {
+                name: "body1".into(),
+                segments: others.collect(),
+                marker_count: 40,
+            },
+            export::BodyJson {
+                name: "body2".into(),
+                segments: vec![own],
+                marker_count: 3,
+            },
+        ];
+        doc.body = Some("body2".into());
+        doc.detached_segments = doc.bodies[0].segments.clone();
+        let second = findings(&doc, 10.0);
+        let in_line = second
+            .iter()
+            .find(|f| f.starts_with("segments whose markers nearly line up"))
+            .unwrap_or_else(|| panic!("{second:?}"));
+        assert!(in_line.contains(&format!("{own} (±15°")) && !in_line.contains("±14°"));
+        assert!(
+            second
+                .iter()
+                .any(|f| f.starts_with("another body, body1: "))
+        );
+        for gone in [
+            "markers in no segment",
+            "label swaps",
+            "markers sliding",
+            "markers that jumped",
+            "segments that may be two",
+            "segments not in the tree",
+        ] {
+            assert!(
+                !second.iter().any(|f| f.starts_with(gone)),
+                "{gone}: {second:?}"
+            );
+        }
     }
 
     #[test]
