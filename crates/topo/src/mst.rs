@@ -39,7 +39,7 @@ pub fn run(seg: &Segmentation, fits: &PairFits, params: &Params) -> Result<Topol
 
     let named = named_pairs(seg, fits, &params.joints)?;
     // Pairs that are no joint leave every rule below as pairs without a usable fit do.
-    let (refused, bodies) = refused_pairs(fits, &named, seg.tolerance_mm, &marker_count, params);
+    let (refused, bodies) = refused_pairs(fits, &named, seg.noise_mm, &marker_count, params);
     let masked;
     let fits = if refused.is_empty() {
         fits
@@ -283,13 +283,13 @@ pub fn run(seg: &Segmentation, fits: &PairFits, params: &Params) -> Result<Topol
 /// The pairs (indices into `fits.pairs`) between bodies, and the bodies (segments
 /// ascending, [`bigger_first`]; empty for one body): where the pairs whose residual is
 /// at most `max_residual_ratio` times the typical joint's ([`typical_joint_residual`], at
-/// least `floor_mm`) or that the user named join the segments into more than one body, the
+/// least the capture's measurement noise `noise_mm`) or that the user named join the segments into more than one body, the
 /// finite-cost pairs from one body to another. Within one body nothing is refused, so a
 /// capture of one subject keeps every pair as it was.
 fn refused_pairs(
     fits: &PairFits,
     named: &[usize],
-    floor_mm: f64,
+    noise_mm: f64,
     marker_count: &[usize],
     params: &Params,
 ) -> (Vec<usize>, Vec<Vec<usize>>) {
@@ -299,7 +299,8 @@ fn refused_pairs(
     let Some(typical) = typical_joint_residual(fits) else {
         return (Vec::new(), Vec::new());
     };
-    let limit = params.max_residual_ratio * typical.max(floor_mm);
+    // Exact data fit every joint to within rounding: a micrometre is no residual.
+    let limit = params.max_residual_ratio * typical.max(noise_mm).max(RESIDUAL_FLOOR_MM);
     let n = fits.poses.len();
     let usable = |i: usize| {
         let p = &fits.pairs[i];
@@ -344,6 +345,9 @@ fn bigger_first(x: &[usize], y: &[usize], marker_count: &[usize]) -> std::cmp::O
         .then(markers(y).cmp(&markers(x)))
         .then(x.first().cmp(&y.first()))
 }
+
+/// Residuals below this (mm) are rounding: noiseless data fit every joint to within it.
+const RESIDUAL_FLOOR_MM: f64 = 1e-3;
 
 /// The typical joint's residual (mm): the lower median of `residual_rms_mm` over the edges
 /// of the plain minimum spanning tree of the finite costs (Kruskal, no rule of the tree's);
