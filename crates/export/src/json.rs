@@ -91,7 +91,8 @@ pub struct SkeletonJson {
     pub detached_segments: Vec<usize>,
     /// Every body the capture holds where it holds more than one (two subjects, or a
     /// subject and a prop; no pair between two is a joint), biggest first; empty for one.
-    /// `cargo xtask run` writes each other body's files into `<out>/<its name>/`.
+    /// `cargo xtask run` writes the files of each body but its main one (`topo.body`,
+    /// default the biggest) into `<out>/<its name>/`, the main one's into `<out>/`.
     #[serde(default)]
     pub bodies: Vec<BodyJson>,
     /// The name of the body this file's tree spans (one of `bodies`); null for one body.
@@ -118,8 +119,8 @@ pub struct SkeletonJson {
 /// One of several bodies in a capture.
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 pub struct BodyJson {
-    /// "body1", "body2", ... biggest first: the folder `cargo xtask run` writes it into,
-    /// where it is not the body of the file that lists it.
+    /// "body1", "body2", ... biggest first: the folder inside its output folder where
+    /// `cargo xtask run` writes this body's files, unless it is the run's main body.
     pub name: String,
     /// Its segments' ids, ascending.
     pub segments: Vec<usize>,

@@ -100,8 +100,9 @@ fn summary(out: &mut String, doc: &SkeletonJson) {
         let _ = writeln!(
             out,
             "<p>The capture holds {} bodies, no joint between them: this is {}; the others, \
-             {}, have skeletons of their own (their files: the folders named after them \
-             beside the biggest body's).</p>",
+             {}, have skeletons of their own (<code>cargo xtask run</code> writes each into \
+             the folder named after it inside its output folder, but its main body's, the \
+             biggest by default, into the output folder itself).</p>",
             doc.bodies.len(),
             escape(body),
             others.join(", ")

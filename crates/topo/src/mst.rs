@@ -281,11 +281,11 @@ pub fn run(seg: &Segmentation, fits: &PairFits, params: &Params) -> Result<Topol
 }
 
 /// The pairs (indices into `fits.pairs`) between bodies, and the bodies (segments
-/// ascending, [`bigger_first`]; empty for one body): where the pairs whose residual is
-/// at most `max_residual_ratio` times the typical joint's ([`typical_joint_residual`], at
-/// least the capture's measurement noise `noise_mm`) or that the user named join the segments into more than one body, the
-/// finite-cost pairs from one body to another. Within one body nothing is refused, so a
-/// capture of one subject keeps every pair as it was.
+/// ascending, [`bigger_first`]; empty for one body). Where the pairs the user named, and
+/// those whose residual is at most `max_residual_ratio` times the typical joint's
+/// ([`typical_joint_residual`], at least the capture's measurement noise `noise_mm`), join
+/// the segments into more than one body: the finite-cost pairs from one body to another.
+/// Within one body nothing is refused, so a capture of one subject keeps every pair.
 fn refused_pairs(
     fits: &PairFits,
     named: &[usize],
