@@ -9,7 +9,7 @@
 //! - Pairs whose cost is NaN or infinite are not edges (no usable fit). Segments left
 //!   without an edge, and components other than the tree's, are `detached_segments`.
 //! - Where the pairs that fit a joint (residual within `max_residual_ratio` times the
-//!   typical joint's) leave the segments in several bodies (two subjects, or a subject
+//!   typical joint's, or within the longest segment) leave the segments in several bodies (two subjects, or a subject
 //!   and a prop), no pair from one body to another is an edge: the spanning tree would
 //!   join them by one junk joint whose constant bone bends both. `bodies` lists them,
 //!   biggest first; the tree spans the biggest, or the one `topo.body` names.
@@ -225,21 +225,27 @@ pub const PARAM_DOCS: &[(&str, &str)] = &[
     (
         "max_residual_ratio",
         "a pair whose fit residual (skeleton.json's residual_rms_mm: how far the two segments \
-         disagree about their common centre) exceeds this many times the typical joint's is \
-         not a joint and never an edge where that leaves the segments in several bodies (two \
-         subjects, or a subject and a prop, in one capture), whose junction would bend both \
-         skeletons; within one body nothing changes. The typical joint's residual is the \
-         lower median over the edges of the pairs' plain minimum spanning tree, and at least \
-         the capture's measurement noise (segment's noise_mm) and a micrometre. True joints \
-         stay far below: each joint's residual over its tree's median in skeleton.json is at \
-         most 14.6 on the real captures in ../shared/data (c3d.org sample 34's body-model \
-         points, 24.8 mm against 1.7 mm) and 6.4 on the hard preset (84 trials, seven \
-         subjects, seeds 20001-20012), and cargo xtask eval's hard and clean trees on seeds \
-         20001..20050,30001..30050 are unchanged. Two hard synthetic subjects in one capture, \
+         disagree about their common centre) exceeds this many times the typical joint's, \
+         and the capture's longest segment (the largest distance between two markers of one \
+         segment), is not a joint and never an edge where that leaves the segments in \
+         several bodies (two subjects, or a subject and a prop, in one capture), whose \
+         junction would bend both skeletons; within one body nothing changes. The typical \
+         joint's residual is the lower median over the edges of the pairs' plain minimum \
+         spanning tree, and at least the capture's measurement noise (segment's noise_mm). \
+         True joints stay below: each joint's residual over its tree's median in \
+         skeleton.json is at most 14.6 on the real captures in ../shared/data (c3d.org \
+         sample 34's body-model points, 24.8 mm against 1.7 mm) and 6.4 on the hard preset \
+         (84 trials, seven subjects, seeds 20001-20012); segments of one or two markers go \
+         further (up to 121 mm against a typical 0 on clean trials with 1-3 markers per \
+         segment), which the longest segment bounds. cargo xtask eval on seeds \
+         20001..20050,30001..30050 (hard, clean), 70001..70100 (hard), 20001..20050 (messy; \
+         hard at 2-3 markers per segment) and 20001..20030 (clean, noise, skin, hard at 1-3) \
+         gives the same trees as without it. Two hard synthetic subjects in one capture, \
          each walking its own circle (the 21 pairs of the seven kinds), come out as two \
-         bodies in 21 cases 3 m apart, 20 at 1.2 m and 16 at 0.6 m; the other five are one \
-         tree as before, their joint across 35-54 times its tree's median. A pair topo.joints \
-         names is joined whatever its residual; dimensionless; 0 = off; default 40",
+         bodies in 21 cases 3 m apart, 19 at 1.2 m and 15 at 0.6 m; the other six are one \
+         tree as before, their joint across 284-504 mm, 35-55 times its tree's median. A \
+         pair topo.joints names is joined whatever its residual; dimensionless; 0 = off; \
+         default 40",
     ),
     (
         "body",

@@ -283,7 +283,8 @@ pub fn run(seg: &Segmentation, fits: &PairFits, params: &Params) -> Result<Topol
 /// The pairs (indices into `fits.pairs`) between bodies, and the bodies (segments
 /// ascending, [`bigger_first`]; empty for one body). Where the pairs the user named, and
 /// those whose residual is at most `max_residual_ratio` times the typical joint's
-/// ([`typical_joint_residual`], at least the capture's measurement noise `noise_mm`), join
+/// ([`typical_joint_residual`], at least the capture's measurement noise `noise_mm`) or
+/// the capture's longest segment ([`longest_segment_mm`]), join
 /// the segments into more than one body: the finite-cost pairs from one body to another.
 /// Within one body nothing is refused, so a capture of one subject keeps every pair.
 fn refused_pairs(
@@ -299,8 +300,12 @@ fn refused_pairs(
     let Some(typical) = typical_joint_residual(fits) else {
         return (Vec::new(), Vec::new());
     };
-    // Exact data fit every joint to within rounding: a micrometre is no residual.
-    let limit = params.max_residual_ratio * typical.max(noise_mm).max(RESIDUAL_FLOOR_MM);
+    // A segment of one or two markers poses poorly, and its joints' residuals run far past
+    // the typical one (up to 121 mm against a typical 0 on clean trials with 1-3 markers
+    // per segment, 0.1-1 against noise): a pair is between bodies only where its centres
+    // also disagree by more than the capture's longest segment.
+    let limit = (params.max_residual_ratio * typical.max(noise_mm).max(RESIDUAL_FLOOR_MM))
+        .max(longest_segment_mm(fits));
     let n = fits.poses.len();
     let usable = |i: usize| {
         let p = &fits.pairs[i];
@@ -348,6 +353,26 @@ fn bigger_first(x: &[usize], y: &[usize], marker_count: &[usize]) -> std::cmp::O
 
 /// Residuals below this (mm) are rounding: noiseless data fit every joint to within it.
 const RESIDUAL_FLOOR_MM: f64 = 1e-3;
+
+/// The largest distance between two markers of one segment (mm, reference shapes); 0
+/// without a segment of two markers.
+fn longest_segment_mm(fits: &PairFits) -> f64 {
+    let mut longest: f64 = 0.0;
+    for poses in &fits.poses {
+        let markers: Vec<glam::DVec3> = poses
+            .reference
+            .iter()
+            .map(|&m| glam::DVec3::from_array(m))
+            .filter(|m| m.is_finite())
+            .collect();
+        for (i, a) in markers.iter().enumerate() {
+            for b in &markers[i + 1..] {
+                longest = longest.max(a.distance(*b));
+            }
+        }
+    }
+    longest
+}
 
 /// The typical joint's residual (mm): the lower median of `residual_rms_mm` over the edges
 /// of the plain minimum spanning tree of the finite costs (Kruskal, no rule of the tree's);
@@ -1650,8 +1675,14 @@ mod tests {
             max_residual_ratio: 0.0,
             ..Params::default()
         };
-        for (across, params) in [(1000.0, &off), (150.0, &Params::default())] {
-            let (seg, f) = two_bodies(across);
+        for (across, params, longest) in [
+            (1000.0, &off, 0.0),
+            (150.0, &Params::default(), 0.0),
+            // A segment longer than the pairs across disagree: they may be its joints.
+            (1000.0, &Params::default(), 1200.0),
+        ] {
+            let (seg, mut f) = two_bodies(across);
+            f.poses[0].reference = vec![[0.0; 3], [longest, 0.0, 0.0]];
             let t = run(&seg, &f, params).unwrap();
             assert_eq!(edge_set(&t), vec![(0, 1), (1, 2), (2, 3), (3, 4)]);
             assert!(t.bodies.is_empty() && t.body.is_none());
