@@ -284,9 +284,9 @@ pub fn run(seg: &Segmentation, fits: &PairFits, params: &Params) -> Result<Topol
 /// ascending, [`bigger_first`]; empty for one body). Where the pairs the user named, and
 /// those whose residual is at most `max_residual_ratio` times the typical joint's
 /// ([`typical_joint_residual`], at least the capture's measurement noise `noise_mm`) or
-/// the capture's longest segment ([`longest_segment_mm`]), join
-/// the segments into more than one body: the finite-cost pairs from one body to another.
-/// Within one body nothing is refused, so a capture of one subject keeps every pair.
+/// at most the capture's longest segment ([`longest_segment_mm`]), join the segments into
+/// more than one body: the finite-cost pairs from one body to another. Within one body
+/// nothing is refused, so a capture of one subject keeps every pair.
 fn refused_pairs(
     fits: &PairFits,
     named: &[usize],
@@ -302,8 +302,8 @@ fn refused_pairs(
     };
     // A segment of one or two markers poses poorly, and its joints' residuals run far past
     // the typical one (up to 121 mm against a typical 0 on clean trials with 1-3 markers
-    // per segment, 0.1-1 against noise): a pair is between bodies only where its centres
-    // also disagree by more than the capture's longest segment.
+    // per segment): a pair is between bodies only where its centres also disagree by more
+    // than the capture's longest segment.
     let limit = (params.max_residual_ratio * typical.max(noise_mm).max(RESIDUAL_FLOOR_MM))
         .max(longest_segment_mm(fits));
     let n = fits.poses.len();
