@@ -9,10 +9,11 @@
 //! - Pairs whose cost is NaN or infinite are not edges (no usable fit). Segments left
 //!   without an edge, and components other than the tree's, are `detached_segments`.
 //! - Where the pairs that fit a joint (residual within `max_residual_ratio` times the
-//!   typical joint's, or within the longest segment) leave the segments in several bodies (two subjects, or a subject
-//!   and a prop), no pair from one body to another is an edge: the spanning tree would
-//!   join them by one junk joint whose constant bone bends both. `bodies` lists them,
-//!   biggest first; the tree spans the biggest, or the one `topo.body` names.
+//!   typical joint's, or within the longest segment) leave the segments in several
+//!   bodies (two subjects, or a subject and a prop), no pair from one body to another is
+//!   an edge: the spanning tree would join them by one junk joint whose constant bone
+//!   bends both. `bodies` lists them, biggest first; the tree spans the biggest, or the
+//!   one `topo.body` names.
 //! - Pairs of kind `rigid` (no relative motion: the two are one body; the kind
 //!   `PairFit::tree_kind` gives, like every kind the rules read) are taken before every
 //!   other edge, because two segments that never move relative to each other are
@@ -137,8 +138,9 @@ pub struct Params {
     /// Pairs of segments the tree joins before any other edge, as the user knows them
     /// (default none).
     pub joints: Vec<[SegmentRef; 2]>,
-    /// A pair whose fit residual exceeds this many times the typical joint's is no joint:
-    /// two bodies (default 40; 0 = off; see [`typical_joint_residual`]).
+    /// A pair whose fit residual exceeds this many times the typical joint's, and the
+    /// longest segment, is no joint where that leaves the segments in several bodies
+    /// (default 40; 0 = off; see [`typical_joint_residual`]).
     pub max_residual_ratio: f64,
 }
 

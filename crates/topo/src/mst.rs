@@ -203,8 +203,8 @@ pub fn run(seg: &Segmentation, fits: &PairFits, params: &Params) -> Result<Topol
     }
     let detached_segments: Vec<usize> = (0..n).filter(|&s| !in_tree[s]).collect();
     for &s in &detached_segments {
-        // Another body's segments are that body's (`bodies`, counted by the note on bodies),
-        // not detached one by one.
+        // Another body's segments are that body's (`bodies`, which the note on bodies
+        // counts), not detached one by one.
         if bodies.iter().any(|b| b.contains(&s)) {
             continue;
         }
