@@ -78,7 +78,7 @@ mod topology;
 mod twins;
 
 pub use error::Error;
-pub use mst::{body_name, run, typical_joint_residual};
+pub use mst::{run, typical_joint_residual};
 pub use topology::*;
 
 use serde::{Deserialize, Serialize};

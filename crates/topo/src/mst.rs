@@ -335,12 +335,6 @@ fn refused_pairs(
     (refused, members)
 }
 
-/// The name of the `k`-th body (0-based, biggest first, `Topology::bodies`) of a capture
-/// that holds several: "body1", "body2", ...
-pub fn body_name(k: usize) -> String {
-    format!("body{}", k + 1)
-}
-
 /// Orders sets of segments biggest first: more segments, then more markers, then the lower
 /// smallest id (the tree's body, where nothing else chooses it).
 fn bigger_first(x: &[usize], y: &[usize], marker_count: &[usize]) -> std::cmp::Ordering {

@@ -29,6 +29,12 @@ pub struct Topology {
     pub body: Option<usize>,
 }
 
+/// The name of the `k`-th body (0-based, biggest first, [`Topology::bodies`]) of a
+/// capture that holds several: "body1", "body2", ...
+pub fn body_name(k: usize) -> String {
+    format!("body{}", k + 1)
+}
+
 /// One edge of the tree.
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 pub struct TreeJoint {
