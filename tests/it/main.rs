@@ -8,6 +8,7 @@ mod cli;
 mod expect;
 mod fill;
 mod real;
+mod stationary;
 mod support;
 mod unlabeled;
 mod vendor;

@@ -1486,6 +1486,7 @@ mod tests {
             labels: Vec::new(),
             named_segments: Vec::new(),
             pieces: Vec::new(),
+            stationary_segment: None,
         };
         // The truth: {3, 4} and {2, 0}; marker 1 on none; an empty segment.
         seg.regroup(&[vec![3, 4], vec![2, 0], vec![]], super::TRUTH_LEFT_OUT);

@@ -171,6 +171,7 @@ pub fn scene(frames: usize, rate: f64) -> Scene {
         labels: Vec::new(),
         named_segments: Vec::new(),
         pieces: Vec::new(),
+        stationary_segment: None,
     };
 
     let topology = Topology {

@@ -162,6 +162,11 @@ pub struct SegmentJson {
     /// data's). Absent otherwise.
     #[serde(default, skip_serializing_if = "std::ops::Not::not")]
     pub named: bool,
+    /// True for the segment of the markers that never move (floor and reference markers,
+    /// stray reflections; `segment.stationary_jitter_factor`): the room's, or a fixed base's
+    /// where a joint joins it. Absent otherwise.
+    #[serde(default, skip_serializing_if = "std::ops::Not::not")]
+    pub stationary: bool,
 }
 
 /// A cut of a segment that came near the joint test's bounds.
@@ -379,6 +384,7 @@ pub(crate) fn document(input: &Inputs<'_>) -> Result<SkeletonJson, Error> {
             spin_deg,
             near_joint,
             named: seg.named_segments.contains(&s.id),
+            stationary: seg.stationary_segment == Some(s.id),
         });
     }
     let unassigned_markers = seg

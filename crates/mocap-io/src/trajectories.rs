@@ -187,6 +187,27 @@ impl Trajectories {
         }
     }
 
+    /// These trajectories with every sample of the markers `hidden` (indices) missing, the
+    /// labels and frames as they are: later steps see those markers as never seen.
+    ///
+    /// Panics when a marker index is out of range (callers take them from these labels).
+    pub fn hiding(&self, hidden: &[usize]) -> Trajectories {
+        let m = self.labels.len();
+        let mut positions = self.positions.clone();
+        for row in positions.chunks_mut(m.max(1)) {
+            for &k in hidden {
+                row[k] = MISSING;
+            }
+        }
+        Trajectories {
+            labels: self.labels.clone(),
+            frame_rate: self.frame_rate,
+            first_frame: self.first_frame,
+            frames: self.frames,
+            positions,
+        }
+    }
+
     /// The factor (≤ 1) by which the stages shrink their millimetre floors and bounds for
     /// this capture: [`marker_spacing_mm`](Self::marker_spacing_mm) over
     /// [`FLOOR_SPACING_MM`], capped at 1 (and at least 1e-3): the floors were set for

@@ -2,7 +2,10 @@
 //!
 //! Takes [`mocap_io::Trajectories`] and gives a [`Segmentation`]: rigid segments (marker
 //! indices), the markers left out with the reason, and per-marker diagnostics (rigidity
-//! residual, skin sliding, glitch frames). First, samples where a marker leaves most of its
+//! residual, skin sliding, glitch frames). First, markers that never move (floor and
+//! reference markers, stray reflections: wandering no farther than they jitter) are set
+//! aside, so they shift nothing the grouping reads, and come back last as one segment of
+//! their own (`stationary_jitter_factor`, see `stationary`). Then samples where a marker leaves most of its
 //! steadiest partners at once are read as gaps (`glitch_factor`, see `glitch`). Then one
 //! pass over the frames gives every pair's distance mean and standard deviation ρ over the
 //! frames where both are seen (a marker is never dropped for a gap); an affinity from ρ
@@ -104,6 +107,7 @@ mod regroup;
 mod rigidity;
 mod segmentation;
 mod spectral;
+mod stationary;
 mod swaps;
 mod swing;
 #[cfg(test)]
@@ -140,16 +144,22 @@ pub const STAGE: &str = "segment";
 /// ([`Params::with_floors_scaled`]).
 pub fn run(traj: &Trajectories, params: &Params) -> Result<Segmentation, Error> {
     params.validate()?;
-    let params = &params.with_floors_scaled(traj.floor_scale());
     let named = named::resolve(traj.labels(), &params.groups)?;
-    segment_capture(
-        traj,
-        params,
+    // What never moves is grouped apart, so it shifts nothing the grouping reads.
+    let still = stationary::stationary_markers(traj, params, &named);
+    let moving = (!still.is_empty()).then(|| traj.hiding(&still));
+    let moving_traj = moving.as_ref().unwrap_or(traj);
+    let scaled = &params.with_floors_scaled(moving_traj.floor_scale());
+    let mut seg = segment_capture(
+        moving_traj,
+        scaled,
         &named,
-        params.repair_swaps,
+        scaled.repair_swaps,
         PIECE_ROUNDS,
         None,
-    )
+    )?;
+    stationary::put_back(&mut seg, traj, &still, scaled);
+    Ok(seg)
 }
 
 /// [`run`] on parameters it has validated and scaled, looking for label swaps when
@@ -725,6 +735,7 @@ fn segment_capture(
         labels: labels.to_vec(),
         named_segments,
         pieces: Vec::new(),
+        stationary_segment: None,
     })
 }
 

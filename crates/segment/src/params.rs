@@ -81,6 +81,10 @@ pub struct Params {
     /// spectral cluster before the rigidity check, which places it as a lone marker, where
     /// the median track is seen in half the frames or more; 0 = none does.
     pub brief_track_fraction: f64,
+    /// A marker whose positions' RMS spread over the capture is within this many times the
+    /// RMS of its steps between frames never moves: grouped apart, before anything else,
+    /// from every marker that moves; 0 = none is.
+    pub stationary_jitter_factor: f64,
     /// A pair seen together in fewer frames than this has no affinity and no ρ.
     pub min_overlap_frames: usize,
     /// Groups with fewer markers than this are not segments (but see `singleton_steady_factor`).
@@ -237,6 +241,7 @@ impl Default for Params {
             min_visible_frames: 10,
             min_visible_fraction: 0.05,
             brief_track_fraction: 0.25,
+            stationary_jitter_factor: 3.0,
             min_overlap_frames: 10,
             min_segment_markers: 2,
             rigidity_check: true,
@@ -352,6 +357,10 @@ pub const PARAM_DOCS: &[(&str, &str)] = &[
     (
         "brief_track_fraction",
         "a track seen in less than this fraction of the frames the median track is seen in leaves its spectral cluster before the rigidity check, which places it as a lone marker: its ρ is measured over a stretch where the joints between segments may have held still, so its cluster can hold markers of several segments that it alone ties together, and cut at ρ such a cluster keeps them wrongly paired (an unlabeled capture's short pieces: snake-hard-s20011 at 2–3 markers per segment, an 83-frame piece of a link3 marker, seen while the chain barely moved, took a base marker into a cluster with it). Only where the median track is seen in half the frames or more: where most tracks are pieces, the briefest are no outliers (c3d.org's Dance hidden 1.1–2.6 s every 3 s, tests/it/unlabeled.rs: 3 → 4 wrong of 25 → 23 groups joined without that condition). Spectral clustering itself still sees every track: without a brief track the eigen-gap count moves (tried: on the real captures cut at their gaps, pairs of markers one segment in the labelled run and not in the cut one or the other way round went 141 → 183 over twelve, CMU 02_01's trunk and pelvis one segment). cargo xtask eval --presets hard --seeds 20001..20050,30001..30050 --unlabeled: 0 → 0.25 at --markers 2:3 283 → 292 exact trees of 700, 3.028 → 3.005 % of height; at 3–6 markers 563 → 564, 1.393 → 1.392 %; labelled trials the same, trial by trial; measured with fractions of the capture's frames rather than of the median track's (there the median segmented track is seen in 94–100 % of the frames), 0.15 / 0.35 / 0.5 gave 286 / 290 / 285 at 2:3; 0 = none; default 0.25",
+    ),
+    (
+        "stationary_jitter_factor",
+        "a marker whose positions stay within this many times its frame-to-frame jitter of one place (RMS spread about its mean over the RMS of its steps between consecutive frames: white measurement noise alone gives about 0.7, a marker a body carries tens or more) never moves: floor and reference markers, a calibration frame, stray reflections. Such markers are set aside before anything else, where some marker moves, and come back as one segment of their own (the room, or a fixed base that a joint may join; skeleton.json's segment says \"stationary\": true) or, one alone, unassigned with the reason: among the moving markers they shifted the noise level, the marker spacing and the eigen-gap count (one static point beside CMU 02_01 regrouped three of its markers; on OpenSim's subject01_walk1 one joined the pelvis). 0 = none is; default 3",
     ),
     (
         "min_overlap_frames",
@@ -606,6 +615,7 @@ impl Params {
                 "must be between 0 and 1",
             ));
         }
+        non_negative("stationary_jitter_factor", self.stationary_jitter_factor)?;
         if !(0.0..=1.0).contains(&self.brief_track_fraction) {
             return Err(bad(
                 "brief_track_fraction",

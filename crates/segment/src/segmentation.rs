@@ -6,7 +6,7 @@ use mocap_io::{MISSING, Trajectories};
 use serde::{Deserialize, Serialize};
 
 /// Schema version of [`Segmentation`]; bump when its fields or the algorithm's output change.
-pub const SCHEMA_VERSION: u32 = 51;
+pub const SCHEMA_VERSION: u32 = 52;
 
 /// The rigid segments found in a capture.
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
@@ -56,6 +56,10 @@ pub struct Segmentation {
     /// marker's segment; later stages read them joined (see [`Segmentation::repaired`]).
     #[serde(default)]
     pub pieces: Vec<Vec<usize>>,
+    /// The segment of the markers that never move (the room's, or a fixed base's; see
+    /// `Params::stationary_jitter_factor`), grouped apart from everything that moves.
+    #[serde(default)]
+    pub stationary_segment: Option<usize>,
 }
 
 /// A segment the joint test left whole although its best cut came near the test's bounds:

@@ -1150,6 +1150,7 @@ fn untangle_exchanges_the_swapped_frames_back() {
         labels: Vec::new(),
         named_segments: Vec::new(),
         pieces: Vec::new(),
+        stationary_segment: None,
     };
     let repaired = beyond.repaired(&traj);
     for f in 0..4 {

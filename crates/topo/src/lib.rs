@@ -9,11 +9,14 @@
 //! - Pairs whose cost is NaN or infinite are not edges (no usable fit). Segments left
 //!   without an edge, and components other than the tree's, are `detached_segments`.
 //! - Where the pairs that fit a joint (residual within `max_residual_ratio` times the
-//!   typical joint's, or within the longest segment) leave the segments in several
-//!   bodies (two subjects, or a subject and a prop), no pair from one body to another is
-//!   an edge: the spanning tree would join them by one junk joint whose constant bone
-//!   bends both. `bodies` lists them, biggest first; the tree spans the biggest, or the
-//!   one `topo.body` names.
+//!   typical joint's, or within the longest segment that moves) leave the segments in
+//!   several bodies (two subjects, or a subject and a prop), no pair from one body to
+//!   another is an edge: the spanning tree would join them by one junk joint whose
+//!   constant bone bends both. `bodies` lists them, biggest first; the tree spans the
+//!   biggest, or the one `topo.body` names. The segment of the markers that never move
+//!   (the room; segment's `stationary_segment`) joins a body only by a pair that fits
+//!   as tightly as a typical joint (`stationary_residual_ratio`, `stationary_misfit`: a
+//!   fixed base's), and alone it is the last body, never the tree's by default.
 //! - Pairs of kind `rigid` (no relative motion: the two are one body; the kind
 //!   `PairFit::tree_kind` gives, like every kind the rules read) are taken before every
 //!   other edge, because two segments that never move relative to each other are
@@ -142,6 +145,14 @@ pub struct Params {
     /// longest segment, is no joint where that leaves the segments in several bodies
     /// (default 40; 0 = off; see [`typical_joint_residual`]).
     pub max_residual_ratio: f64,
+    /// A pair with the segment of the markers that never move (the room; segment's
+    /// `stationary_segment`) is a joint only where its residual is at most this many times
+    /// the typical joint's, or its misfit at most `stationary_misfit` (default 2; 0 = as
+    /// any other pair).
+    pub stationary_residual_ratio: f64,
+    /// ... or where its misfit over the poses' noise (jointfit's `misfit_over_noise`, about 1
+    /// for a joint that noise explains) is at most this (default 3).
+    pub stationary_misfit: f64,
 }
 
 /// A segment as the user names it: by id, or by the label of a marker it holds (ids follow
@@ -207,6 +218,8 @@ impl Default for Params {
             twin_leaf_anchor_ratio: 1.5,
             joints: Vec::new(),
             max_residual_ratio: 40.0,
+            stationary_residual_ratio: 2.0,
+            stationary_misfit: 3.0,
         }
     }
 }
@@ -248,6 +261,28 @@ pub const PARAM_DOCS: &[(&str, &str)] = &[
          tree as before, their joint across 284-504 mm, 35-55 times its tree's median. A \
          pair topo.joints names is joined whatever its residual; dimensionless; 0 = off; \
          default 40",
+    ),
+    (
+        "stationary_residual_ratio",
+        "a pair with the segment of the markers that never move (floor and reference markers, \
+         stray reflections; segment.stationary_jitter_factor) is a joint only where its \
+         residual is at most this many times the typical joint's (see max_residual_ratio), \
+         or its misfit over the poses' noise at most stationary_misfit: a fixed robot's base \
+         turns its first link about an axis as truly as any joint does (a synthetic robot arm \
+         held still by its base, cargo xtask synth --preset noise, seeds 7-9: 0.7-1.6 times, \
+         misfit 0.97-1.04), while a subject on a treadmill, or walking a circle, keeps a point \
+         nearly still in the room only up to its sway (OpenSim's subject01_walk1 beside six \
+         floor markers: its trunk 3.9 times, misfit 16.4; a hard synthetic human walking its \
+         circle: its thorax 8.3 times, misfit 4.5). Where that leaves the room a body of its \
+         own, no skeleton holds it. Dimensionless; 0 = as any other pair; default 2",
+    ),
+    (
+        "stationary_misfit",
+        "... or where its misfit over the poses' noise (jointfit's misfit_over_noise: the \
+         disagreement about the centre against what the two poses' noise predicts, about 1 \
+         for a joint that noise explains; 2.4 at most over the 1049 tree joints of 105 hard \
+         synthetic trials, seeds 20001-20015 of each subject) is at most this; \
+         dimensionless; default 3",
     ),
     (
         "body",

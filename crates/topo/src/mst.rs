@@ -39,7 +39,7 @@ pub fn run(seg: &Segmentation, fits: &PairFits, params: &Params) -> Result<Topol
 
     let named = named_pairs(seg, fits, &params.joints)?;
     // Pairs that are no joint leave every rule below as pairs without a usable fit do.
-    let (refused, bodies) = refused_pairs(fits, &named, seg.noise_mm, &marker_count, params);
+    let (refused, bodies) = refused_pairs(fits, &named, seg, &marker_count, params);
     let masked;
     let fits = if refused.is_empty() {
         fits
@@ -47,10 +47,11 @@ pub fn run(seg: &Segmentation, fits: &PairFits, params: &Params) -> Result<Topol
         masked = without_pairs(fits, &refused);
         let sizes: Vec<usize> = bodies.iter().map(Vec::len).collect();
         notes.push(format!(
-            "{} bodies, of {sizes:?} segments (two subjects, or a subject and a prop): the \
-             pairs that fit a joint (a residual at most topo.max_residual_ratio {} times the \
-             typical joint's) join the segments so, and the {} pair(s) from one body to \
-             another disagree about a common centre by more: no joint",
+            "{} bodies, of {sizes:?} segments (two subjects, a subject and a prop, or the \
+             markers that never move): the pairs that fit a joint (a residual at most \
+             topo.max_residual_ratio {} times the typical joint's) join the segments so, and \
+             the {} pair(s) from one body to another disagree about a common centre by more: \
+             no joint",
             bodies.len(),
             params.max_residual_ratio,
             refused.len()
@@ -183,7 +184,7 @@ pub fn run(seg: &Segmentation, fits: &PairFits, params: &Params) -> Result<Topol
         }
         (None, None) => components
             .iter()
-            .min_by(|x, y| bigger_first(x, y, &marker_count))
+            .min_by(|x, y| bigger_first(x, y, &marker_count, seg.stationary_segment))
             .map(|c| (*c).clone())
             .unwrap_or_default(),
     };
@@ -284,13 +285,13 @@ pub fn run(seg: &Segmentation, fits: &PairFits, params: &Params) -> Result<Topol
 /// ascending, [`bigger_first`]; empty for one body). Where the pairs the user named, and
 /// those whose residual is at most `max_residual_ratio` times the typical joint's
 /// ([`typical_joint_residual`], at least the capture's measurement noise `noise_mm`) or
-/// at most the capture's longest segment ([`longest_segment_mm`]), join the segments into
-/// more than one body: the finite-cost pairs from one body to another. Within one body
-/// nothing is refused, so a capture of one subject keeps every pair.
+/// at most the capture's longest segment that moves ([`longest_segment_mm`]), join the
+/// segments into more than one body: the finite-cost pairs from one body to another.
+/// Within one body nothing is refused, so a capture of one subject keeps every pair.
 fn refused_pairs(
     fits: &PairFits,
     named: &[usize],
-    noise_mm: f64,
+    seg: &Segmentation,
     marker_count: &[usize],
     params: &Params,
 ) -> (Vec<usize>, Vec<Vec<usize>>) {
@@ -304,8 +305,13 @@ fn refused_pairs(
     // the typical one (up to 121 mm against a typical 0 on clean trials with 1-3 markers
     // per segment): a pair is between bodies only where its centres also disagree by more
     // than the capture's longest segment.
-    let limit = (params.max_residual_ratio * typical.max(noise_mm).max(RESIDUAL_FLOOR_MM))
-        .max(longest_segment_mm(fits));
+    // The markers that never move span the room, not a body.
+    let limit = (params.max_residual_ratio * typical.max(seg.noise_mm).max(RESIDUAL_FLOOR_MM))
+        .max(longest_segment_mm(fits, seg.stationary_segment));
+    // The room joins a body only by a joint as tight as a typical one: a fixed base's.
+    let room_limit = (params.stationary_residual_ratio > 0.0).then(|| {
+        params.stationary_residual_ratio * typical.max(seg.noise_mm).max(RESIDUAL_FLOOR_MM)
+    });
     let n = fits.poses.len();
     let usable = |i: usize| {
         let p = &fits.pairs[i];
@@ -316,7 +322,13 @@ fn refused_pairs(
     for i in (0..fits.pairs.len()).filter(|&i| usable(i)) {
         let p = &fits.pairs[i];
         (paired[p.a], paired[p.b]) = (true, true);
-        if p.residual_rms_mm <= limit || named.contains(&i) {
+        let fits_joint = match (seg.stationary_segment, room_limit) {
+            (Some(room), Some(room_limit)) if room == p.a || room == p.b => {
+                p.residual_rms_mm <= room_limit || p.misfit_over_noise <= params.stationary_misfit
+            }
+            _ => p.residual_rms_mm <= limit,
+        };
+        if fits_joint || named.contains(&i) {
             bodies.union(p.a, p.b);
         }
     }
@@ -328,19 +340,27 @@ fn refused_pairs(
     if members.len() < 2 {
         return (Vec::new(), Vec::new());
     }
-    members.sort_by(|x, y| bigger_first(x, y, marker_count));
+    members.sort_by(|x, y| bigger_first(x, y, marker_count, seg.stationary_segment));
     let refused = (0..fits.pairs.len())
         .filter(|&i| usable(i) && bodies.find(fits.pairs[i].a) != bodies.find(fits.pairs[i].b))
         .collect();
     (refused, members)
 }
 
-/// Orders sets of segments biggest first: more segments, then more markers, then the lower
-/// smallest id (the tree's body, where nothing else chooses it).
-fn bigger_first(x: &[usize], y: &[usize], marker_count: &[usize]) -> std::cmp::Ordering {
+/// Orders sets of segments biggest first: the room alone (the segment `room` of the markers
+/// that never move) last, then more segments, then more markers, then the lower smallest
+/// id (the tree's body, where nothing else chooses it).
+fn bigger_first(
+    x: &[usize],
+    y: &[usize],
+    marker_count: &[usize],
+    room: Option<usize>,
+) -> std::cmp::Ordering {
     let markers = |set: &[usize]| set.iter().map(|&s| marker_count[s]).sum::<usize>();
-    y.len()
-        .cmp(&x.len())
+    let room_alone = |set: &[usize]| room.is_some_and(|r| set == [r]);
+    room_alone(x)
+        .cmp(&room_alone(y))
+        .then(y.len().cmp(&x.len()))
         .then(markers(y).cmp(&markers(x)))
         .then(x.first().cmp(&y.first()))
 }
@@ -348,11 +368,11 @@ fn bigger_first(x: &[usize], y: &[usize], marker_count: &[usize]) -> std::cmp::O
 /// Residuals below this (mm) are rounding: noiseless data fit every joint to within it.
 const RESIDUAL_FLOOR_MM: f64 = 1e-3;
 
-/// The largest distance between two markers of one segment (mm, reference shapes); 0
-/// without a segment of two markers.
-fn longest_segment_mm(fits: &PairFits) -> f64 {
+/// The largest distance between two markers of one segment other than `skip` (mm,
+/// reference shapes); 0 without a segment of two markers.
+fn longest_segment_mm(fits: &PairFits, skip: Option<usize>) -> f64 {
     let mut longest: f64 = 0.0;
-    for poses in &fits.poses {
+    for poses in fits.poses.iter().filter(|p| Some(p.segment) != skip) {
         let markers: Vec<glam::DVec3> = poses
             .reference
             .iter()
@@ -866,6 +886,7 @@ mod tests {
             labels: (0..next).map(|m| format!("M{m}")).collect(),
             named_segments: Vec::new(),
             pieces: Vec::new(),
+            stationary_segment: None,
         }
     }
 

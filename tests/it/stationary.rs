@@ -1,0 +1,230 @@
+//! Markers that never move (floor and reference markers, stray reflections, a fixed base)
+//! through the whole pipeline: the room is no body's part, a fixed base is its arm's root.
+
+use glam::DVec3;
+use mocap_io::Trajectories;
+
+use crate::support::{Scratch, read_json, xtask_ok};
+
+/// A synthetic trial as `cargo xtask eval` makes it (480 frames).
+fn trial(subject: synth::Subject, preset: synth::Preset, seed: u64) -> synth::Trial {
+    let config = synth::SynthConfig {
+        subject,
+        preset,
+        seed,
+        frames: 480,
+        ..synth::SynthConfig::default()
+    };
+    synth::generate(&config).expect("synthetic trial")
+}
+
+/// `traj` with `count` floor markers (`FLOOR0`..) appended, spread over 4 m, each
+/// jittering by up to ±0.5 mm per axis (seeded), as cameras see a marker lying still.
+fn with_floor(traj: &Trajectories, count: usize) -> Trajectories {
+    let mut state: u64 = 7;
+    let mut jitter = || {
+        state = state
+            .wrapping_mul(6_364_136_223_846_793_005)
+            .wrapping_add(1);
+        ((state >> 11) as f64 / (1u64 << 53) as f64) - 0.5
+    };
+    let mut labels = traj.labels().to_vec();
+    labels.extend((0..count).map(|k| format!("FLOOR{k}")));
+    let mut positions = Vec::with_capacity(traj.frames() * labels.len());
+    for f in 0..traj.frames() {
+        positions.extend_from_slice(traj.frame(f));
+        for k in 0..count {
+            let (x, y) = (-2000.0 + 800.0 * k as f64, 1500.0 - 600.0 * k as f64);
+            positions.push([x + jitter(), y + jitter(), 5.0 + jitter()]);
+        }
+    }
+    Trajectories::new(
+        labels,
+        traj.frame_rate(),
+        traj.first_frame(),
+        traj.frames(),
+        positions,
+    )
+    .unwrap()
+}
+
+/// The ids of skeleton.json's segments that say `"stationary": true`.
+fn stationary_segments(skeleton: &serde_json::Value) -> Vec<u64> {
+    skeleton["segments"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .filter(|s| s["stationary"] == true)
+        .map(|s| s["id"].as_u64().unwrap())
+        .collect()
+}
+
+/// A hard synthetic human walking its circle beside six floor markers: the floor is a
+/// segment of its own that no joint joins (its best pair, the thorax about the circle's
+/// centre, fits 8 times worse than a typical joint), listed once as markers that never
+/// move, with no skeleton folder of its own; the human's tree is the one it has alone.
+#[test]
+fn floor_markers_are_the_room_and_join_no_skeleton() {
+    let walk = trial(synth::Subject::Human, synth::Preset::Hard, 20001);
+    let tmp = Scratch::new("stationary-floor");
+    let alone = tmp.path("alone.c3d");
+    mocap_io::write_c3d(&alone, &walk.trajectories).unwrap();
+    let input = tmp.path("floor.c3d");
+    mocap_io::write_c3d(&input, &with_floor(&walk.trajectories, 6)).unwrap();
+    let path = |p: &std::path::Path| p.to_str().unwrap().to_string();
+    let run = |input: &std::path::Path, out: &str| {
+        let args = [
+            "run".to_string(),
+            path(input),
+            "--out".into(),
+            path(&tmp.path(out)),
+            "--cache".into(),
+            path(&tmp.path("cache")),
+            "--json".into(),
+        ];
+        let stdout = xtask_ok(&args.iter().map(String::as_str).collect::<Vec<_>>());
+        let report: serde_json::Value = serde_json::from_str(&stdout).unwrap();
+        (read_json(&tmp.path(out).join("skeleton.json")), report)
+    };
+    let (plain, _) = run(&alone, "alone");
+    let (skeleton, report) = run(&input, "floor");
+    let room = stationary_segments(&skeleton);
+    assert_eq!(room.len(), 1, "{}", skeleton["segments"]);
+    let floor: Vec<&str> = skeleton["segments"][room[0] as usize]["markers"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .map(|m| m.as_str().unwrap())
+        .collect();
+    assert_eq!(
+        floor,
+        ["FLOOR0", "FLOOR1", "FLOOR2", "FLOOR3", "FLOOR4", "FLOOR5"]
+    );
+    let joints = skeleton["joints"].as_array().unwrap();
+    assert_eq!(joints.len(), plain["joints"].as_array().unwrap().len());
+    for j in joints {
+        for side in ["parent_segment", "child_segment"] {
+            assert_ne!(j[side].as_u64(), Some(room[0]), "{j}");
+        }
+    }
+    assert_eq!(skeleton["bodies"].as_array().map(Vec::len), Some(2));
+    assert!(!tmp.path("floor").join("body2").exists());
+    let findings = report["findings"].to_string();
+    assert!(
+        findings.contains("markers that never move") && !findings.contains("another body"),
+        "{findings}"
+    );
+    assert_eq!(report["other_bodies"].as_array().map(Vec::len), Some(0));
+}
+
+/// A synthetic robot arm whose base is bolted down (every frame moved so the base's
+/// markers stay where they were in the first): the base never moves, and its joint with
+/// the first link fits like any other, so the arm's tree holds it as before.
+#[test]
+fn a_fixed_base_never_moves_and_its_arm_still_hangs_from_it() {
+    let arm = trial(synth::Subject::Robotarm, synth::Preset::Noise, 7);
+    let traj = &arm.trajectories;
+    let labels = traj.labels();
+    let base: Vec<usize> = arm.truth.segments[0]
+        .markers
+        .iter()
+        .map(|m| labels.iter().position(|l| l == m).unwrap())
+        .collect();
+    let at = |f: usize, m: usize| DVec3::from_array(traj.frame(f)[m]);
+    let mut positions = Vec::with_capacity(traj.positions().len());
+    for f in 0..traj.frames() {
+        let pairs: Vec<(DVec3, DVec3)> = base.iter().map(|&m| (at(f, m), at(0, m))).collect();
+        let fit = jointfit::absolute_orientation(&pairs).unwrap();
+        positions.extend(
+            (0..traj.markers()).map(|m| (fit.rotation * at(f, m) + fit.translation).to_array()),
+        );
+    }
+    let fixed = traj.with_positions(positions).unwrap();
+    let tmp = Scratch::new("stationary-base");
+    let input = tmp.path("fixed.c3d");
+    mocap_io::write_c3d(&input, &fixed).unwrap();
+    let skeleton = read_json(&tmp.run(&input).join("skeleton.json"));
+    let room = stationary_segments(&skeleton);
+    assert_eq!(room.len(), 1, "{}", skeleton["segments"]);
+    let mut markers: Vec<&str> = skeleton["segments"][room[0] as usize]["markers"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .map(|m| m.as_str().unwrap())
+        .collect();
+    markers.sort_unstable();
+    let mut truth: Vec<&str> = arm.truth.segments[0]
+        .markers
+        .iter()
+        .map(String::as_str)
+        .collect();
+    truth.sort_unstable();
+    assert_eq!(markers, truth);
+    let joints = skeleton["joints"].as_array().unwrap();
+    assert_eq!(joints.len(), 6);
+    assert!(
+        joints
+            .iter()
+            .any(|j| j["parent_segment"].as_u64() == Some(room[0])
+                || j["child_segment"].as_u64() == Some(room[0])),
+        "no joint holds the base"
+    );
+    assert_eq!(skeleton["bodies"].as_array().map(Vec::len), Some(0));
+}
+
+/// Each segment's marker labels, sorted, without the floor's.
+fn groups_without_floor(skeleton: &serde_json::Value) -> Vec<Vec<String>> {
+    let mut groups: Vec<Vec<String>> = skeleton["segments"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .map(|s| {
+            let mut g: Vec<String> = s["markers"]
+                .as_array()
+                .unwrap()
+                .iter()
+                .map(|m| m.as_str().unwrap().to_string())
+                .filter(|m| !m.starts_with("FLOOR"))
+                .collect();
+            g.sort();
+            g
+        })
+        .filter(|g| !g.is_empty())
+        .collect();
+    groups.sort();
+    groups
+}
+
+/// CMU 02_01 beside one marker lying still, then six: its segments are those it has
+/// alone (one point beside it regrouped three of its markers, and six put both upper arms
+/// in one segment, before they were set aside), and its tree has as many joints.
+#[test]
+fn markers_that_never_move_leave_a_real_walk_as_it_is() {
+    let Some(data) = mocap_io::testdata::shared_data_dir("stationary_beside_cmu") else {
+        return;
+    };
+    let options = mocap_io::ReadOptions::default();
+    let walk = mocap_io::read_capture(&data.join("c3d/cmu/02_01.c3d"), &options)
+        .unwrap()
+        .trajectories;
+    let tmp = Scratch::new("stationary-cmu");
+    let mut runs = Vec::new();
+    for count in [0, 1, 6] {
+        let input = tmp.path(&format!("floor{count}.c3d"));
+        mocap_io::write_c3d(&input, &with_floor(&walk, count)).unwrap();
+        let out = tmp.run(&input);
+        runs.push(read_json(&out.join("skeleton.json")));
+        std::fs::remove_dir_all(out).unwrap();
+    }
+    let joints = |s: &serde_json::Value| s["joints"].as_array().map(Vec::len);
+    for (count, run) in [(1, &runs[1]), (6, &runs[2])] {
+        assert_eq!(
+            groups_without_floor(run),
+            groups_without_floor(&runs[0]),
+            "{count}"
+        );
+        assert_eq!(joints(run), joints(&runs[0]), "{count}");
+    }
+    assert!(stationary_segments(&runs[1]).is_empty());
+    assert_eq!(stationary_segments(&runs[2]).len(), 1);
+}
