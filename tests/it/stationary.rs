@@ -115,6 +115,12 @@ fn floor_markers_are_the_room_and_join_no_skeleton() {
         "{findings}"
     );
     assert_eq!(report["other_bodies"].as_array().map(Vec::len), Some(0));
+    let page = std::fs::read_to_string(tmp.path("floor").join("report.html")).unwrap();
+    assert!(page.contains("Markers that never move"), "report.html");
+    assert!(
+        !page.contains("bodies, no joint between them"),
+        "report.html"
+    );
 }
 
 /// A synthetic robot arm whose base is bolted down (every frame moved so the base's

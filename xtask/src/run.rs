@@ -276,7 +276,7 @@ pub fn execute(args: &Args, progress: &Progress) -> Result<Report> {
     // Every other body from the same cached stages up to topo, which builds its tree.
     let force_from = force_from.map(|stage| stage.max(StageId::Topo));
     for body in &document.bodies {
-        if document.body.as_ref() == Some(&body.name) || is_room(&document, body) {
+        if document.body.as_ref() == Some(&body.name) || document.is_room(body) {
             continue;
         }
         let mut body_params = params.clone();
@@ -294,14 +294,6 @@ pub fn execute(args: &Args, progress: &Progress) -> Result<Report> {
         report.other_bodies.push(body_report);
     }
     Ok(report)
-}
-
-/// Whether `body` is only the segment of the markers that never move (the room's): no
-/// skeleton holds it.
-fn is_room(document: &export::SkeletonJson, body: &export::BodyJson) -> bool {
-    body.segments
-        .iter()
-        .all(|&id| document.segments.iter().any(|s| s.id == id && s.stationary))
 }
 
 /// Runs the pipeline on `input` with `params` into `out`: the report (no other bodies)
@@ -506,7 +498,7 @@ pub fn findings(document: &export::SkeletonJson, spin_limit_deg: f64) -> Vec<Str
         .filter(|b| document.body.as_ref() != Some(&b.name))
         .collect();
     for b in &others {
-        if is_room(document, b) {
+        if document.is_room(b) {
             if whole_capture {
                 let still: Vec<String> = document
                     .segments

@@ -128,6 +128,18 @@ pub struct BodyJson {
     pub marker_count: usize,
 }
 
+impl SkeletonJson {
+    /// Whether `body` is only the segment of the markers that never move (the room's),
+    /// which no skeleton holds.
+    pub fn is_room(&self, body: &BodyJson) -> bool {
+        !body.segments.is_empty()
+            && body
+                .segments
+                .iter()
+                .all(|&id| self.segments.iter().any(|s| s.id == id && s.stationary))
+    }
+}
+
 /// Two markers whose trajectories were exchanged, and when.
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 pub struct LabelSwapJson {

@@ -3,7 +3,7 @@
 
 use std::fmt::Write;
 
-use crate::json::{JointJson, SkeletonJson};
+use crate::json::{BodyJson, JointJson, SkeletonJson};
 
 /// Side of each of the three projection panels, px.
 const PANEL_PX: f64 = 260.0;
@@ -90,9 +90,28 @@ fn summary(out: &mut String, doc: &SkeletonJson) {
         doc.detached_segments.len(),
         escape(&doc.units),
     );
-    if let Some(body) = &doc.body {
-        let others: Vec<String> = doc
-            .bodies
+    let room: Vec<String> = doc
+        .segments
+        .iter()
+        .filter(|s| s.stationary)
+        .flat_map(|s| s.markers.iter().map(|m| escape(m)))
+        .collect();
+    if !room.is_empty() {
+        let held = if doc.bodies.iter().any(|b| doc.is_room(b)) {
+            "a segment of their own that no skeleton holds"
+        } else {
+            "a segment of their own in this tree (a fixed base)"
+        };
+        let _ = writeln!(
+            out,
+            "<p>Markers that never move (the room's: floor or reference markers, stray \
+             reflections; or a fixed base's): {}; {held}.</p>",
+            room.join(", ")
+        );
+    }
+    let bodies: Vec<&BodyJson> = doc.bodies.iter().filter(|b| !doc.is_room(b)).collect();
+    if let Some(body) = doc.body.as_ref().filter(|_| bodies.len() > 1) {
+        let others: Vec<String> = bodies
             .iter()
             .filter(|b| &b.name != body)
             .map(|b| format!("{} ({} segments)", escape(&b.name), b.segments.len()))
@@ -103,7 +122,7 @@ fn summary(out: &mut String, doc: &SkeletonJson) {
              {}, have skeletons of their own (<code>cargo xtask run</code> writes each into \
              the folder named after it inside its output folder, but its main body's, the \
              biggest by default, into the output folder itself).</p>",
-            doc.bodies.len(),
+            bodies.len(),
             escape(body),
             others.join(", ")
         );
@@ -257,7 +276,9 @@ fn segments(out: &mut String, doc: &SkeletonJson) {
             .bodies
             .iter()
             .find(|b| b.segments.contains(&s.id) && doc.body.as_ref() != Some(&b.name));
-        let detached = if let Some(b) = other_body {
+        let detached = if s.stationary && other_body.is_some() {
+            " (markers that never move)".to_owned()
+        } else if let Some(b) = other_body {
             format!(" ({}, another body)", escape(&b.name))
         } else if doc.detached_segments.contains(&s.id) {
             " <span class=\"warn\">(outside the tree)</span>".to_owned()
