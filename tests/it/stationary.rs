@@ -125,9 +125,9 @@ fn floor_markers_are_the_room_and_join_no_skeleton() {
 
 /// A synthetic robot arm whose base is bolted down (every frame moved so the base's
 /// markers stay where they were in the first): the base never moves, and its joint with
-/// the first link fits like any other, so the arm's tree holds it as before.
+/// the first link fits like any other, so the arm's tree holds it, as its root.
 #[test]
-fn a_fixed_base_never_moves_and_its_arm_still_hangs_from_it() {
+fn a_fixed_base_never_moves_and_is_its_arm_s_root() {
     let arm = trial(synth::Subject::Robotarm, synth::Preset::Noise, 7);
     let traj = &arm.trajectories;
     let labels = traj.labels();
@@ -176,6 +176,7 @@ fn a_fixed_base_never_moves_and_its_arm_still_hangs_from_it() {
         "no joint holds the base"
     );
     assert_eq!(skeleton["bodies"].as_array().map(Vec::len), Some(0));
+    assert_eq!(skeleton["root_segment"].as_u64(), Some(room[0]));
 }
 
 /// Each segment's marker labels, sorted, without the floor's.

@@ -16,7 +16,8 @@
 //!   biggest, or the one `topo.body` names. The segment of the markers that never move
 //!   (the room; segment's `stationary_segment`) joins a body only by a pair that fits
 //!   as tightly as a typical joint (`stationary_residual_ratio`, `stationary_misfit`: a
-//!   fixed base's), and alone it is the last body, never the tree's by default.
+//!   fixed base's), and alone it is the last body, never the tree's by default; in the
+//!   tree it is the root (a fixed mechanism's ground link).
 //! - Pairs of kind `rigid` (no relative motion: the two are one body; the kind
 //!   `PairFit::tree_kind` gives, like every kind the rules read) are taken before every
 //!   other edge, because two segments that never move relative to each other are
@@ -57,7 +58,8 @@
 //!   A leaf posed through its joint with the twin (two markers: that pair is cheap by
 //!   construction) moves when the parent's centre holds its markers next best, nearly as
 //!   well (`twin_leaf_anchor_ratio`).
-//! - Root: the tree's centre (minimum eccentricity in hops), ties by the smaller sum of
+//! - Root: the segment of the markers that never move where the tree holds it (a fixed
+//!   base), else the tree's centre (minimum eccentricity in hops), ties by the smaller sum of
 //!   hops to every segment, then most markers, then the smaller mean distance to the
 //!   other segments over the capture, then lowest id; it lands on the pelvis or torso of
 //!   a human and the body of an animal, and not on whichever of two like centres the
@@ -295,8 +297,9 @@ pub const PARAM_DOCS: &[(&str, &str)] = &[
     (
         "root",
         "segment forced as the tree's root, by id or by the label of a marker on it; default \
-         none: the tree's centre (fewest hops \
-         to the farthest segment, ties by most markers, then lowest id)",
+         none: the segment of the markers that never move where the tree holds it (a fixed \
+         base: every other segment's motion is read in the room), else the tree's centre \
+         (fewest hops to the farthest segment, ties by most markers, then lowest id)",
     ),
     (
         "rigid_first",

@@ -233,9 +233,21 @@ pub fn run(seg: &Segmentation, fits: &PairFits, params: &Params) -> Result<Topol
         adj.sort_by_key(|e| e.0);
     }
 
-    let root_segment = match forced_root {
-        Some(root) => root,
-        None => centre(&tree_set, &adjacency, &marker_count, |s| {
+    // A tree that holds the markers that never move is a fixed mechanism's: its ground
+    // link, the base, is the root, as the frame every other segment's motion is read in.
+    let fixed_base = seg
+        .stationary_segment
+        .filter(|room| tree_set.contains(room) && tree_set.len() > 1);
+    let root_segment = match (forced_root, fixed_base) {
+        (Some(root), _) => root,
+        (None, Some(base)) => {
+            notes.push(format!(
+                "root: segment {base}, the markers that never move (a fixed base; topo.root \
+                 picks another)"
+            ));
+            base
+        }
+        (None, None) => centre(&tree_set, &adjacency, &marker_count, |s| {
             spatial_spread(fits, &tree_set, s)
         }),
     };
