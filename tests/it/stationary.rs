@@ -59,10 +59,10 @@ fn stationary_segments(skeleton: &serde_json::Value) -> Vec<u64> {
         .collect()
 }
 
-/// A hard synthetic human walking its circle beside six floor markers: the floor is a
-/// segment of its own that no joint joins (its best pair, the thorax about the circle's
-/// centre, fits 8 times worse than a typical joint), listed once as markers that never
-/// move, with no skeleton folder of its own; the human's tree is the one it has alone.
+/// A hard synthetic human walking its circle beside six floor markers: `inspect` names
+/// them; the floor is a segment of its own that no joint joins, listed once as markers
+/// that never move, with no skeleton folder of its own; the human's tree has as many
+/// joints as it has alone.
 #[test]
 fn floor_markers_are_the_room_and_join_no_skeleton() {
     let walk = trial(synth::Subject::Human, synth::Preset::Hard, 20001);
@@ -86,6 +86,12 @@ fn floor_markers_are_the_room_and_join_no_skeleton() {
         let report: serde_json::Value = serde_json::from_str(&stdout).unwrap();
         (read_json(&tmp.path(out).join("skeleton.json")), report)
     };
+    let inspected: serde_json::Value =
+        serde_json::from_str(&xtask_ok(&["inspect", &path(&input), "--json"])).unwrap();
+    assert_eq!(
+        inspected["stationary_markers"],
+        serde_json::json!(["FLOOR0", "FLOOR1", "FLOOR2", "FLOOR3", "FLOOR4", "FLOOR5"])
+    );
     let (plain, _) = run(&alone, "alone");
     let (skeleton, report) = run(&input, "floor");
     let room = stationary_segments(&skeleton);

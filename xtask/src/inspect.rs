@@ -94,6 +94,12 @@ pub fn capture_report(capture: &Capture) -> Report {
         )
     };
     let spacing = t.marker_spacing_mm();
+    // The segment stage's own rule at its defaults; a capture it cannot judge has none.
+    let still: Vec<&str> = segment::stationary_markers(t, &segment::Params::default())
+        .unwrap_or_default()
+        .into_iter()
+        .map(|m| t.labels()[m].as_str())
+        .collect();
     let json = json!({
         "kind": "capture",
         "format": capture.format.name(),
@@ -110,6 +116,7 @@ pub fn capture_report(capture: &Capture) -> Report {
         "missing_samples": t.missing_samples(),
         "marker_spacing_mm": spacing,
         "floor_scale": mocap_io::floor_scale_of(spacing),
+        "stationary_markers": still,
         "middle_frame": middle_frame,
         "warnings": capture.info.warnings,
         "stitched": capture.info.stitched,
@@ -154,6 +161,19 @@ pub fn capture_report(capture: &Capture) -> Report {
             } else {
                 String::new()
             }
+        );
+    }
+    if !still.is_empty() {
+        let _ = writeln!(
+            text,
+            "still         {} {} (the room's; segment groups them apart): {}",
+            still.len(),
+            if still.len() == 1 {
+                "marker that never moves"
+            } else {
+                "markers that never move"
+            },
+            still.join(", ")
         );
     }
     if frames > 0 {

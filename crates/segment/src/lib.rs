@@ -162,6 +162,14 @@ pub fn run(traj: &Trajectories, params: &Params) -> Result<Segmentation, Error> 
     Ok(seg)
 }
 
+/// The markers that never move, ascending, as [`run`] sets them aside with `params`
+/// (see `Params::stationary_jitter_factor`): empty where none does or nothing moves.
+pub fn stationary_markers(traj: &Trajectories, params: &Params) -> Result<Vec<usize>, Error> {
+    params.validate()?;
+    let named = named::resolve(traj.labels(), &params.groups)?;
+    Ok(stationary::stationary_markers(traj, params, &named))
+}
+
 /// [`run`] on parameters it has validated and scaled, looking for label swaps when
 /// `find_swaps`: when there are any, the capture is segmented again with them undone (and
 /// not looked for again); and for pieces of one marker's trajectory for up to
