@@ -1716,6 +1716,54 @@ mod tests {
         }
     }
 
+    /// Segments 0-1-2, a chain of joints fitting within 5 mm (misfit 1), and segment 3,
+    /// the markers that never move (the room), whose pairs fit `room_mm` off at a misfit
+    /// of `room_misfit`; the room's pair with 2 is the cheapest of all.
+    fn a_body_and_the_room(room_mm: f64, room_misfit: f64) -> (Segmentation, PairFits) {
+        let mut f = fits(4, tree_costs(&[(0, 1), (1, 2), (2, 3)]));
+        for p in &mut f.pairs {
+            (p.residual_rms_mm, p.misfit_over_noise) = if p.b == 3 {
+                (room_mm, room_misfit)
+            } else {
+                (5.0, 1.0)
+            };
+        }
+        fit_mut(&mut f, 2, 3).cost = 0.5;
+        let mut seg = segmentation(&[4, 3, 3, 6]);
+        seg.stationary_segment = Some(3);
+        (seg, f)
+    }
+
+    #[test]
+    fn the_room_joins_a_body_only_as_tightly_as_a_joint_and_is_then_its_root() {
+        // A sway 3 times the typical joint's, misfit 4: a body of its own, the last.
+        let (seg, f) = a_body_and_the_room(15.0, 4.0);
+        let t = run(&seg, &f, &Params::default()).unwrap();
+        assert_eq!(edge_set(&t), vec![(0, 1), (1, 2)]);
+        assert_eq!(t.bodies, vec![vec![0, 1, 2], vec![3]]);
+        assert_eq!(t.body, Some(0));
+        // As any other pair, 15 mm is well within 40 times 5.
+        let off = Params {
+            stationary_residual_ratio: 0.0,
+            ..Params::default()
+        };
+        let t = run(&seg, &f, &off).unwrap();
+        assert_eq!(edge_set(&t), vec![(0, 1), (1, 2), (2, 3)]);
+        // A fixed base: within twice the typical residual, or a misfit the poses' noise
+        // explains; the tree's root.
+        for (room_mm, misfit) in [(8.0, 4.0), (15.0, 1.2)] {
+            let (seg, f) = a_body_and_the_room(room_mm, misfit);
+            let t = run(&seg, &f, &Params::default()).unwrap();
+            assert_eq!(edge_set(&t), vec![(0, 1), (1, 2), (2, 3)]);
+            assert!(t.bodies.is_empty());
+            assert_eq!(t.root_segment, 3);
+        }
+        // The room alone is the last body even where it holds more markers.
+        use std::cmp::Ordering::{Greater, Less};
+        assert_eq!(bigger_first(&[1], &[0], &[3, 6], None), Less);
+        assert_eq!(bigger_first(&[1], &[0], &[3, 6], Some(1)), Greater);
+    }
+
     #[test]
     fn forced_root_and_errors() {
         let edges = [(0, 1), (1, 2)];
