@@ -241,3 +241,60 @@ fn markers_that_never_move_leave_a_real_walk_as_it_is() {
     assert!(stationary_segments(&runs[1]).is_empty());
     assert_eq!(stationary_segments(&runs[2]).len(), 1);
 }
+
+/// CMU 02_01 whose RFIN falls off at frame 200 of 343 and lies on the floor: its samples
+/// from there on are read as gaps and reported, and the walk's segments are those it has
+/// intact (before, the fall regrouped five of them and left RFIN in none).
+#[test]
+fn a_marker_that_falls_off_a_real_walk_leaves_its_segments_as_they_are() {
+    let Some(data) = mocap_io::testdata::shared_data_dir("fallen_marker_cmu") else {
+        return;
+    };
+    let options = mocap_io::ReadOptions::default();
+    let walk = mocap_io::read_capture(&data.join("c3d/cmu/02_01.c3d"), &options)
+        .unwrap()
+        .trajectories;
+    let n = walk.markers();
+    let rfin = walk
+        .labels()
+        .iter()
+        .position(|l| l.ends_with("RFIN"))
+        .unwrap();
+    let at = walk.get(200, rfin).expect("RFIN seen at frame 200");
+    let mut positions = walk.positions().to_vec();
+    let mut state: u64 = 3;
+    let mut lying = 0;
+    for f in 200..walk.frames() {
+        state = state
+            .wrapping_mul(6_364_136_223_846_793_005)
+            .wrapping_add(1);
+        let jitter = 0.6 * (((state >> 11) as f64 / (1u64 << 53) as f64) - 0.5);
+        if walk.get(f, rfin).is_some() {
+            positions[f * n + rfin] = [at[0] + jitter, at[1] - jitter, 8.0 + jitter];
+            lying += 1;
+        }
+    }
+    let fell = walk.with_positions(positions).unwrap();
+    let tmp = Scratch::new("fallen-cmu");
+    let mut runs = Vec::new();
+    for (name, traj) in [("intact", &walk), ("fell", &fell)] {
+        let input = tmp.path(&format!("{name}.c3d"));
+        mocap_io::write_c3d(&input, traj).unwrap();
+        let out = tmp.run(&input);
+        runs.push(read_json(&out.join("skeleton.json")));
+        std::fs::remove_dir_all(out).unwrap();
+    }
+    assert_eq!(
+        groups_without_floor(&runs[1]),
+        groups_without_floor(&runs[0])
+    );
+    let marker = runs[1]["markers"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .find(|m| m["label"].as_str().is_some_and(|l| l.ends_with("RFIN")))
+        .unwrap()
+        .clone();
+    assert_eq!(marker["glitch_frames"].as_u64(), Some(lying), "{marker}");
+    assert!(marker["segment"].is_u64(), "{marker}");
+}

@@ -405,7 +405,8 @@ pub fn findings(document: &export::SkeletonJson, spin_limit_deg: f64) -> Vec<Str
         .collect();
     if !glitching.is_empty() {
         out.push(listed(
-            "markers that jumped off their partners in some frames (those samples read as gaps)",
+            "markers that left their partners in some frames (jumped off, or fell off and lay \
+             still; those samples read as gaps)",
             glitching,
         ));
     }
@@ -920,8 +921,8 @@ mod tests {
             ) && f.contains(&doc.markers[9].label))
         );
         assert!(found.contains(&format!(
-            "markers that jumped off their partners in some frames (those samples read as \
-             gaps): 2 — {} (26 frames); {} (1 frame)",
+            "markers that left their partners in some frames (jumped off, or fell off and \
+             lay still; those samples read as gaps): 2 — {} (26 frames); {} (1 frame)",
             doc.markers[10].label, doc.markers[11].label
         )));
         assert!(found.contains(&format!(

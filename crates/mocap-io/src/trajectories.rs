@@ -187,16 +187,19 @@ impl Trajectories {
         }
     }
 
-    /// These trajectories with every sample of the markers `hidden` (indices) missing, the
-    /// labels and frames as they are: later steps see those markers as never seen.
+    /// These trajectories with the samples of each marker of `hidden` (index, first frame
+    /// hidden) missing from that frame on, the labels and frames as they are: later steps
+    /// see those markers as not seen there (from frame 0: never seen).
     ///
     /// Panics when a marker index is out of range (callers take them from these labels).
-    pub fn hiding(&self, hidden: &[usize]) -> Trajectories {
+    pub fn hiding(&self, hidden: &[(usize, usize)]) -> Trajectories {
         let m = self.labels.len();
         let mut positions = self.positions.clone();
-        for row in positions.chunks_mut(m.max(1)) {
-            for &k in hidden {
-                row[k] = MISSING;
+        for (f, row) in positions.chunks_mut(m.max(1)).enumerate() {
+            for &(k, from) in hidden {
+                if f >= from {
+                    row[k] = MISSING;
+                }
             }
         }
         Trajectories {

@@ -13,6 +13,11 @@
 //! measurement noise alone gives a ratio of about 0.7 (spread √3 σ, steps √6 σ), while
 //! anything a body carries moves smoothly, far more over the capture than between two
 //! frames. Only where the capture moves ([`MOTION_RATIO`]): a static trial is left as it is.
+//!
+//! A marker that stops moving for good while its steadiest partner goes on (it fell off,
+//! or the tracker kept a reflection where it lost it: [`fallen_markers`]) is read as a
+//! gap from there on, a glitch that lasts, before anything else too: CMU 02_01's RFIN left
+//! on the floor from frame 200 of 343 regrouped five of its segments.
 
 use mocap_io::{Trajectories, is_present};
 
@@ -109,12 +114,176 @@ pub(crate) fn stationary_markers(
     if moves { still } else { Vec::new() }
 }
 
+/// Markers that stop moving for good while their steadiest partner goes on: one fell off
+/// and lies where it fell, or the tracker kept a reflection where it lost it. For each,
+/// the first frame of its last still stretch (see [`still_since`]), where its steadiest
+/// partner before that frame wanders [`MOTION_RATIO`] times as far as it does over the
+/// stretch's frames where both are seen (at least as many as a marker needs); a marker still with its partner (a foot planted to the end, a subject who
+/// stops) is none. Ascending by marker; none of `named`.
+pub(crate) fn fallen_markers(
+    traj: &Trajectories,
+    params: &Params,
+    named: &[Vec<usize>],
+) -> Vec<(usize, usize)> {
+    if params.stationary_jitter_factor <= 0.0 {
+        return Vec::new();
+    }
+    let needed = params
+        .min_visible_frames
+        .max((params.min_visible_fraction * traj.frames() as f64).ceil() as usize)
+        .max(MIN_STEPS + 1);
+    let mut out = Vec::new();
+    for m in (0..traj.markers()).filter(|m| !named.iter().flatten().any(|n| n == m)) {
+        let Some(from) = still_since(traj, m, needed, params.stationary_jitter_factor) else {
+            continue;
+        };
+        let Some(partner) = steadiest_before(traj, m, from, needed, params.min_overlap_frames)
+        else {
+            continue;
+        };
+        // Over the frames both are seen: a marker seen briefly after a long gap is no
+        // measure of how far its partner went meanwhile.
+        let both: Vec<usize> = (from..traj.frames())
+            .filter(|&f| is_present(traj.frame(f)[m]) && is_present(traj.frame(f)[partner]))
+            .collect();
+        if both.len() < needed {
+            continue;
+        }
+        let (own, other) = (spread(traj, m, &both), spread(traj, partner, &both));
+        if other > MOTION_RATIO * own.max(EXACT_MM) {
+            out.push((m, from));
+        }
+    }
+    out
+}
+
+/// The first frame of marker `m`'s last still stretch (its positions there within `factor`
+/// times the median length of its last `needed` steps between frames of their mean, RMS,
+/// over at least `needed` frames seen, to its last frame seen: the median, since the one
+/// step where it fell is no jitter), where it was seen in at least `needed` frames before;
+/// `None` without such a stretch or where the marker is still throughout.
+fn still_since(traj: &Trajectories, m: usize, needed: usize, factor: f64) -> Option<usize> {
+    let seen: Vec<(usize, [f64; 3])> = (0..traj.frames())
+        .filter_map(|f| {
+            let p = traj.frame(f)[m];
+            is_present(p).then_some((f, p))
+        })
+        .collect();
+    let tail = &seen[seen.len().saturating_sub(needed)..];
+    let mut steps: Vec<f64> = tail
+        .windows(2)
+        .filter(|w| w[1].0 == w[0].0 + 1)
+        .map(|w| {
+            (0..3)
+                .map(|k| (w[1].1[k] - w[0].1[k]).powi(2))
+                .sum::<f64>()
+                .sqrt()
+        })
+        .collect();
+    if seen.len() < 2 * needed || steps.len() < MIN_STEPS {
+        return None;
+    }
+    steps.sort_by(f64::total_cmp);
+    let jitter = steps[steps.len() / 2];
+    let (mut count, mut sum, mut sum_sq) = (0usize, [0.0f64; 3], 0.0f64);
+    let mut start = None;
+    for i in (0..seen.len()).rev() {
+        count += 1;
+        for (s, x) in sum.iter_mut().zip(seen[i].1) {
+            *s += x;
+            sum_sq += x * x;
+        }
+        if count < needed {
+            continue;
+        }
+        let mean_sq: f64 = sum.iter().map(|s| (s / count as f64).powi(2)).sum();
+        let spread = (sum_sq / count as f64 - mean_sq).max(0.0).sqrt();
+        if spread <= factor * jitter + EXACT_MM {
+            start = Some(i);
+        } else {
+            break;
+        }
+    }
+    let i = start?;
+    (i >= needed).then(|| seen[i].0)
+}
+
+/// The marker whose distance to `m` varies least (standard deviation) over the frames
+/// before `until` where both are seen, at least `min_overlap` and `needed` of them.
+fn steadiest_before(
+    traj: &Trajectories,
+    m: usize,
+    until: usize,
+    needed: usize,
+    min_overlap: usize,
+) -> Option<usize> {
+    let mut best: Option<(f64, usize)> = None;
+    for k in (0..traj.markers()).filter(|&k| k != m) {
+        let (mut n, mut sum, mut sum_sq) = (0usize, 0.0f64, 0.0f64);
+        for f in 0..until {
+            let (p, q) = (traj.frame(f)[m], traj.frame(f)[k]);
+            if is_present(p) && is_present(q) {
+                let d = (0..3).map(|i| (p[i] - q[i]).powi(2)).sum::<f64>().sqrt();
+                (n, sum, sum_sq) = (n + 1, sum + d, sum_sq + d * d);
+            }
+        }
+        if n < min_overlap.max(needed) {
+            continue;
+        }
+        let mean = sum / n as f64;
+        let sd = (sum_sq / n as f64 - mean * mean).max(0.0).sqrt();
+        if best.is_none_or(|(b, _)| sd < b) {
+            best = Some((sd, k));
+        }
+    }
+    best.map(|(_, k)| k)
+}
+
+/// The RMS distance (mm) of marker `m`'s positions in `frames` (each seen) from their mean.
+fn spread(traj: &Trajectories, m: usize, frames: &[usize]) -> f64 {
+    let points: Vec<[f64; 3]> = frames.iter().map(|&f| traj.frame(f)[m]).collect();
+    let n = points.len().max(1) as f64;
+    let mean = [0, 1, 2].map(|k| points.iter().map(|p| p[k]).sum::<f64>() / n);
+    let sum: f64 = points
+        .iter()
+        .map(|p| (0..3).map(|k| (p[k] - mean[k]).powi(2)).sum::<f64>())
+        .sum();
+    (sum / n).sqrt()
+}
+
 /// The capture moves where the median marker that is not stationary wanders more than
 /// this many times as far as the stationary one that wanders most: on c3d.org's static
 /// trial (sample 33) the markers beyond their jitter wander less than that one (RMS 0.28
 /// mm, median, against 1.1), on OpenSim's treadmill walk (subject01_walk1) 100 times as
 /// far as a floor marker's 0.9, on CMU 02_01's walk 1000 times (a one-off script).
 const MOTION_RATIO: f64 = 20.0;
+
+/// Records the `fallen` markers' still stretches (marker, first frame), which `seg` was
+/// found without, as glitches: samples read as gaps, here and by the later stages
+/// ([`Segmentation::repaired`]), and counted among the marker's visible frames.
+pub(crate) fn put_back_fallen(
+    seg: &mut Segmentation,
+    traj: &Trajectories,
+    fallen: &[(usize, usize)],
+) {
+    for &(m, from) in fallen {
+        let frames: Vec<usize> = (from..traj.frames())
+            .filter(|&f| is_present(traj.frame(f)[m]))
+            .collect();
+        if let Some(d) = seg.markers.get_mut(m) {
+            d.visible_frames += frames.len();
+            d.glitch_frames += frames.len();
+        }
+        match seg.glitches.iter_mut().find(|g| g.marker == m) {
+            Some(g) => g.frames.extend(crate::glitch::runs(&frames)),
+            None => seg.glitches.push(crate::Glitch {
+                marker: m,
+                frames: crate::glitch::runs(&frames),
+            }),
+        }
+    }
+    seg.glitches.sort_by_key(|g| g.marker);
+}
 
 /// Puts the `still` markers, which `seg` was found without, back: one segment of their
 /// own where there are at least `min_segment_markers` (inserted in id order, the later
@@ -298,5 +467,64 @@ mod tests {
         };
         let mixed = crate::run(&with_floor_markers(traj, 1), &off).unwrap();
         assert_ne!(mixed.segments, alone.segments);
+    }
+
+    /// `traj` with marker `m` lying still from frame `from` on where it was then, but on
+    /// the floor (z 8 mm), jittering by up to ±0.3 mm per axis (seeded): it fell off.
+    fn fallen_at(traj: &Trajectories, m: usize, from: usize) -> Trajectories {
+        let mut state: u64 = 11;
+        let mut jitter = || {
+            state = state
+                .wrapping_mul(6_364_136_223_846_793_005)
+                .wrapping_add(1);
+            0.6 * (((state >> 11) as f64 / (1u64 << 53) as f64) - 0.5)
+        };
+        let n = traj.markers();
+        let at = traj.frame(from)[m];
+        let mut positions = traj.positions().to_vec();
+        for f in from..traj.frames() {
+            positions[f * n + m] = [at[0] + jitter(), at[1] + jitter(), 8.0 + jitter()];
+        }
+        traj.with_positions(positions)
+            .expect("as many samples as before")
+    }
+
+    /// A hard synthetic human whose marker 0 falls off at frame 300 of 480: its samples
+    /// from there on are glitches, and the markers group as without the fall (marker 0 in
+    /// its segment); the whole subject holding still from frame 300 makes no marker fallen.
+    #[test]
+    fn a_marker_that_falls_off_is_a_gap_from_there_on() {
+        let config = synth::SynthConfig {
+            subject: synth::Subject::Human,
+            preset: synth::Preset::Hard,
+            seed: 20001,
+            frames: 480,
+            ..synth::SynthConfig::default()
+        };
+        let trial = synth::generate(&config).expect("synthetic trial");
+        let traj = &trial.trajectories;
+        let params = Params::default();
+        let alone = crate::run(traj, &params).unwrap();
+        let fell = fallen_at(traj, 0, 300);
+        assert_eq!(super::fallen_markers(&fell, &params, &[]), vec![(0, 300)]);
+        let seg = crate::run(&fell, &params).unwrap();
+        assert_eq!(seg.segments, alone.segments);
+        let glitch = seg
+            .glitches
+            .iter()
+            .find(|g| g.marker == 0)
+            .expect("a glitch");
+        assert_eq!(glitch.frames.last(), Some(&[300, 479]));
+
+        // Everyone holding still from frame 300 on: each marker's partner holds still too.
+        let n = traj.markers();
+        let mut positions = traj.positions().to_vec();
+        for f in 300..traj.frames() {
+            for m in 0..n {
+                positions[f * n + m] = positions[299 * n + m];
+            }
+        }
+        let frozen = traj.with_positions(positions).unwrap();
+        assert!(super::fallen_markers(&frozen, &params, &[]).is_empty());
     }
 }
