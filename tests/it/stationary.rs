@@ -208,18 +208,23 @@ fn groups_without_floor(skeleton: &serde_json::Value) -> Vec<Vec<String>> {
     groups
 }
 
+/// CMU 02_01's walk as read, or `None` (skipped loudly, for the test `what`) without the
+/// shared data.
+fn cmu_02_01(what: &str) -> Option<Trajectories> {
+    let data = mocap_io::testdata::shared_data_dir(what)?;
+    let options = mocap_io::ReadOptions::default();
+    let capture = mocap_io::read_capture(&data.join("c3d/cmu/02_01.c3d"), &options).unwrap();
+    Some(capture.trajectories)
+}
+
 /// CMU 02_01 beside one marker lying still, then six: its segments are those it has
 /// alone (one point beside it regrouped three of its markers, and six put both upper arms
 /// in one segment, before they were set aside), and its tree has as many joints.
 #[test]
 fn markers_that_never_move_leave_a_real_walk_as_it_is() {
-    let Some(data) = mocap_io::testdata::shared_data_dir("stationary_beside_cmu") else {
+    let Some(walk) = cmu_02_01("stationary_beside_cmu") else {
         return;
     };
-    let options = mocap_io::ReadOptions::default();
-    let walk = mocap_io::read_capture(&data.join("c3d/cmu/02_01.c3d"), &options)
-        .unwrap()
-        .trajectories;
     let tmp = Scratch::new("stationary-cmu");
     let mut runs = Vec::new();
     for count in [0, 1, 6] {
@@ -247,13 +252,9 @@ fn markers_that_never_move_leave_a_real_walk_as_it_is() {
 /// intact (before, the fall regrouped five of them and left RFIN in none).
 #[test]
 fn a_marker_that_falls_off_a_real_walk_leaves_its_segments_as_they_are() {
-    let Some(data) = mocap_io::testdata::shared_data_dir("fallen_marker_cmu") else {
+    let Some(walk) = cmu_02_01("fallen_marker_cmu") else {
         return;
     };
-    let options = mocap_io::ReadOptions::default();
-    let walk = mocap_io::read_capture(&data.join("c3d/cmu/02_01.c3d"), &options)
-        .unwrap()
-        .trajectories;
     let n = walk.markers();
     let rfin = walk
         .labels()

@@ -412,12 +412,8 @@ mod tests {
         .expect("as many samples as labels × frames")
     }
 
-    /// A hard synthetic human beside one marker lying still, then six: the moving markers
-    /// group exactly as without them; the six are one segment, `stationary_segment`, the
-    /// one alone is unassigned as stationary. Without the setting aside, the one regroups
-    /// the human's markers.
-    #[test]
-    fn markers_that_never_move_are_grouped_apart_from_the_rest() {
+    /// A hard synthetic human as `cargo xtask eval` makes it (seed 20001, 480 frames).
+    fn hard_human() -> synth::Trial {
         let config = synth::SynthConfig {
             subject: synth::Subject::Human,
             preset: synth::Preset::Hard,
@@ -425,7 +421,16 @@ mod tests {
             frames: 480,
             ..synth::SynthConfig::default()
         };
-        let trial = synth::generate(&config).expect("synthetic trial");
+        synth::generate(&config).expect("synthetic trial")
+    }
+
+    /// A hard synthetic human beside one marker lying still, then six: the moving markers
+    /// group exactly as without them; the six are one segment, `stationary_segment`, the
+    /// one alone is unassigned as stationary. Without the setting aside, the one regroups
+    /// the human's markers.
+    #[test]
+    fn markers_that_never_move_are_grouped_apart_from_the_rest() {
+        let trial = hard_human();
         let traj = &trial.trajectories;
         let params = Params::default();
         let alone = crate::run(traj, &params).unwrap();
@@ -494,14 +499,7 @@ mod tests {
     /// its segment); the whole subject holding still from frame 300 makes no marker fallen.
     #[test]
     fn a_marker_that_falls_off_is_a_gap_from_there_on() {
-        let config = synth::SynthConfig {
-            subject: synth::Subject::Human,
-            preset: synth::Preset::Hard,
-            seed: 20001,
-            frames: 480,
-            ..synth::SynthConfig::default()
-        };
-        let trial = synth::generate(&config).expect("synthetic trial");
+        let trial = hard_human();
         let traj = &trial.trajectories;
         let params = Params::default();
         let alone = crate::run(traj, &params).unwrap();
