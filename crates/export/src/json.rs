@@ -175,8 +175,8 @@ pub struct SegmentJson {
     #[serde(default, skip_serializing_if = "std::ops::Not::not")]
     pub named: bool,
     /// True for the segment of the markers that never move (floor and reference markers,
-    /// stray reflections; `segment.stationary_jitter_factor`): the room's, or a fixed base's
-    /// where a joint joins it. Absent otherwise.
+    /// stray reflections; `segment.stationary_jitter_factor`): the room's, or a fixed
+    /// base's where a joint joins it. Absent otherwise.
     #[serde(default, skip_serializing_if = "std::ops::Not::not")]
     pub stationary: bool,
 }

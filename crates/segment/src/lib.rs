@@ -2,13 +2,14 @@
 //!
 //! Takes [`mocap_io::Trajectories`] and gives a [`Segmentation`]: rigid segments (marker
 //! indices), the markers left out with the reason, and per-marker diagnostics (rigidity
-//! residual, skin sliding, glitch frames). First, markers that never move (floor and
-//! reference markers, stray reflections: wandering no farther than they jitter) are set
-//! aside, so they shift nothing the grouping reads, and come back last as one segment of
-//! their own (`stationary_jitter_factor`, see `stationary`). Then samples where a marker leaves most of its
-//! steadiest partners at once are read as gaps (`glitch_factor`, see `glitch`). Then one
-//! pass over the frames gives every pair's distance mean and standard deviation ρ over the
-//! frames where both are seen (a marker is never dropped for a gap); an affinity from ρ
+//! residual, skin sliding, glitch frames). First, a marker that fell off is a gap from the
+//! frame it lies still on, and markers that never move (floor and reference markers, stray
+//! reflections: wandering no farther than they jitter) are set aside, so they shift nothing
+//! the grouping reads, and come back last as one segment of their own
+//! (`stationary_jitter_factor`, see `stationary`). Then samples where a marker leaves most
+//! of its steadiest partners at once are read as gaps (`glitch_factor`, see `glitch`). Then
+//! one pass over the frames gives every pair's distance mean and standard deviation ρ over
+//! the frames where both are seen (a marker is never dropped for a gap); an affinity from ρ
 //! (less the noise level in quadrature where the capture's scatter is white noise, which
 //! every pair carries alike; `white_noise_excess`), normalised spectral clustering with the
 //! eigen-gap segment count and seeded k-means (Aguiar et al. 2006, Sect. 3); a track seen
@@ -23,67 +24,65 @@
 //! tolerance on the noise, and pieces of one or two markers within one on the spread of ρ
 //! inside the spectral clusters (skin widens it beyond the noise; see
 //! `rigidity::rigid_spread`); both tolerances are a tighter multiple where the capture's
-//! scatter is white measurement noise rather than skin (`rigidity::scatter_smoothness`).
-//! A marker still alone takes an ambiguous partner (rigid with it and with its own group,
-//! near a joint axis) from a group that keeps three, so both sides stay poseable.
-//! Before that, a rigid-fit check: each cluster of 4–10 markers is fitted as one rigid body
-//! per frame and as the best two; it splits when one body explains it clearly worse (ρ sees
-//! a joint's rotation to second order near a straight limb, a fit to first order), and a
+//! scatter is white measurement noise rather than skin (`rigidity::scatter_smoothness`). A
+//! marker still alone takes an ambiguous partner (rigid with it and with its own group,
+//! near a joint axis) from a group that keeps three, so both sides stay poseable. Before
+//! that, a rigid-fit check: each cluster of 4–10 markers is fitted as one rigid body per
+//! frame and as the best two; it splits when one body explains it clearly worse (ρ sees a
+//! joint's rotation to second order near a straight limb, a fit to first order), and a
 //! split piece rejoins a cluster it fits with like an ordinary segment (`fit_split_*`).
 //! Then each marker of a cluster of ≥ 4 is weighed in its own body posed without it against
 //! the other bodies of ≥ 3 (its trajectory's scatter in each body's frame, less the pose's
 //! own error) and moves where it is held clearly stiller (`reassign_ratio`). Then pieces of
 //! one marker's trajectory the reader left apart (an unlabeled capture's tracks) are looked
 //! for: a body of ≥ 3 markers holding one carries its end to where the other starts, past
-//! any gap, in a cluster of two markers the later piece keeps the earlier one's
-//! distance to the other, and where nothing else joins, a body hidden whole comes back
-//! as a body of its shape (see `pieces`); any found are joined and the capture segmented
-//! again with each as one marker (up to four rounds), each piece then put in its marker's
-//! segment ([`Segmentation::pieces`], `join_pieces`). Then the joint test splits a
-//! cluster of ≥ 6 whose two best-fitting parts turn relative to each other beyond their
-//! own fits' rotation noise while one part's centroid moves in the other's
-//! frame (`joint_rotation_travel_z`: a turn that carries no centroid is the parts' own
-//! spin, unless it is far beyond it, `joint_rotation_alone_z`), or where that centroid
-//! swings beyond what their fits allow (`joint_travel_z`: a part of three markers in line
-//! with the axis poses its rotation badly), about a common point (`joint_split_z`, see
-//! `jointsplit`), again on the clusters the settling after a cut changed; on a marker set
-//! with two markers on some segments it also cuts a pair from a cluster of ≥ 5 where the
-//! pair turns and travels about a point fixed in the rest's frame (`joint_pair_share`, see
-//! `pairsplit`); neighbours that move as one rigid body merge (`joint_merge_z`); a marker
-//! no body holds leaves its cluster (`eject_ratio`); a two-marker cluster whose markers two
-//! different bodies hold dissolves into them, a lone marker a body holds joins it
-//! (`pair_hold`), a pair one
-//! body holds rejoins it when the rigidity check had cut it from that body's spectral
-//! cluster and it sits there as still as the body's own markers (`pair_rejoin_ratio`: skin
-//! alike on two markers), and a pair only one of whose markers a body holds re-pairs when
-//! the other has a steadier partner next door or fits with a steadier pair as one segment
+//! any gap, in a cluster of two markers the later piece keeps the earlier one's distance to
+//! the other, and where nothing else joins, a body hidden whole comes back as a body of its
+//! shape (see `pieces`); any found are joined and the capture segmented again with each as
+//! one marker (up to four rounds), each piece then put in its marker's segment
+//! ([`Segmentation::pieces`], `join_pieces`). Then the joint test splits a cluster of ≥ 6
+//! whose two best-fitting parts turn relative to each other beyond their own fits' rotation
+//! noise while one part's centroid moves in the other's frame (`joint_rotation_travel_z`: a
+//! turn that carries no centroid is the parts' own spin, unless it is far beyond it,
+//! `joint_rotation_alone_z`), or where that centroid swings beyond what their fits allow
+//! (`joint_travel_z`: a part of three markers in line with the axis poses its rotation
+//! badly), about a common point (`joint_split_z`, see `jointsplit`), again on the clusters
+//! the settling after a cut changed; on a marker set with two markers on some segments it
+//! also cuts a pair from a cluster of ≥ 5 where the pair turns and travels about a point
+//! fixed in the rest's frame (`joint_pair_share`, see `pairsplit`); neighbours that move as
+//! one rigid body merge (`joint_merge_z`); a marker no body holds leaves its cluster
+//! (`eject_ratio`); a two-marker cluster whose markers two different bodies hold dissolves
+//! into them, a lone marker a body holds joins it (`pair_hold`), a pair one body holds
+//! rejoins it when the rigidity check had cut it from that body's spectral cluster and it
+//! sits there as still as the body's own markers (`pair_rejoin_ratio`: skin alike on two
+//! markers), and a pair only one of whose markers a body holds re-pairs when the other has
+//! a steadier partner next door or fits with a steadier pair as one segment
 //! (`pair_repartner`); pieces of one or two markers from one spectral cluster join where
-//! together they fit like one segment (`join_small`). Last, label swaps (two markers' trajectories exchanged for a while; see
-//! `swaps`) are looked for on the result; any found are undone and the capture segmented
-//! again, and listed in [`Segmentation::swaps`] (`repair_swaps`).
-//! After all the rest, a marker whose steadiest ρ in its group exceeds `loose_marker_factor`
-//! tolerances leaves it (a loose pair is two lone markers), a lone marker that keeps every
-//! distance to a group within the tolerance joins it, and a lone marker is a 1-marker
-//! segment when some distance of its stays within the tolerance or it swings about a point
-//! of a body of ≥ 3 (a sphere or, about a hinge, a circle in that body's frame;
-//! `singleton_swing_factor`, see `swing`) or its steadiest partner is in a group too small
-//! to pose (`singleton_next_to_small`), else unassigned. Unassigned means too little data,
-//! or moving against every marker. A cluster of ≥ 6 that the steps after the rigid merge
-//! built, which neither the joint test's rounds nor the merge has judged, is put to the
-//! joint test once (`joint_retest`). Then three clusters that are two segments regroup: a
-//! cluster of ≤ 4 markers (skin's piece at a joint, some markers from each side, or a piece
-//! of one segment) shared out between two of its nearest clusters, where the two bodies pass
-//! the joint test and fit almost as well as the three did (`regroup_ratio`; see `regroup`).
-//! Then a track that keeps its distances to another cluster no worse than to its own, seen
-//! only while the two moved against each other less than a third as much as over the
-//! capture, is left out: which it is on, the data cannot say (`leave_out_undecided`; see
-//! `undecided`).
-//! Last, each group the user names (`groups`, by label) becomes a segment of exactly its
-//! markers, taken out of the segments found: what the data cannot decide, the person who
-//! put the markers on can. A segment of ≥ 6 markers whose best cut came near the joint
-//! test's bounds, and that no group names, is listed as maybe two (`near_joint_fraction`;
-//! nothing is cut).
-//! Or agglomeration alone (`method = "linkage"`) or rigid cliques (`method = "cliques"`).
+//! together they fit like one segment (`join_small`). Last, label swaps (two markers'
+//! trajectories exchanged for a while; see `swaps`) are looked for on the result; any found
+//! are undone and the capture segmented again, and listed in [`Segmentation::swaps`]
+//! (`repair_swaps`). After all the rest, a marker whose steadiest ρ in its group exceeds
+//! `loose_marker_factor` tolerances leaves it (a loose pair is two lone markers), a lone
+//! marker that keeps every distance to a group within the tolerance joins it, and a lone
+//! marker is a 1-marker segment when some distance of its stays within the tolerance or it
+//! swings about a point of a body of ≥ 3 (a sphere or, about a hinge, a circle in that
+//! body's frame; `singleton_swing_factor`, see `swing`) or its steadiest partner is in a
+//! group too small to pose (`singleton_next_to_small`), else unassigned. Unassigned means
+//! too little data, or moving against every marker. A cluster of ≥ 6 that the steps after
+//! the rigid merge built, which neither the joint test's rounds nor the merge has judged,
+//! is put to the joint test once (`joint_retest`). Then three clusters that are two
+//! segments regroup: a cluster of ≤ 4 markers (skin's piece at a joint, some markers from
+//! each side, or a piece of one segment) shared out between two of its nearest clusters,
+//! where the two bodies pass the joint test and fit almost as well as the three did
+//! (`regroup_ratio`; see `regroup`). Then a track that keeps its distances to another
+//! cluster no worse than to its own, seen only while the two moved against each other less
+//! than a third as much as over the capture, is left out: which it is on, the data cannot
+//! say (`leave_out_undecided`; see `undecided`). Last, each group the user names (`groups`,
+//! by label) becomes a segment of exactly its markers, taken out of the segments found:
+//! what the data cannot decide, the person who put the markers on can. A segment of ≥ 6
+//! markers whose best cut came near the joint test's bounds, and that no group names, is
+//! listed as maybe two (`near_joint_fraction`; nothing is cut). Or agglomeration alone
+//! (`method = "linkage"`) or rigid cliques (`method = "cliques"`).
 //!
 //! It does not estimate poses, joints or topology (jointfit, topo) and does no I/O.
 

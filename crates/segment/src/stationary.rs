@@ -12,7 +12,7 @@
 //! `Params::stationary_jitter_factor` times the RMS of its frame-to-frame steps: white
 //! measurement noise alone gives a ratio of about 0.7 (spread √3 σ, steps √6 σ), while
 //! anything a body carries moves smoothly, far more over the capture than between two
-//! frames. Only where the capture moves ([`MOTION_RATIO`]): a static trial is left as it is.
+//! frames. Only where the capture moves ([`MOTION_RATIO`]): a static trial is left whole.
 //!
 //! A marker that stops moving for good while its steadiest partner goes on (it fell off,
 //! or the tracker kept a reflection where it lost it: [`fallen_markers`]) is read as a
@@ -33,16 +33,16 @@ const EXACT_MM: f64 = 1e-6;
 
 /// How far a marker wanders over the capture and between frames, mm.
 #[derive(Clone, Copy, Debug, PartialEq)]
-pub(crate) struct Wander {
+struct Wander {
     /// RMS distance of its positions from their mean.
-    pub spread_mm: f64,
+    spread_mm: f64,
     /// RMS length of its steps between consecutive frames both seen.
-    pub step_mm: f64,
+    step_mm: f64,
 }
 
 /// How far marker `m` wanders, over the frames it is seen in; `None` with fewer than
 /// `needed` frames seen or [`MIN_STEPS`] steps.
-pub(crate) fn wander(traj: &Trajectories, m: usize, needed: usize) -> Option<Wander> {
+fn wander(traj: &Trajectories, m: usize, needed: usize) -> Option<Wander> {
     let (mut seen, mut sum, mut steps, mut step_sq) = (0usize, [0.0f64; 3], 0usize, 0.0f64);
     let mut last: Option<[f64; 3]> = None;
     for f in 0..traj.frames() {
@@ -118,8 +118,9 @@ pub(crate) fn stationary_markers(
 /// and lies where it fell, or the tracker kept a reflection where it lost it. For each,
 /// the first frame of its last still stretch (see [`still_since`]), where its steadiest
 /// partner before that frame wanders [`MOTION_RATIO`] times as far as it does over the
-/// stretch's frames where both are seen (at least as many as a marker needs); a marker still with its partner (a foot planted to the end, a subject who
-/// stops) is none. Ascending by marker; none of `named`.
+/// stretch's frames where both are seen (at least as many as a marker needs); a marker
+/// still with its partner (a foot planted to the end, a subject who stops) is none.
+/// Ascending by marker; none of `named`.
 pub(crate) fn fallen_markers(
     traj: &Trajectories,
     params: &Params,
@@ -157,11 +158,11 @@ pub(crate) fn fallen_markers(
     out
 }
 
-/// The first frame of marker `m`'s last still stretch (its positions there within `factor`
-/// times the median length of its last `needed` steps between frames of their mean, RMS,
-/// over at least `needed` frames seen, to its last frame seen: the median, since the one
-/// step where it fell is no jitter), where it was seen in at least `needed` frames before;
-/// `None` without such a stretch or where the marker is still throughout.
+/// The first frame of marker `m`'s last still stretch: from there to its last frame seen
+/// (at least `needed` frames seen), its positions' RMS distance from their mean is within
+/// `factor` times the median length of its last `needed` steps between frames (the
+/// median: the one step where it fell is no jitter). Only where it was seen in at least
+/// `needed` frames before; `None` without such a stretch or where it is still throughout.
 fn still_since(traj: &Trajectories, m: usize, needed: usize, factor: f64) -> Option<usize> {
     let seen: Vec<(usize, [f64; 3])> = (0..traj.frames())
         .filter_map(|f| {

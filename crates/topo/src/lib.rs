@@ -59,8 +59,8 @@
 //!   construction) moves when the parent's centre holds its markers next best, nearly as
 //!   well (`twin_leaf_anchor_ratio`).
 //! - Root: the segment of the markers that never move where the tree holds it (a fixed
-//!   base), else the tree's centre (minimum eccentricity in hops), ties by the smaller sum of
-//!   hops to every segment, then most markers, then the smaller mean distance to the
+//!   base), else the tree's centre (minimum eccentricity in hops), ties by the smaller sum
+//!   of hops to every segment, then most markers, then the smaller mean distance to the
 //!   other segments over the capture, then lowest id; it lands on the pelvis or torso of
 //!   a human and the body of an animal, and not on whichever of two like centres the
 //!   capture's marker order numbered first (the root shapes every chained pose below it).
@@ -152,8 +152,8 @@ pub struct Params {
     /// the typical joint's, or its misfit at most `stationary_misfit` (default 2; 0 = as
     /// any other pair).
     pub stationary_residual_ratio: f64,
-    /// ... or where its misfit over the poses' noise (jointfit's `misfit_over_noise`, about 1
-    /// for a joint that noise explains) is at most this (default 3).
+    /// ... or where its misfit over the poses' noise (jointfit's `misfit_over_noise`, about
+    /// 1 for a joint that noise explains) is at most this (default 3).
     pub stationary_misfit: f64,
 }
 
