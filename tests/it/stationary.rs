@@ -1,5 +1,6 @@
 //! Markers that never move (floor and reference markers, stray reflections, a fixed base)
-//! through the whole pipeline: the room is no body's part, a fixed base is its arm's root.
+//! and markers that fall off, through the whole pipeline: the room is no body's part, a
+//! fixed base is its arm's root, and a fallen marker is a gap from where it lies.
 
 use glam::DVec3;
 use mocap_io::Trajectories;

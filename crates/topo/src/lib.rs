@@ -150,7 +150,7 @@ pub struct Params {
     /// A pair with the segment of the markers that never move (the room; segment's
     /// `stationary_segment`) is a joint only where its residual is at most this many times
     /// the typical joint's, or its misfit at most `stationary_misfit` (default 2; 0 = as
-    /// any other pair).
+    /// any other pair; with `max_residual_ratio` 0 no pair is refused).
     pub stationary_residual_ratio: f64,
     /// ... or where its misfit over the poses' noise (jointfit's `misfit_over_noise`, about
     /// 1 for a joint that noise explains) is at most this (default 3).

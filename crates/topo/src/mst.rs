@@ -316,8 +316,8 @@ fn refused_pairs(
     // A segment of one or two markers poses poorly, and its joints' residuals run far past
     // the typical one (up to 121 mm against a typical 0 on clean trials with 1-3 markers
     // per segment): a pair is between bodies only where its centres also disagree by more
-    // than the capture's longest segment.
-    // The markers that never move span the room, not a body.
+    // than the capture's longest segment that moves (the markers that never move span the
+    // room, not a body).
     let limit = (params.max_residual_ratio * typical.max(seg.noise_mm).max(RESIDUAL_FLOOR_MM))
         .max(longest_segment_mm(fits, seg.stationary_segment));
     // The room joins a body only by a joint as tight as a typical one: a fixed base's.
