@@ -275,7 +275,7 @@ pub const PARAM_DOCS: &[(&str, &str)] = &[
          misfit 0.97-1.04), while a subject on a treadmill, or walking a circle, keeps a point \
          nearly still in the room only up to its sway (OpenSim's subject01_walk1 beside six \
          floor markers: its trunk 3.9 times, misfit 16.4; a hard synthetic human walking its \
-         circle: its thorax 8.3 times, misfit 4.5). Where that leaves the room a body of its \
+         circle: its pelvis 8.3 times, misfit 4.5). Where that leaves the room a body of its \
          own, no skeleton holds it. Dimensionless; 0 = as any other pair; default 2",
     ),
     (
