@@ -502,10 +502,9 @@ pub fn findings(document: &export::SkeletonJson, spin_limit_deg: f64) -> Vec<Str
         if document.is_room(b) {
             if whole_capture {
                 let still: Vec<String> = document
-                    .segments
-                    .iter()
-                    .filter(|s| b.segments.contains(&s.id))
-                    .flat_map(|s| s.markers.iter().cloned())
+                    .stationary_markers()
+                    .into_iter()
+                    .map(str::to_owned)
                     .collect();
                 out.push(listed(
                     "markers that never move (the room's: floor or reference markers, stray \
@@ -989,7 +988,7 @@ mod tests {
             "markers in no segment",
             "label swaps",
             "markers sliding",
-            "markers that jumped",
+            "markers that left their partners",
             "segments that may be two",
             "segments not in the tree",
         ] {

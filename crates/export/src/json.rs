@@ -138,6 +138,15 @@ impl SkeletonJson {
                 .iter()
                 .all(|&id| self.segments.iter().any(|s| s.id == id && s.stationary))
     }
+
+    /// The labels of the markers that never move (the `stationary` segment's), if any.
+    pub fn stationary_markers(&self) -> Vec<&str> {
+        self.segments
+            .iter()
+            .filter(|s| s.stationary)
+            .flat_map(|s| s.markers.iter().map(String::as_str))
+            .collect()
+    }
 }
 
 /// Two markers whose trajectories were exchanged, and when.

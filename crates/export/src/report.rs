@@ -90,12 +90,7 @@ fn summary(out: &mut String, doc: &SkeletonJson) {
         doc.detached_segments.len(),
         escape(&doc.units),
     );
-    let room: Vec<String> = doc
-        .segments
-        .iter()
-        .filter(|s| s.stationary)
-        .flat_map(|s| s.markers.iter().map(|m| escape(m)))
-        .collect();
+    let room: Vec<String> = doc.stationary_markers().into_iter().map(escape).collect();
     if !room.is_empty() {
         let held = if doc.bodies.iter().any(|b| doc.is_room(b)) {
             "a segment of their own that no skeleton holds"

@@ -144,15 +144,17 @@ pub const STAGE: &str = "segment";
 pub fn run(traj: &Trajectories, params: &Params) -> Result<Segmentation, Error> {
     params.validate()?;
     let named = named::resolve(traj.labels(), &params.groups)?;
-    let original = traj;
     // A marker that fell off is a gap from there on; what never moves is grouped apart:
-    // neither shifts what the grouping reads.
+    // neither shifts what the grouping reads. (A marker that fell moved before, so it is
+    // never one that never moves.)
     let fallen = stationary::fallen_markers(traj, params, &named);
-    let risen = (!fallen.is_empty()).then(|| traj.hiding(&fallen));
-    let traj = risen.as_ref().unwrap_or(traj);
     let still = stationary::stationary_markers(traj, params, &named);
-    let hidden: Vec<(usize, usize)> = still.iter().map(|&m| (m, 0)).collect();
-    let moving = (!still.is_empty()).then(|| traj.hiding(&hidden));
+    let hidden: Vec<(usize, usize)> = fallen
+        .iter()
+        .copied()
+        .chain(still.iter().map(|&m| (m, 0)))
+        .collect();
+    let moving = (!hidden.is_empty()).then(|| traj.hiding(&hidden));
     let moving_traj = moving.as_ref().unwrap_or(traj);
     let scaled = &params.with_floors_scaled(moving_traj.floor_scale());
     let mut seg = segment_capture(
@@ -164,7 +166,7 @@ pub fn run(traj: &Trajectories, params: &Params) -> Result<Segmentation, Error> 
         None,
     )?;
     stationary::put_back(&mut seg, traj, &still, scaled);
-    stationary::put_back_fallen(&mut seg, original, &fallen);
+    stationary::put_back_fallen(&mut seg, traj, &fallen);
     Ok(seg)
 }
 

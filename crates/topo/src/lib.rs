@@ -282,8 +282,8 @@ pub const PARAM_DOCS: &[(&str, &str)] = &[
         "stationary_misfit",
         "... or where its misfit over the poses' noise (jointfit's misfit_over_noise: the \
          disagreement about the centre against what the two poses' noise predicts, about 1 \
-         for a joint that noise explains; 2.4 at most over the 1049 tree joints of 105 hard \
-         synthetic trials, seeds 20001-20015 of each subject) is at most this; \
+         for a joint that noise explains; 2.4 at most over the 1037 true tree joints of 105 hard \
+         synthetic trials that have one, seeds 20001-20015 of each subject) is at most this; \
          dimensionless; default 3",
     ),
     (
