@@ -7,6 +7,7 @@ mod accuracy;
 mod cli;
 mod expect;
 mod fill;
+mod props;
 mod real;
 mod stationary;
 mod support;

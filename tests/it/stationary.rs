@@ -5,7 +5,7 @@
 use glam::DVec3;
 use mocap_io::Trajectories;
 
-use crate::support::{Scratch, read_json, xtask_ok};
+use crate::support::{Scratch, cmu_02_01, groups_without, read_json, xtask_ok};
 
 /// A synthetic trial as `cargo xtask eval` makes it (480 frames).
 fn trial(subject: synth::Subject, preset: synth::Preset, seed: u64) -> synth::Trial {
@@ -186,38 +186,6 @@ fn a_fixed_base_never_moves_and_is_its_arm_s_root() {
     assert_eq!(skeleton["root_segment"].as_u64(), Some(room[0]));
 }
 
-/// Each segment's marker labels, sorted, without the floor's.
-fn groups_without_floor(skeleton: &serde_json::Value) -> Vec<Vec<String>> {
-    let mut groups: Vec<Vec<String>> = skeleton["segments"]
-        .as_array()
-        .unwrap()
-        .iter()
-        .map(|s| {
-            let mut g: Vec<String> = s["markers"]
-                .as_array()
-                .unwrap()
-                .iter()
-                .map(|m| m.as_str().unwrap().to_string())
-                .filter(|m| !m.starts_with("FLOOR"))
-                .collect();
-            g.sort();
-            g
-        })
-        .filter(|g| !g.is_empty())
-        .collect();
-    groups.sort();
-    groups
-}
-
-/// CMU 02_01's walk as read, or `None` (skipped loudly, for the test `what`) without the
-/// shared data.
-fn cmu_02_01(what: &str) -> Option<Trajectories> {
-    let data = mocap_io::testdata::shared_data_dir(what)?;
-    let options = mocap_io::ReadOptions::default();
-    let capture = mocap_io::read_capture(&data.join("c3d/cmu/02_01.c3d"), &options).unwrap();
-    Some(capture.trajectories)
-}
-
 /// CMU 02_01 beside one marker lying still, then six: its segments are those it has
 /// alone (one point beside it regrouped three of its markers, and six put both upper arms
 /// in one segment, before they were set aside), and its tree has as many joints.
@@ -238,8 +206,8 @@ fn markers_that_never_move_leave_a_real_walk_as_it_is() {
     let joints = |s: &serde_json::Value| s["joints"].as_array().map(Vec::len);
     for (count, run) in [(1, &runs[1]), (6, &runs[2])] {
         assert_eq!(
-            groups_without_floor(run),
-            groups_without_floor(&runs[0]),
+            groups_without(run, "FLOOR"),
+            groups_without(&runs[0], "FLOOR"),
             "{count}"
         );
         assert_eq!(joints(run), joints(&runs[0]), "{count}");
@@ -287,8 +255,8 @@ fn a_marker_that_falls_off_a_real_walk_leaves_its_segments_as_they_are() {
         std::fs::remove_dir_all(out).unwrap();
     }
     assert_eq!(
-        groups_without_floor(&runs[1]),
-        groups_without_floor(&runs[0])
+        groups_without(&runs[1], "FLOOR"),
+        groups_without(&runs[0], "FLOOR")
     );
     let marker = runs[1]["markers"]
         .as_array()

@@ -109,3 +109,37 @@ pub fn mean_distance(a: &serde_json::Value, b: &serde_json::Value) -> Option<f64
     }
     (n > 0).then(|| sum / n as f64)
 }
+
+/// Each segment's marker labels in skeleton.json, sorted, without those starting with
+/// `prefix` (markers added beside a capture; "" leaves every one in), the groups sorted,
+/// empty ones left out.
+pub fn groups_without(skeleton: &serde_json::Value, prefix: &str) -> Vec<Vec<String>> {
+    let mut groups: Vec<Vec<String>> = skeleton["segments"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .map(|s| {
+            let mut g: Vec<String> = s["markers"]
+                .as_array()
+                .unwrap()
+                .iter()
+                .map(|m| m.as_str().unwrap().to_string())
+                .filter(|m| prefix.is_empty() || !m.starts_with(prefix))
+                .collect();
+            g.sort();
+            g
+        })
+        .filter(|g| !g.is_empty())
+        .collect();
+    groups.sort();
+    groups
+}
+
+/// CMU 02_01's walk as read, or `None` (skipped loudly, for the test `what`) without the
+/// shared data.
+pub fn cmu_02_01(what: &str) -> Option<mocap_io::Trajectories> {
+    let data = mocap_io::testdata::shared_data_dir(what)?;
+    let options = mocap_io::ReadOptions::default();
+    let capture = mocap_io::read_capture(&data.join("c3d/cmu/02_01.c3d"), &options).unwrap();
+    Some(capture.trajectories)
+}

@@ -1487,6 +1487,7 @@ mod tests {
             named_segments: Vec::new(),
             pieces: Vec::new(),
             stationary_segment: None,
+            bodies: Vec::new(),
         };
         // The truth: {3, 4} and {2, 0}; marker 1 on none; an empty segment.
         seg.regroup(&[vec![3, 4], vec![2, 0], vec![]], super::TRUTH_LEFT_OUT);

@@ -172,6 +172,7 @@ pub fn scene(frames: usize, rate: f64) -> Scene {
         named_segments: Vec::new(),
         pieces: Vec::new(),
         stationary_segment: None,
+        bodies: Vec::new(),
     };
 
     let topology = Topology {

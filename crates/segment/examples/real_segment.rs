@@ -34,6 +34,15 @@ fn main() {
         .map(|v| format!("{v:.3}"))
         .collect();
     println!("eigenvalues {}", ev.join(" "));
+    let bodies = segment::independent_bodies(traj, &params).expect("bodies");
+    if bodies.len() > 1 {
+        let sizes: Vec<String> = bodies.iter().map(|b| b.len().to_string()).collect();
+        println!(
+            "{} bodies segmented apart, of {} markers",
+            bodies.len(),
+            sizes.join(", ")
+        );
+    }
     for s in &seg.segments {
         let names: Vec<String> = s
             .markers

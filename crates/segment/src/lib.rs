@@ -6,7 +6,11 @@
 //! frame it lies still on, and markers that never move (floor and reference markers, stray
 //! reflections: wandering no farther than they jitter) are set aside, so they shift nothing
 //! the grouping reads, and come back last as one segment of their own
-//! (`stationary_jitter_factor`, see `stationary`). Then samples where a marker leaves most
+//! (`stationary_jitter_factor`, see `stationary`). Bodies that move independently of each
+//! other (a subject and its props, two subjects), which the single-linkage tree on ρ links
+//! only by links far wider than any within, are each grouped on their own by all that
+//! follows, and listed in `Segmentation::bodies` (`body_gap_ratio`, see `bodies`). Then
+//! samples where a marker leaves most
 //! of its steadiest partners at once are read as gaps (`glitch_factor`, see `glitch`). Then
 //! one pass over the frames gives every pair's distance mean and standard deviation ρ over
 //! the frames where both are seen (a marker is never dropped for a gap); an affinity from ρ
@@ -87,6 +91,7 @@
 //! It does not estimate poses, joints or topology (jointfit, topo) and does no I/O.
 
 mod affinity;
+mod bodies;
 mod cliques;
 mod eigen;
 pub use mocap_io::eigen4;
@@ -142,32 +147,134 @@ pub const STAGE: &str = "segment";
 /// parameters' millimetre floors scaled to the capture's marker spacing
 /// ([`Params::with_floors_scaled`]).
 pub fn run(traj: &Trajectories, params: &Params) -> Result<Segmentation, Error> {
-    params.validate()?;
-    let named = named::resolve(traj.labels(), &params.groups)?;
-    // A marker that fell off is a gap from there on; what never moves is grouped apart:
-    // neither shifts what the grouping reads. (A marker that fell moved before, so it is
-    // never one that never moves.)
-    let fallen = stationary::fallen_markers(traj, params, &named);
-    let still = stationary::stationary_markers(traj, params, &named);
-    let hidden: Vec<(usize, usize)> = fallen
-        .iter()
-        .copied()
-        .chain(still.iter().map(|&m| (m, 0)))
-        .collect();
-    let moving = (!hidden.is_empty()).then(|| traj.hiding(&hidden));
-    let moving_traj = moving.as_ref().unwrap_or(traj);
-    let scaled = &params.with_floors_scaled(moving_traj.floor_scale());
-    let mut seg = segment_capture(
-        moving_traj,
-        scaled,
-        &named,
-        scaled.repair_swaps,
-        PIECE_ROUNDS,
-        None,
-    )?;
-    stationary::put_back(&mut seg, traj, &still, scaled);
-    stationary::put_back_fallen(&mut seg, traj, &fallen);
+    let capture = Prepared::new(traj, params)?;
+    let moving = capture.moving(traj);
+    let scaled = &capture.scaled;
+    let bodies = capture.bodies(traj);
+    let whole = |traj: &Trajectories, params: &Params, named: &[Vec<usize>]| {
+        segment_capture(traj, params, named, params.repair_swaps, PIECE_ROUNDS, None)
+    };
+    let mut seg = if bodies.len() < 2 {
+        whole(moving, scaled, &capture.named)?
+    } else {
+        // Each body with every other's markers hidden, its floors scaled to its own
+        // markers' spacing, so none shifts what another's grouping reads.
+        let parts = bodies
+            .iter()
+            .map(|body| {
+                let others: Vec<(usize, usize)> = (0..traj.markers())
+                    .filter(|m| !body.contains(m))
+                    .map(|m| (m, 0))
+                    .collect();
+                let own_named: Vec<Vec<usize>> = capture
+                    .named
+                    .iter()
+                    .filter(|g| g.iter().all(|m| body.contains(m)))
+                    .cloned()
+                    .collect();
+                let own = moving.hiding(&others);
+                let own_params = params.with_floors_scaled(own.floor_scale());
+                whole(&own, &own_params, &own_named)
+            })
+            .collect::<Result<Vec<_>, _>>()?;
+        bodies::merged(parts, &bodies)
+    };
+    stationary::put_back(&mut seg, traj, &capture.still, scaled);
+    stationary::put_back_fallen(&mut seg, traj, &capture.fallen);
     Ok(seg)
+}
+
+/// The bodies that move independently of each other, as [`run`] segments each on its own
+/// with `params` (see `Params::body_gap_ratio`): marker sets, the biggest first, each
+/// ascending, together every marker; one body of all where it tells none apart.
+pub fn independent_bodies(traj: &Trajectories, params: &Params) -> Result<Vec<Vec<usize>>, Error> {
+    Ok(Prepared::new(traj, params)?.bodies(traj))
+}
+
+/// What [`run`] reads before it groups: the user's groups, the markers that fell off or
+/// never move (set aside), and the parameters scaled to the moving markers' spacing.
+struct Prepared {
+    /// `Params::groups`, resolved to marker indices.
+    named: Vec<Vec<usize>>,
+    /// Markers that fell off, each with the frame it lies still from.
+    fallen: Vec<(usize, usize)>,
+    /// Markers that never move.
+    still: Vec<usize>,
+    /// The capture without the fallen and still markers' samples, where there are any.
+    moving: Option<Trajectories>,
+    /// The parameters, validated, their floors scaled to the moving markers.
+    scaled: Params,
+}
+
+impl Prepared {
+    fn new(traj: &Trajectories, params: &Params) -> Result<Self, Error> {
+        params.validate()?;
+        let named = named::resolve(traj.labels(), &params.groups)?;
+        // A marker that fell off is a gap from there on; what never moves is grouped
+        // apart: neither shifts what the grouping reads. (A marker that fell moved
+        // before, so it is never one that never moves.)
+        let fallen = stationary::fallen_markers(traj, params, &named);
+        let still = stationary::stationary_markers(traj, params, &named);
+        let hidden: Vec<(usize, usize)> = fallen
+            .iter()
+            .copied()
+            .chain(still.iter().map(|&m| (m, 0)))
+            .collect();
+        let moving = (!hidden.is_empty()).then(|| traj.hiding(&hidden));
+        let scaled = params.with_floors_scaled(moving.as_ref().unwrap_or(traj).floor_scale());
+        Ok(Self {
+            named,
+            fallen,
+            still,
+            moving,
+            scaled,
+        })
+    }
+
+    /// The capture as the grouping reads it (`traj`, the capture these were read from,
+    /// where nothing is set aside).
+    fn moving<'a>(&'a self, traj: &'a Trajectories) -> &'a Trajectories {
+        self.moving.as_ref().unwrap_or(traj)
+    }
+
+    /// The moving markers' independent bodies (see `bodies`), with the markers set aside
+    /// in the biggest; one body of all where there are fewer than two or a group the user
+    /// named spans two.
+    fn bodies(&self, traj: &Trajectories) -> Vec<Vec<usize>> {
+        let moving = self.moving(traj);
+        let params = &self.scaled;
+        let one = || vec![(0..traj.markers()).collect::<Vec<usize>>()];
+        if params.body_gap_ratio <= 0.0 {
+            return one();
+        }
+        let stats = pair_stats(moving);
+        let needed = visible_frames_needed(params, moving.frames());
+        let nodes: Vec<usize> = (0..moving.markers())
+            .filter(|&m| stats.visible[m] >= needed)
+            .collect();
+        let bodies = bodies::independent_bodies(
+            &stats,
+            &nodes,
+            params.min_overlap_frames,
+            params.body_gap_ratio,
+            moving.marker_spacing_mm(),
+            &self.named,
+        );
+        // A group the user named across bodies says they are one.
+        let split_named = self
+            .named
+            .iter()
+            .any(|g| !bodies.iter().any(|b| g.iter().all(|m| b.contains(m))));
+        if split_named { one() } else { bodies }
+    }
+}
+
+/// Frames a marker must be seen in to be judged (`min_visible_frames`, or
+/// `min_visible_fraction` of the capture's `frames`, the more).
+pub(crate) fn visible_frames_needed(params: &Params, frames: usize) -> usize {
+    params
+        .min_visible_frames
+        .max((params.min_visible_fraction * frames as f64).ceil() as usize)
 }
 
 /// The markers that never move, ascending, as [`run`] sets them aside with `params`
@@ -213,9 +320,7 @@ fn segment_capture(
     let min_overlap = params.min_overlap_frames;
 
     // Markers with too little data cannot be judged; they are reported, not guessed.
-    let needed = params
-        .min_visible_frames
-        .max((params.min_visible_fraction * frames as f64).ceil() as usize);
+    let needed = visible_frames_needed(params, frames);
     let mut unassigned: Vec<UnassignedMarker> = Vec::new();
     let mut nodes: Vec<usize> = Vec::new();
     for m in 0..markers {
@@ -752,6 +857,7 @@ fn segment_capture(
         named_segments,
         pieces: Vec::new(),
         stationary_segment: None,
+        bodies: Vec::new(),
     })
 }
 

@@ -85,6 +85,11 @@ pub struct Params {
     /// RMS of its steps between frames never moves: grouped apart, before anything else,
     /// from every marker that moves; 0 = none is.
     pub stationary_jitter_factor: f64,
+    /// Markers whose single-linkage tree on ρ links them to the rest only by links at least
+    /// this many times as wide as every link within (and wider than the markers' spacing)
+    /// move independently: each such body is segmented on its own; 0 = one body (default
+    /// 2.5).
+    pub body_gap_ratio: f64,
     /// A pair seen together in fewer frames than this has no affinity and no ρ.
     pub min_overlap_frames: usize,
     /// Groups with fewer markers than this are not segments (but see `singleton_steady_factor`).
@@ -242,6 +247,7 @@ impl Default for Params {
             min_visible_fraction: 0.05,
             brief_track_fraction: 0.25,
             stationary_jitter_factor: 3.0,
+            body_gap_ratio: 2.5,
             min_overlap_frames: 10,
             min_segment_markers: 2,
             rigidity_check: true,
@@ -361,6 +367,10 @@ pub const PARAM_DOCS: &[(&str, &str)] = &[
     (
         "stationary_jitter_factor",
         "a marker whose positions stay within this many times its frame-to-frame jitter of one place (RMS spread about its mean over the RMS of its steps between consecutive frames: white measurement noise alone gives about 0.7, a marker a body carries tens or more) never moves: floor and reference markers, a calibration frame, stray reflections. Such markers are set aside before anything else, where some marker moves, and come back as one segment of their own (the room, or a fixed base that a joint may join; skeleton.json's segment says \"stationary\": true) or, one alone, unassigned with the reason: among the moving markers they shifted the noise level, the marker spacing and the eigen-gap count (one static point beside CMU 02_01 regrouped three of its markers; on OpenSim's subject01_walk1 one joined the pelvis). 0 = none is; default 3",
+    ),
+    (
+        "body_gap_ratio",
+        "bodies that move independently of each other (a subject and the props it does not hold, two subjects apart) are segmented each on its own, so that none shifts another's noise level, tolerance, typical fit σ, millimetre floors or k-means, and topo joins them only by a joint as tight as a typical one (topo.stationary_residual_ratio, as the room): where the single-linkage tree on ρ (each marker linked to its steadiest partner, and on) has links at least this many times as wide as every link it keeps and at least the markers' typical spacing, those links part bodies of ≥ 3 markers (smaller parts stay with the biggest body). Within a body the markers nearest each joint keep their distance within tens of mm; between bodies the steadiest pair varies by hundreds. Three 4-marker props moving on their own (synth::with_props) regrouped 24 of 140 hard synthetic subjects before (cargo run --release -p segment --example props_segment all hard 20001..20020; hexapod 12 of 20), none now, and beside CMU 02_01 they moved four of its markers (both upper-arm markers into one segment). Over seeds 20001-20100 of every subject, hard, messy and clean, no subject alone is split (BODIES_ONLY=1 props_segment ... 3 RATIO), with two or three markers per segment 2 of 700 (a limb whose widest link stands 3.4 times above the next; their trees as before); the three props come out as the subject and a body each in 93-100 of 100 trials per subject and preset at 2.5, 92-100 at 2, 66-99 at 4 (the rest: a prop whose steadiest pair with the subject varies by less than the spacing). The real captures give the same files. About 0.01 s of segment's 0.28 on cargo xtask bench's capture; 0 = one body; default 2.5",
     ),
     (
         "min_overlap_frames",
@@ -616,6 +626,7 @@ impl Params {
             ));
         }
         non_negative("stationary_jitter_factor", self.stationary_jitter_factor)?;
+        non_negative("body_gap_ratio", self.body_gap_ratio)?;
         if !(0.0..=1.0).contains(&self.brief_track_fraction) {
             return Err(bad(
                 "brief_track_fraction",

@@ -6,7 +6,7 @@ use mocap_io::{MISSING, Trajectories};
 use serde::{Deserialize, Serialize};
 
 /// Schema version of [`Segmentation`]; bump when its fields or the algorithm's output change.
-pub const SCHEMA_VERSION: u32 = 52;
+pub const SCHEMA_VERSION: u32 = 53;
 
 /// The rigid segments found in a capture.
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
@@ -17,7 +17,9 @@ pub struct Segmentation {
     pub unassigned: Vec<UnassignedMarker>,
     /// Per-marker diagnostics, indexed like the capture's labels.
     pub markers: Vec<MarkerDiagnostics>,
-    /// Noise level: median over markers of the smallest distance standard deviation ρ, mm.
+    /// Noise level: median over markers of the smallest distance standard deviation ρ, mm
+    /// (of the biggest body's markers, where bodies that move independently were segmented
+    /// apart: `Params::body_gap_ratio`; so the tolerance and scatter smoothness).
     pub noise_mm: f64,
     /// Rigidity tolerance on ρ for pieces of 1-2 markers, the later checks and the cliques, mm (from the rigid spread; markers move and posed clusters merge within tolerance_factor × noise_mm).
     pub tolerance_mm: f64,
@@ -27,9 +29,11 @@ pub struct Segmentation {
     /// when no marker has such a partner.
     #[serde(default)]
     pub scatter_smoothness: Option<f64>,
-    /// Top eigenvalues of D^-1/2 A D^-1/2, descending (spectral method; empty otherwise).
+    /// Top eigenvalues of D^-1/2 A D^-1/2, descending (spectral method; empty otherwise;
+    /// every body's together where bodies were segmented apart).
     pub eigenvalues: Vec<f64>,
-    /// Cluster count spectral clustering chose (eigen-gap or forced), before the rigidity check; 0 for cliques.
+    /// Cluster count spectral clustering chose (eigen-gap or forced; summed over bodies
+    /// segmented apart), before the rigidity check; 0 for cliques.
     pub eigengap_segments: usize,
     /// Pairs of markers whose trajectories the capture has exchanged for a while, undone in
     /// this order (a marker can be in several); later stages read the trajectories
@@ -60,6 +64,11 @@ pub struct Segmentation {
     /// `Params::stationary_jitter_factor`), grouped apart from everything that moves.
     #[serde(default)]
     pub stationary_segment: Option<usize>,
+    /// Where the capture holds bodies that move independently of each other (a subject
+    /// and the props it does not hold, two subjects; `Params::body_gap_ratio`), each
+    /// body's segment ids, ascending, the biggest body first; empty where it holds one.
+    #[serde(default)]
+    pub bodies: Vec<Vec<usize>>,
 }
 
 /// A segment the joint test left whole although its best cut came near the test's bounds:

@@ -86,9 +86,7 @@ pub(crate) fn stationary_markers(
     if params.stationary_jitter_factor <= 0.0 {
         return Vec::new();
     }
-    let needed = params
-        .min_visible_frames
-        .max((params.min_visible_fraction * traj.frames() as f64).ceil() as usize);
+    let needed = crate::visible_frames_needed(params, traj.frames());
     let mut still = Vec::new();
     let mut still_spread: f64 = 0.0;
     let mut moving_spreads = Vec::new();
@@ -129,10 +127,7 @@ pub(crate) fn fallen_markers(
     if params.stationary_jitter_factor <= 0.0 {
         return Vec::new();
     }
-    let needed = params
-        .min_visible_frames
-        .max((params.min_visible_fraction * traj.frames() as f64).ceil() as usize)
-        .max(MIN_STEPS + 1);
+    let needed = crate::visible_frames_needed(params, traj.frames()).max(MIN_STEPS + 1);
     let mut out = Vec::new();
     for m in (0..traj.markers()).filter(|m| !named.iter().flatten().any(|n| n == m)) {
         let Some(from) = still_since(traj, m, needed, params.stationary_jitter_factor) else {
@@ -363,6 +358,9 @@ pub(crate) fn put_back(
         n.segment = shift(n.segment);
     }
     for s in &mut seg.named_segments {
+        *s = shift(*s);
+    }
+    for s in seg.bodies.iter_mut().flatten() {
         *s = shift(*s);
     }
     seg.stationary_segment = Some(id);

@@ -1151,6 +1151,7 @@ fn untangle_exchanges_the_swapped_frames_back() {
         named_segments: Vec::new(),
         pieces: Vec::new(),
         stationary_segment: None,
+        bodies: Vec::new(),
     };
     let repaired = beyond.repaired(&traj);
     for f in 0..4 {
@@ -1722,4 +1723,101 @@ fn pieces_of_a_marker_are_segmented_as_one() {
             "seed {seed}"
         );
     }
+}
+
+/// Three props that move on their own (`synth::with_props`) beside hard synthetic
+/// subjects: each prop is a body and a segment of its own, and the subject's segments are
+/// those it has alone. Before bodies were segmented apart (`body_gap_ratio` 0) the props
+/// regrouped these subjects: hexapod 5 of seeds 20001–20006, quadruped 20001 and 20005
+/// (`cargo run --release -p segment --example props_segment all hard 20001..20020`: 24 of
+/// 140 subjects, none with bodies apart).
+#[test]
+fn props_that_move_on_their_own_leave_the_subject_s_segments_as_they_are() {
+    use synth::Subject::{Hexapod, Quadruped};
+    for (subject, seed) in [(Hexapod, 20001), (Quadruped, 20005)] {
+        let alone = eval_trial(subject, synth::Preset::Hard, seed).trajectories;
+        let n = alone.markers();
+        let with = synth::with_props(&alone, 3, seed).expect("props");
+        let props: Vec<Vec<usize>> = (0..3)
+            .map(|p| (0..4).map(|k| n + 4 * p + k).collect())
+            .collect();
+        let mut bodies = independent_bodies(&with, &Params::default()).expect("bodies");
+        bodies.sort();
+        let mut expected = props.clone();
+        expected.insert(0, (0..n).collect());
+        assert_eq!(bodies, expected, "{subject} {seed}");
+        let subject_groups = |seg: &Segmentation| -> Vec<Vec<usize>> {
+            partition(seg).into_iter().filter(|g| g[0] < n).collect()
+        };
+        let seg_alone = run(&alone, &Params::default()).expect("segments");
+        let seg_with = run(&with, &Params::default()).expect("segments");
+        assert_eq!(
+            subject_groups(&seg_with),
+            subject_groups(&seg_alone),
+            "{subject} {seed}"
+        );
+        for prop in &props {
+            assert!(
+                partition(&seg_with).contains(prop),
+                "{subject} {seed}: {prop:?}"
+            );
+        }
+        // Every marker's diagnostics and reason are its own body's.
+        for m in 0..n {
+            assert_eq!(
+                seg_with.markers[m].visible_frames,
+                seg_alone.markers[m].visible_frames
+            );
+        }
+        let one_body = Params {
+            body_gap_ratio: 0.0,
+            ..Params::default()
+        };
+        let before = run(&with, &one_body).expect("segments");
+        assert_ne!(
+            subject_groups(&before),
+            subject_groups(&seg_alone),
+            "{subject} {seed}"
+        );
+    }
+}
+
+/// No hard, messy or clean synthetic subject alone is taken for two bodies
+/// (`props_segment`'s "subject alone split": 0 of 700 each over seeds 20001–20100; with two
+/// or three markers per segment 2 of 700, a wide joint link standing 3.4 times above
+/// the next).
+#[test]
+fn a_subject_alone_is_one_body() {
+    for subject in synth::Subject::ALL {
+        for preset in [
+            synth::Preset::Clean,
+            synth::Preset::Hard,
+            synth::Preset::Messy,
+        ] {
+            let trial = eval_trial(subject, preset, 20001);
+            let bodies =
+                independent_bodies(&trial.trajectories, &Params::default()).expect("bodies");
+            assert_eq!(bodies.len(), 1, "{}", trial.name);
+        }
+    }
+}
+
+/// A group the user names across two bodies says they are one: nothing is segmented
+/// apart, and the group is a segment.
+#[test]
+fn a_group_named_across_bodies_makes_them_one() {
+    let alone = eval_trial(synth::Subject::Snowman, synth::Preset::Hard, 20001).trajectories;
+    let with = synth::with_props(&alone, 1, 20001).expect("props");
+    let apart = independent_bodies(&with, &Params::default()).expect("bodies");
+    assert_eq!(apart.len(), 2);
+    let first = with.labels()[0].clone();
+    let params = Params {
+        groups: vec![vec![first, "PROP0_*".to_string()]],
+        ..Params::default()
+    };
+    assert_eq!(independent_bodies(&with, &params).expect("bodies").len(), 1);
+    let seg = run(&with, &params).expect("segments");
+    let n = alone.markers();
+    let named: Vec<usize> = [0].into_iter().chain(n..n + 4).collect();
+    assert!(partition(&seg).contains(&named), "{:?}", partition(&seg));
 }

@@ -22,6 +22,7 @@ mod degrade;
 mod error;
 mod markers;
 mod motion;
+mod props;
 pub mod score;
 mod subjects;
 mod truth;
@@ -33,6 +34,7 @@ use rand_chacha::ChaCha8Rng;
 
 pub use config::{CONFIG_DOCS, Preset, Subject, SynthConfig};
 pub use error::Error;
+pub use props::{PROP_MARKERS, with_props};
 pub use truth::{
     POSITION_STEP_MM, TRUTH_SCHEMA_VERSION, Truth, TruthGap, TruthJoint, TruthSegment, TruthSwap,
     read_truth, write_trial,

@@ -46,12 +46,24 @@ pub fn run(seg: &Segmentation, fits: &PairFits, params: &Params) -> Result<Topol
     } else {
         masked = without_pairs(fits, &refused);
         let sizes: Vec<usize> = bodies.iter().map(Vec::len).collect();
+        let apart = if seg.bodies.len() > 1 && params.stationary_residual_ratio > 0.0 {
+            format!(
+                "; between the {} bodies the segment stage saw move independently, \
+                 topo.stationary_residual_ratio {} times, or a misfit at most \
+                 topo.stationary_misfit {}",
+                seg.bodies.len(),
+                params.stationary_residual_ratio,
+                params.stationary_misfit
+            )
+        } else {
+            String::new()
+        };
         notes.push(format!(
             "{} bodies, of {sizes:?} segments (two subjects, a subject and a prop, or the \
              markers that never move): the pairs that fit a joint (a residual at most \
-             topo.max_residual_ratio {} times the typical joint's) join the segments so, and \
-             the {} pair(s) from one body to another disagree about a common centre by more: \
-             no joint",
+             topo.max_residual_ratio {} times the typical joint's{apart}) join the segments \
+             so, and the {} pair(s) from one body to another disagree about a common centre \
+             by more: no joint",
             bodies.len(),
             params.max_residual_ratio,
             refused.len()
@@ -320,11 +332,24 @@ fn refused_pairs(
     // room, not a body).
     let limit = (params.max_residual_ratio * typical.max(seg.noise_mm).max(RESIDUAL_FLOOR_MM))
         .max(longest_segment_mm(fits, seg.stationary_segment));
-    // The room joins a body only by a joint as tight as a typical one: a fixed base's.
+    // The room joins a body only by a joint as tight as a typical one: a fixed base's. So
+    // do bodies the segment stage saw move independently (a prop the subject lets go of
+    // is no joint, a limb only sparse markers hold across its joint is).
     let room_limit = (params.stationary_residual_ratio > 0.0).then(|| {
         params.stationary_residual_ratio * typical.max(seg.noise_mm).max(RESIDUAL_FLOOR_MM)
     });
     let n = fits.poses.len();
+    let mut moving_body: Vec<Option<usize>> = vec![None; n];
+    for (k, body) in seg.bodies.iter().enumerate() {
+        for &s in body.iter().filter(|&&s| s < n) {
+            moving_body[s] = Some(k);
+        }
+    }
+    let apart = |a: usize, b: usize| {
+        seg.stationary_segment
+            .is_some_and(|room| room == a || room == b)
+            || matches!((moving_body[a], moving_body[b]), (Some(x), Some(y)) if x != y)
+    };
     let usable = |i: usize| {
         let p = &fits.pairs[i];
         p.cost.is_finite() && p.a < p.b && p.b < n
@@ -334,8 +359,8 @@ fn refused_pairs(
     for i in (0..fits.pairs.len()).filter(|&i| usable(i)) {
         let p = &fits.pairs[i];
         (paired[p.a], paired[p.b]) = (true, true);
-        let fits_joint = match (seg.stationary_segment, room_limit) {
-            (Some(room), Some(room_limit)) if room == p.a || room == p.b => {
+        let fits_joint = match room_limit {
+            Some(room_limit) if apart(p.a, p.b) => {
                 p.residual_rms_mm <= room_limit || p.misfit_over_noise <= params.stationary_misfit
             }
             _ => p.residual_rms_mm <= limit,
@@ -899,6 +924,7 @@ mod tests {
             named_segments: Vec::new(),
             pieces: Vec::new(),
             stationary_segment: None,
+            bodies: Vec::new(),
         }
     }
 
@@ -1762,6 +1788,40 @@ mod tests {
         use std::cmp::Ordering::{Greater, Less};
         assert_eq!(bigger_first(&[1], &[0], &[3, 6], None), Less);
         assert_eq!(bigger_first(&[1], &[0], &[3, 6], Some(1)), Greater);
+    }
+
+    /// Segments 0-1-2 a chain as in [`a_body_and_the_room`], and segment 3 a prop the
+    /// segment stage saw move on its own (`Segmentation::bodies`) whose pairs fit `prop_mm`
+    /// off at a misfit of `misfit`: a pair 3 times the typical joint's is no joint there,
+    /// as with the room, where it would be one within a body.
+    #[test]
+    fn bodies_the_segment_stage_told_apart_join_only_as_tightly_as_a_joint() {
+        let apart = |prop_mm: f64, misfit: f64| {
+            let (mut seg, f) = a_body_and_the_room(prop_mm, misfit);
+            seg.stationary_segment = None;
+            seg.bodies = vec![vec![0, 1, 2], vec![3]];
+            (seg, f)
+        };
+        let (seg, f) = apart(15.0, 4.0);
+        let t = run(&seg, &f, &Params::default()).unwrap();
+        assert_eq!(edge_set(&t), vec![(0, 1), (1, 2)]);
+        assert_eq!(t.bodies, vec![vec![0, 1, 2], vec![3]]);
+        assert!(t.notes.iter().any(|n| n.contains(
+            "between the 2 bodies the segment stage saw move independently, \
+             topo.stationary_residual_ratio 2 times"
+        )));
+        // Told apart by nothing, 15 mm is within 40 times 5.
+        let (mut seg, f) = apart(15.0, 4.0);
+        seg.bodies.clear();
+        let t = run(&seg, &f, &Params::default()).unwrap();
+        assert_eq!(edge_set(&t), vec![(0, 1), (1, 2), (2, 3)]);
+        // A joint as tight as a typical one joins them (a limb cut off by sparse markers).
+        for (prop_mm, misfit) in [(8.0, 4.0), (15.0, 1.2)] {
+            let (seg, f) = apart(prop_mm, misfit);
+            let t = run(&seg, &f, &Params::default()).unwrap();
+            assert_eq!(edge_set(&t), vec![(0, 1), (1, 2), (2, 3)]);
+            assert!(t.bodies.is_empty());
+        }
     }
 
     #[test]

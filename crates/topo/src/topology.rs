@@ -3,7 +3,7 @@
 use serde::{Deserialize, Serialize};
 
 /// Schema version of [`Topology`]; bump when its fields or the algorithm's output change.
-pub const SCHEMA_VERSION: u32 = 8;
+pub const SCHEMA_VERSION: u32 = 9;
 
 /// A tree over the segments: a root and one joint per edge, parent to child.
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
