@@ -11,11 +11,11 @@ const PROPS: usize = 3;
 
 /// skeleton.json of `walk` alone, of `walk` beside [`PROPS`] props (`synth::with_props`,
 /// seed 1), and of that with no bodies segmented apart (`segment.body_gap_ratio=0`), each
-/// run in a scratch folder `name`.
-fn alone_and_beside_props(name: &str, walk: &Trajectories) -> [serde_json::Value; 3] {
+/// run in a scratch folder `name`; then `inspect --json` of the capture with the props.
+fn alone_and_beside_props(name: &str, walk: &Trajectories) -> [serde_json::Value; 4] {
     let tmp = Scratch::new(name);
     let with = synth::with_props(walk, PROPS, 1).unwrap();
-    [
+    let [alone, props, one_body] = [
         ("alone", walk, None),
         ("props", &with, None),
         ("one-body", &with, Some("segment.body_gap_ratio=0")),
@@ -33,7 +33,15 @@ fn alone_and_beside_props(name: &str, walk: &Trajectories) -> [serde_json::Value
         let skeleton = read_json(&out.join("skeleton.json"));
         std::fs::remove_dir_all(out).unwrap();
         skeleton
-    })
+    });
+    let input = tmp.path("props.c3d");
+    let inspected = xtask_ok(&["inspect", input.to_str().unwrap(), "--json"]);
+    [
+        alone,
+        props,
+        one_body,
+        serde_json::from_str(&inspected).unwrap(),
+    ]
 }
 
 /// Each joint of `skeleton` by the sorted labels of its parent's and child's markers.
@@ -71,8 +79,22 @@ fn joints_by_markers(
 }
 
 /// The subject beside props has the segments it has alone, and every joint as it has it
-/// alone, its centre frame by frame and its bone; each prop is a body of one segment.
-fn assert_props_leave_the_subject_as_it_is(alone: &serde_json::Value, props: &serde_json::Value) {
+/// alone, its centre frame by frame and its bone; each prop is a body of one segment, and
+/// `inspect` (`inspected`) lists the bodies, the subject's first.
+fn assert_props_leave_the_subject_as_it_is(
+    alone: &serde_json::Value,
+    props: &serde_json::Value,
+    inspected: &serde_json::Value,
+) {
+    let listed = inspected["independent_bodies"].as_array().unwrap();
+    assert_eq!(listed.len(), 1 + PROPS, "{listed:?}");
+    for (p, body) in listed[1..].iter().enumerate() {
+        assert_eq!(
+            body[0].as_str(),
+            Some(format!("PROP{p}_0").as_str()),
+            "{body}"
+        );
+    }
     assert_eq!(groups_without(props, "PROP"), groups_without(alone, "PROP"));
     let (before, after) = (joints_by_markers(alone), joints_by_markers(props));
     assert_eq!(
@@ -111,8 +133,8 @@ fn props_beside_a_synthetic_subject_leave_its_skeleton_as_it_is() {
         ..synth::SynthConfig::default()
     };
     let walk = synth::generate(&config).unwrap().trajectories;
-    let [alone, props, one_body] = alone_and_beside_props("props-hexapod", &walk);
-    assert_props_leave_the_subject_as_it_is(&alone, &props);
+    let [alone, props, one_body, inspected] = alone_and_beside_props("props-hexapod", &walk);
+    assert_props_leave_the_subject_as_it_is(&alone, &props, &inspected);
     assert_ne!(
         groups_without(&one_body, "PROP"),
         groups_without(&alone, "PROP")
@@ -127,8 +149,8 @@ fn props_beside_a_real_walk_leave_its_skeleton_as_it_is() {
     let Some(walk) = cmu_02_01("props_beside_cmu") else {
         return;
     };
-    let [alone, props, one_body] = alone_and_beside_props("props-cmu", &walk);
-    assert_props_leave_the_subject_as_it_is(&alone, &props);
+    let [alone, props, one_body, inspected] = alone_and_beside_props("props-cmu", &walk);
+    assert_props_leave_the_subject_as_it_is(&alone, &props, &inspected);
     assert_ne!(
         groups_without(&one_body, "PROP"),
         groups_without(&alone, "PROP")

@@ -100,6 +100,13 @@ pub fn capture_report(capture: &Capture) -> Report {
         .into_iter()
         .map(|m| t.labels()[m].as_str())
         .collect();
+    // Bodies that move independently, as segment tells them apart; none where it sees one.
+    let bodies: Vec<Vec<&str>> = segment::independent_bodies(t, &segment::Params::default())
+        .unwrap_or_default()
+        .into_iter()
+        .map(|b| b.into_iter().map(|m| t.labels()[m].as_str()).collect())
+        .collect();
+    let bodies = if bodies.len() > 1 { bodies } else { Vec::new() };
     let json = json!({
         "kind": "capture",
         "format": capture.format.name(),
@@ -117,6 +124,7 @@ pub fn capture_report(capture: &Capture) -> Report {
         "marker_spacing_mm": spacing,
         "floor_scale": mocap_io::floor_scale_of(spacing),
         "stationary_markers": still,
+        "independent_bodies": bodies,
         "middle_frame": middle_frame,
         "warnings": capture.info.warnings,
         "stitched": capture.info.stitched,
@@ -174,6 +182,23 @@ pub fn capture_report(capture: &Capture) -> Report {
                 "markers that never move"
             },
             still.join(", ")
+        );
+    }
+    if let [biggest, others @ ..] = &bodies[..] {
+        let listed: Vec<String> = others
+            .iter()
+            .map(|b| match &b[..] {
+                [a, b, c, d, e, _, ..] => format!("{a} {b} {c} {d} {e} …"),
+                few => few.join(" "),
+            })
+            .collect();
+        let _ = writeln!(
+            text,
+            "bodies        {} that move independently (segment groups each on its own): \
+             {} markers, then {}",
+            bodies.len(),
+            biggest.len(),
+            listed.join(" | ")
         );
     }
     if frames > 0 {
