@@ -92,6 +92,11 @@ pub struct Args {
     /// pieces as their markers, each once.
     #[arg(long)]
     pub unlabeled: bool,
+    /// Props beside each subject: rigid 4-marker objects moving on their own
+    /// (`synth::with_props`, seeded by the trial's seed), which must leave the subject's
+    /// skeleton as it is alone (scored as without them; a joint to a prop is an extra one).
+    #[arg(long, default_value_t = 0)]
+    pub props: usize,
 }
 
 /// What the stages are given of each trial.
@@ -125,6 +130,8 @@ impl Given {
 pub struct TrialSpec {
     /// Generator config.
     pub config: SynthConfig,
+    /// Props beside the subject (`synth::with_props`, seeded by the trial's seed).
+    pub props: usize,
 }
 
 /// What one trial gave.
@@ -360,7 +367,10 @@ pub fn suite(args: &Args) -> Result<Vec<TrialSpec>> {
                 config.validate().context(
                     "--frames, --markers, --noise, --rate, --sweep, --marker-arc or --skin: not a trial the generator makes",
                 )?;
-                specs.push(TrialSpec { config });
+                specs.push(TrialSpec {
+                    config,
+                    props: args.props,
+                });
             }
         }
     }
@@ -401,24 +411,33 @@ pub fn run_trial(spec: &TrialSpec, params: &Params, given: Given) -> TrialResult
         runner_up_ratios: Vec::new(),
         near_joints: NearJointTally::default(),
     };
-    if let Err(e) = evaluate(config, params, given, &mut result) {
+    if let Err(e) = evaluate(spec, params, given, &mut result) {
         result.error = Some(format!("{e:#}"));
     }
     result
 }
 
 fn evaluate(
-    config: &SynthConfig,
+    spec: &TrialSpec,
     params: &Params,
     given: Given,
     result: &mut TrialResult,
 ) -> Result<()> {
+    let config = &spec.config;
     let trial = synth::generate(config).context("generating the trial")?;
     result.true_segments = trial.truth.segments.len();
     let mut truth_groups = (given == Given::TrueSegments).then(|| trial.true_segment_markers());
+    // The props' markers come after the subject's, so the truth's indices hold.
+    let trajectories = if spec.props > 0 {
+        synth::with_props(&trial.trajectories, spec.props, config.seed)
+            .context("adding the props")?
+    } else {
+        trial.trajectories
+    };
+    let is_prop = |label: &str| label.starts_with("PROP");
     let mut capture = Capture {
         format: Format::C3d,
-        trajectories: trial.trajectories,
+        trajectories,
         info: CaptureInfo::default(),
     };
     if matches!(given, Given::Unlabeled | Given::UnlabeledTrueSegments) {
@@ -458,10 +477,18 @@ fn evaluate(
     });
     result.seconds = start.elapsed().as_secs_f64();
     let (products, _) = ran?;
-    result.segments = products
-        .segmentation
-        .as_ref()
-        .map_or(0, |s| s.segments.len());
+    // The subject's segments: a prop's own is no more or fewer of them.
+    result.segments = products.segmentation.as_ref().map_or(0, |s| {
+        s.segments
+            .iter()
+            .filter(|g| {
+                spec.props == 0
+                    || g.markers
+                        .iter()
+                        .any(|&m| s.labels.get(m).is_none_or(|l| !is_prop(l)))
+            })
+            .count()
+    });
     let json_bytes = products
         .outputs
         .as_ref()
@@ -769,6 +796,7 @@ fn generator_settings(specs: &[TrialSpec]) -> serde_json::Value {
             "sweep": [c.sweep.0, c.sweep.1],
             "marker_arc_deg": c.marker_arc_deg,
             "skin_mm": [c.skin_mm.0, c.skin_mm.1],
+            "props": s.props,
         })
     })
 }
@@ -1524,6 +1552,7 @@ mod tests {
                     seed,
                     ..SynthConfig::default()
                 },
+                props: 0,
             };
             let joined = run_trial(&spec, &Params::default(), Given::Unlabeled);
             let left = run_trial(&spec, &apart, Given::Unlabeled);
@@ -1543,6 +1572,43 @@ mod tests {
         );
     }
 
+    /// `--props 3`: three props beside a hard synthetic hexapod leave its score as it is
+    /// alone (the props' own segments not counted among the subject's); labelled and
+    /// unlabeled, the props' tracks cut and shuffled with the subject's.
+    #[test]
+    fn props_beside_a_trial_leave_its_score_as_it_is() {
+        let spec = |props| TrialSpec {
+            config: SynthConfig {
+                subject: Subject::Hexapod,
+                preset: Preset::Hard,
+                frames: 480,
+                seed: 20001,
+                ..SynthConfig::default()
+            },
+            props,
+        };
+        for given in [Given::Capture, Given::Unlabeled] {
+            let alone = run_trial(&spec(0), &Params::default(), given);
+            let beside = run_trial(&spec(3), &Params::default(), given);
+            assert!(beside.error.is_none(), "{:?}", beside.error);
+            // Joints are named by their place among all the capture's pairs, props' too.
+            let extra = |r: &TrialResult| -> Vec<String> {
+                let what = |e: &String| e.split_once(": ").map_or(e.clone(), |(_, w)| w.into());
+                r.extra_joints.iter().map(what).collect()
+            };
+            let key = |r: &TrialResult| {
+                (
+                    r.segments,
+                    r.topology_exact,
+                    r.adjusted_rand,
+                    r.mean_error_mm,
+                    extra(r),
+                )
+            };
+            assert_eq!(key(&beside), key(&alone), "{given:?}");
+        }
+    }
+
     /// `--unlabeled --true-segments` puts each track in its marker's true segment:
     /// snowman-hard-s30023 unlabeled comes out in 8 segments against 7 (adjusted Rand
     /// 0.88); with the true segments the count and the grouping are the truth's.
@@ -1556,6 +1622,7 @@ mod tests {
                 seed: 30023,
                 ..SynthConfig::default()
             },
+            props: 0,
         };
         let own = run_trial(&spec, &Params::default(), Given::Unlabeled);
         assert!(own.segments != own.true_segments && own.adjusted_rand < 0.9);
@@ -1578,6 +1645,7 @@ mod tests {
                     seed: 20001,
                     ..SynthConfig::default()
                 },
+                props: 0,
             };
             let r = run_trial(&spec, &Params::default(), Given::Capture);
             assert!(r.error.is_none(), "{:?}", r.error);
