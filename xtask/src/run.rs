@@ -332,6 +332,9 @@ fn run_body(
 /// Most markers named in one finding line; the rest are counted.
 const NAMED_MARKERS: usize = 6;
 
+/// Other bodies listed a line each; more share one line (a capture with many props).
+const MOST_BODIES_LISTED: usize = 3;
+
 /// What a user should look at in `document`, one line each (empty when all is well);
 /// segments whose spin is known less well than `spin_limit_deg` (jointfit's
 /// `max_spin_deg`; 0 = not listed) are among it.
@@ -498,7 +501,32 @@ pub fn findings(document: &export::SkeletonJson, spin_limit_deg: f64) -> Vec<Str
         .iter()
         .filter(|b| document.body.as_ref() != Some(&b.name))
         .collect();
+    // Beside many props, one line for the other bodies rather than one each.
+    let movers: Vec<&&export::BodyJson> = others.iter().filter(|b| !document.is_room(b)).collect();
+    if movers.len() > MOST_BODIES_LISTED {
+        let each: Vec<String> = movers
+            .iter()
+            .map(|b| {
+                format!(
+                    "{} ({} segment{}, {} markers)",
+                    b.name,
+                    b.segments.len(),
+                    if b.segments.len() == 1 { "" } else { "s" },
+                    b.marker_count
+                )
+            })
+            .collect();
+        out.push(format!(
+            "{} other bodies, each a skeleton of its own (no pair between it and this tree \
+             fits a joint): {}",
+            movers.len(),
+            each.join("; ")
+        ));
+    }
     for b in &others {
+        if !document.is_room(b) && movers.len() > MOST_BODIES_LISTED {
+            continue;
+        }
         if document.is_room(b) {
             if whole_capture {
                 let still: Vec<String> = document
@@ -983,6 +1011,27 @@ mod tests {
             second
                 .iter()
                 .any(|f| f.starts_with("another body, body1: "))
+        );
+        // Beside many bodies, one line names them all.
+        let mut many = doc.clone();
+        for k in 3..=5 {
+            many.bodies.push(export::BodyJson {
+                name: format!("body{k}"),
+                segments: Vec::new(),
+                marker_count: 4,
+            });
+        }
+        let listed = findings(&many, 10.0);
+        assert!(
+            !listed.iter().any(|f| f.starts_with("another body")),
+            "{listed:?}"
+        );
+        assert!(
+            listed.iter().any(|f| f.starts_with(
+                "4 other bodies, each a skeleton of its own (no pair between it and this \
+                 tree fits a joint): body1 (",
+            ) && f.ends_with("; body5 (0 segments, 4 markers)")),
+            "{listed:?}"
         );
         for gone in [
             "markers in no segment",
