@@ -10,8 +10,8 @@
 //! other (a subject and its props, two subjects), which the single-linkage tree on ρ links
 //! only by links far wider than any within, are each grouped on their own by all that
 //! follows, and listed in `Segmentation::bodies` (`body_gap_ratio`, see `bodies`). Then
-//! samples where a marker leaves most
-//! of its steadiest partners at once are read as gaps (`glitch_factor`, see `glitch`). Then
+//! samples where a marker leaves most of its steadiest partners at once are read as gaps
+//! (`glitch_factor`, see `glitch`). Then
 //! one pass over the frames gives every pair's distance mean and standard deviation ρ over
 //! the frames where both are seen (a marker is never dropped for a gap); an affinity from ρ
 //! (less the noise level in quadrature where the capture's scatter is white noise, which
