@@ -9,7 +9,9 @@
 //! above every link within either body.
 
 use crate::pairstats::PairStats;
-use crate::{MarkerDiagnostics, NearJoint, Segment, Segmentation};
+use crate::{
+    Glitch, LabelSwap, MarkerDiagnostics, NearJoint, Segment, Segmentation, UnassignedMarker,
+};
 
 /// The fewest markers a body is given for: fewer cannot be posed, and a marker or two
 /// that keep their distance to nothing (a loose or glitching marker) stay where the
@@ -71,8 +73,75 @@ pub(crate) fn independent_bodies(
     bodies
 }
 
+/// `part`, the segmentation of `body`'s markers alone (a capture of those markers only, in
+/// that order), in the whole capture's marker indices (`markers` of them, labelled
+/// `labels`); the other markers' diagnostics are empty, for their own bodies to fill.
+pub(crate) fn in_capture(part: Segmentation, body: &[usize], labels: &[String]) -> Segmentation {
+    let global = |m: usize| body[m];
+    let mut markers = vec![
+        MarkerDiagnostics {
+            segment: None,
+            visible_frames: 0,
+            glitch_frames: 0,
+            rigidity_residual_mm: f64::NAN,
+            slides: false,
+        };
+        labels.len()
+    ];
+    for (m, d) in part.markers.into_iter().enumerate() {
+        markers[global(m)] = d;
+    }
+    let to_global = |ms: Vec<usize>| -> Vec<usize> { ms.into_iter().map(global).collect() };
+    Segmentation {
+        segments: part
+            .segments
+            .into_iter()
+            .map(|s| Segment {
+                id: s.id,
+                markers: to_global(s.markers),
+            })
+            .collect(),
+        unassigned: part
+            .unassigned
+            .into_iter()
+            .map(|u| UnassignedMarker {
+                marker: global(u.marker),
+                ..u
+            })
+            .collect(),
+        markers,
+        swaps: part
+            .swaps
+            .into_iter()
+            .map(|s| LabelSwap {
+                markers: s.markers.map(global),
+                ..s
+            })
+            .collect(),
+        glitches: part
+            .glitches
+            .into_iter()
+            .map(|g| Glitch {
+                marker: global(g.marker),
+                ..g
+            })
+            .collect(),
+        near_joints: part
+            .near_joints
+            .into_iter()
+            .map(|n| NearJoint {
+                parts: n.parts.map(to_global),
+                ..n
+            })
+            .collect(),
+        labels: labels.to_vec(),
+        pieces: part.pieces.into_iter().map(to_global).collect(),
+        ..part
+    }
+}
+
 /// One segmentation of the whole capture from each body's own (`parts[k]` of `bodies[k]`,
-/// found with every other marker hidden): the segments of all, in order of their smallest
+/// in the capture's marker indices, see [`in_capture`]): the segments of all, in order of their smallest
 /// marker; each marker's diagnostics, reason, glitches and swaps from its own body's; the
 /// eigenvalues all bodies' together (the largest first) and the spectral cluster count
 /// their sum; the noise level, tolerance and scatter smoothness the biggest body's; each

@@ -157,26 +157,23 @@ pub fn run(traj: &Trajectories, params: &Params) -> Result<Segmentation, Error> 
     let mut seg = if bodies.len() < 2 {
         whole(moving, scaled, &capture.named)?
     } else {
-        // Each body with every other's markers hidden, its floors scaled to its own
-        // markers' spacing, so none shifts what another's grouping reads.
+        // Each body's markers alone, its floors scaled to their own spacing, so none
+        // shifts what another's grouping reads (nor costs it their pairs' time).
         let parts = bodies
             .iter()
             .map(|body| {
-                let others: Vec<(usize, usize)> = (0..traj.markers())
-                    .filter(|m| !body.contains(m))
-                    .map(|m| (m, 0))
-                    .collect();
+                let local = |m: &usize| body.binary_search(m).ok();
                 let own_named: Vec<Vec<usize>> = capture
                     .named
                     .iter()
-                    .filter(|g| g.iter().all(|m| body.contains(m)))
-                    .cloned()
+                    .filter_map(|g| g.iter().map(local).collect::<Option<Vec<usize>>>())
                     .collect();
-                let own = moving.hiding(&others);
+                let own = moving.select(0..moving.frames(), body);
                 let own_params = params.with_floors_scaled(own.floor_scale());
-                whole(&own, &own_params, &own_named)
+                let part = whole(&own, &own_params, &own_named)?;
+                Ok(bodies::in_capture(part, body, traj.labels()))
             })
-            .collect::<Result<Vec<_>, _>>()?;
+            .collect::<Result<Vec<_>, Error>>()?;
         bodies::merged(parts, &bodies)
     };
     stationary::put_back(&mut seg, traj, &capture.still, scaled);
