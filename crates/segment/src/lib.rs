@@ -235,13 +235,14 @@ impl Prepared {
     }
 
     /// The moving markers' independent bodies (see `bodies`), with the markers set aside
-    /// in the biggest; one body of all where there are fewer than two or a group the user
-    /// named spans two.
+    /// in the biggest; one body of all where there are fewer than two, a group the user
+    /// named spans two or the user forces the cluster count (`Params::segments`).
     fn bodies(&self, traj: &Trajectories) -> Vec<Vec<usize>> {
         let moving = self.moving(traj);
         let params = &self.scaled;
         let one = || vec![(0..traj.markers()).collect::<Vec<usize>>()];
-        if params.body_gap_ratio <= 0.0 {
+        // A cluster count the user forces is the whole capture's.
+        if params.body_gap_ratio <= 0.0 || params.segments > 0 {
             return one();
         }
         let stats = pair_stats(moving);

@@ -1803,7 +1803,7 @@ fn a_subject_alone_is_one_body() {
 }
 
 /// A group the user names across two bodies says they are one: nothing is segmented
-/// apart, and the group is a segment.
+/// apart, and the group is a segment; so does a cluster count the user forces.
 #[test]
 fn a_group_named_across_bodies_makes_them_one() {
     let alone = eval_trial(synth::Subject::Snowman, synth::Preset::Hard, 20001).trajectories;
@@ -1816,6 +1816,12 @@ fn a_group_named_across_bodies_makes_them_one() {
         ..Params::default()
     };
     assert_eq!(independent_bodies(&with, &params).expect("bodies").len(), 1);
+    // So does a cluster count the user forces: it is the whole capture's.
+    let forced = Params {
+        segments: 6,
+        ..Params::default()
+    };
+    assert_eq!(independent_bodies(&with, &forced).expect("bodies").len(), 1);
     let seg = run(&with, &params).expect("segments");
     let n = alone.markers();
     let named: Vec<usize> = [0].into_iter().chain(n..n + 4).collect();
