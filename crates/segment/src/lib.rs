@@ -247,13 +247,24 @@ impl Prepared {
         }
         let stats = pair_stats(moving);
         let needed = visible_frames_needed(params, moving.frames());
-        let nodes: Vec<usize> = (0..moving.markers())
+        let mut nodes: Vec<usize> = (0..moving.markers())
             .filter(|&m| stats.visible[m] >= needed)
             .collect();
+        // Over a brief stretch any pair keeps its distance: a short piece of an unlabeled
+        // track seen beside a prop would tie the prop to the subject. Where tracks are
+        // mostly long (as for `brief_track_fraction`), brief tracks and brief overlaps
+        // tie nothing; the brief tracks go with the biggest body.
+        let mut min_overlap = params.min_overlap_frames;
+        let median = median_visible(&stats, &nodes);
+        if median >= BACKBONE_SHARE * moving.frames() as f64 {
+            let brief = (params.brief_track_fraction * median).ceil() as usize;
+            nodes.retain(|&m| stats.visible[m] >= brief);
+            min_overlap = min_overlap.max(brief);
+        }
         let bodies = bodies::independent_bodies(
             &stats,
             &nodes,
-            params.min_overlap_frames,
+            min_overlap,
             params.body_gap_ratio,
             moving.marker_spacing_mm(),
             &self.named,
