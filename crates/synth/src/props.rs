@@ -13,11 +13,12 @@ use crate::Error;
 pub const PROP_MARKERS: usize = 4;
 
 /// `t` with `count` props appended after its markers, labelled `PROP<p>_<k>`: each a rigid
-/// body of [`PROP_MARKERS`] markers 40–100 mm from its centre, the centre drifting
-/// 300–1200 mm per axis (at 0.1–0.5 Hz) about a point within 1.5 m of the subject's mean
-/// position, turning about a fixed axis at 0.3–1.5 rad/s, each coordinate with 0.5 mm of
-/// Gaussian-like noise, seen in every frame. Same `t` and `seed` → the same props. Fails
-/// only where `t` already has such a label.
+/// body of [`PROP_MARKERS`] markers 40–100 mm from its centre, the centre swinging
+/// 300–1200 mm along each horizontal axis and 100–400 mm up and down (at 0.1–0.5 Hz) about
+/// a point within 1.5 m across of the subject's mean position and 0.5–1.5 m up, turning
+/// about a fixed axis at 0.3–1.5 rad/s, each coordinate with 0.5 mm of bell-shaped noise,
+/// seen in every frame. Same `t` and `seed` → the same props. Fails only where `t` already
+/// has such a label.
 pub fn with_props(t: &Trajectories, count: usize, seed: u64) -> Result<Trajectories, Error> {
     let mut rng = ChaCha8Rng::seed_from_u64(seed);
     let (mut sum, mut seen) = (DVec3::ZERO, 0usize);
