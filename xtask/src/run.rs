@@ -60,7 +60,7 @@ pub struct Report {
     pub stages: Vec<StageRun>,
     /// Output folder.
     pub out: PathBuf,
-    /// Segments found.
+    /// Segments found: this body's, where the capture holds several.
     pub segments: usize,
     /// Joints in the tree.
     pub joints: usize,
@@ -312,10 +312,16 @@ fn run_body(
     // cache decodes no stage's output.
     let document: export::SkeletonJson =
         serde_json::from_slice(&exported.skeleton_json).context("reading back skeleton.json")?;
+    // Where the capture holds several bodies, this run's own: a prop's run is one segment.
+    let segments = document
+        .bodies
+        .iter()
+        .find(|b| document.body.as_ref() == Some(&b.name))
+        .map_or(document.segments.len(), |b| b.segments.len());
     let report = Report {
         stages,
         out: out.to_path_buf(),
-        segments: document.segments.len(),
+        segments,
         joints: document.joints.len(),
         files: exported.files,
         findings: findings(&document, params.jointfit.max_spin_deg),
@@ -331,6 +337,15 @@ fn run_body(
 
 /// Most markers named in one finding line; the rest are counted.
 const NAMED_MARKERS: usize = 6;
+
+/// `count` and `noun`, the noun plural but for one ("1 segment", "3 joints").
+fn counted(count: usize, noun: &str) -> String {
+    if count == 1 {
+        format!("1 {noun}")
+    } else {
+        format!("{count} {noun}s")
+    }
+}
 
 /// Other bodies listed a line each; more share one line (a capture with many props).
 const MOST_BODIES_LISTED: usize = 3;
@@ -508,11 +523,10 @@ pub fn findings(document: &export::SkeletonJson, spin_limit_deg: f64) -> Vec<Str
             .iter()
             .map(|b| {
                 format!(
-                    "{} ({} segment{}, {} markers)",
+                    "{} ({}, {})",
                     b.name,
-                    b.segments.len(),
-                    if b.segments.len() == 1 { "" } else { "s" },
-                    b.marker_count
+                    counted(b.segments.len(), "segment"),
+                    counted(b.marker_count, "marker")
                 )
             })
             .collect();
@@ -543,11 +557,11 @@ pub fn findings(document: &export::SkeletonJson, spin_limit_deg: f64) -> Vec<Str
             continue;
         }
         out.push(format!(
-            "another body, {}: {} segments, {} markers, a skeleton of its own (no pair \
-             between it and this tree fits a joint)",
+            "another body, {}: {}, {}, a skeleton of its own (no pair between it and this \
+             tree fits a joint)",
             b.name,
-            b.segments.len(),
-            b.marker_count
+            counted(b.segments.len(), "segment"),
+            counted(b.marker_count, "marker")
         ));
     }
     let detached: Vec<usize> = document
@@ -613,9 +627,9 @@ pub fn summary(report: &Report) -> String {
     let hits = report.stages.iter().filter(|s| s.cached).count();
     let total: f64 = report.stages.iter().map(|s| s.seconds).sum();
     let mut text = format!(
-        "{} segments, {} joints; {hits}/{} stages from the cache; {total:.2} s\n",
-        report.segments,
-        report.joints,
+        "{}, {}; {hits}/{} stages from the cache; {total:.2} s\n",
+        counted(report.segments, "segment"),
+        counted(report.joints, "joint"),
         report.stages.len()
     );
     for s in &report.stages {
@@ -1061,6 +1075,9 @@ mod tests {
         let second = read(dir.path().join("out/body2/skeleton.json"));
         assert_eq!(report.other_bodies.len(), 1);
         assert_eq!(report.other_bodies[0].out, dir.path().join("out/body2"));
+        // Each body's summary counts its own segments.
+        assert_eq!(report.segments, true_segments[0]);
+        assert_eq!(report.other_bodies[0].segments, true_segments[1]);
         for (r, other) in [(&report, "body2"), (&report.other_bodies[0], "body1")] {
             let said = format!("another body, {other}: ");
             assert!(
