@@ -19,6 +19,7 @@ pub mod artifact;
 pub mod bulk;
 pub mod c3d;
 pub mod csv;
+mod disjoint;
 pub mod eigen4;
 mod error;
 mod stitch;
@@ -31,6 +32,7 @@ use std::path::Path;
 
 use serde::{Deserialize, Serialize};
 
+pub use disjoint::DisjointSets;
 pub use error::{FormatError, IoError};
 pub use trajectories::{
     ABSURD_MM, FLOOR_SPACING_MM, MISSING, SPACING_FRAMES, Trajectories, floor_scale_of, is_present,

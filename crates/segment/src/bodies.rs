@@ -8,6 +8,10 @@
 //! steadiest cross pair still varies by hundreds of mm: the tree's links there stand far
 //! above every link within either body.
 
+use std::collections::BTreeMap;
+
+use mocap_io::DisjointSets;
+
 use crate::pairstats::PairStats;
 use crate::{
     Glitch, LabelSwap, MarkerDiagnostics, NearJoint, Segment, Segmentation, UnassignedMarker,
@@ -51,16 +55,14 @@ pub(crate) fn independent_bodies(
         .windows(2)
         .rev()
         .filter(|w| w[0].is_finite() && w[0] >= spacing_mm && w[0] >= gap_ratio * w[1])
-        .map(|w| w[0])
-        .find(|&width| {
-            let parts = components(stats.n, nodes, &links, width, together);
-            parts.iter().filter(|p| p.len() >= MIN_BODY_MARKERS).count() >= 2
+        .find_map(|w| {
+            let mut parts = components(stats.n, nodes, &links, w[0], together);
+            parts.retain(|p| p.len() >= MIN_BODY_MARKERS);
+            (parts.len() >= 2).then_some(parts)
         });
-    let Some(width) = cut else {
+    let Some(mut bodies) = cut else {
         return everyone();
     };
-    let mut bodies = components(stats.n, nodes, &links, width, together);
-    bodies.retain(|p| p.len() >= MIN_BODY_MARKERS);
     bodies.sort_by(|a, b| b.len().cmp(&a.len()).then(a[0].cmp(&b[0])));
     // Small parts and markers too little seen go with the biggest body, as they would
     // with no bodies told apart.
@@ -74,8 +76,8 @@ pub(crate) fn independent_bodies(
 }
 
 /// `part`, the segmentation of `body`'s markers alone (a capture of those markers only, in
-/// that order), in the whole capture's marker indices (`markers` of them, labelled
-/// `labels`); the other markers' diagnostics are empty, for their own bodies to fill.
+/// that order), in the indices of the whole capture, whose markers are `labels`; the other
+/// markers' diagnostics are empty, for their own bodies' parts to fill.
 pub(crate) fn in_capture(part: Segmentation, body: &[usize], labels: &[String]) -> Segmentation {
     let global = |m: usize| body[m];
     let mut markers = vec![
@@ -141,19 +143,12 @@ pub(crate) fn in_capture(part: Segmentation, body: &[usize], labels: &[String]) 
 }
 
 /// One segmentation of the whole capture from each body's own (`parts[k]` of `bodies[k]`,
-/// in the capture's marker indices, see [`in_capture`]): the segments of all, in order of their smallest
-/// marker; each marker's diagnostics, reason, glitches and swaps from its own body's; the
-/// eigenvalues all bodies' together (the largest first) and the spectral cluster count
-/// their sum; the noise level, tolerance and scatter smoothness the biggest body's; each
-/// body's segments in `bodies` (a body none of whose markers is a segment left out).
+/// in the capture's indices, see [`in_capture`]): the segments of all, in order of their
+/// smallest marker; each marker's diagnostics from its own body's part; the eigenvalues
+/// all bodies' together (the largest first) and the spectral cluster count their sum; the
+/// noise level, tolerance and scatter smoothness the biggest body's; each body's segments
+/// in `bodies` (a body none of whose markers is a segment left out).
 pub(crate) fn merged(parts: Vec<Segmentation>, bodies: &[Vec<usize>]) -> Segmentation {
-    let markers = parts.first().map_or(0, |p| p.markers.len());
-    let mut body_of = vec![0usize; markers];
-    for (k, body) in bodies.iter().enumerate() {
-        for &m in body {
-            body_of[m] = k;
-        }
-    }
     // (body, id there, markers), in order of the smallest marker.
     let mut segments: Vec<(usize, usize, Vec<usize>)> = parts
         .iter()
@@ -171,23 +166,14 @@ pub(crate) fn merged(parts: Vec<Segmentation>, bodies: &[Vec<usize>]) -> Segment
         .enumerate()
         .map(|(id, (_, _, markers))| Segment { id, markers })
         .collect();
-    let own = |k: usize, m: usize| body_of.get(m) == Some(&k);
-    whole.unassigned.clear();
-    whole.swaps.clear();
-    whole.glitches.clear();
+    // A part holds its own body's markers only: its lists are theirs as they stand.
+    whole.unassigned = parts.iter().flat_map(|p| p.unassigned.clone()).collect();
+    whole.swaps = parts.iter().flat_map(|p| p.swaps.clone()).collect();
+    whole.glitches = parts.iter().flat_map(|p| p.glitches.clone()).collect();
+    whole.pieces = parts.iter().flat_map(|p| p.pieces.clone()).collect();
     whole.near_joints.clear();
     whole.named_segments.clear();
-    whole.pieces.clear();
     for (k, p) in parts.iter().enumerate() {
-        whole
-            .unassigned
-            .extend(p.unassigned.iter().filter(|u| own(k, u.marker)).cloned());
-        whole
-            .swaps
-            .extend(p.swaps.iter().filter(|s| own(k, s.markers[0])).cloned());
-        whole
-            .glitches
-            .extend(p.glitches.iter().filter(|g| own(k, g.marker)).cloned());
         whole
             .near_joints
             .extend(p.near_joints.iter().map(|n| NearJoint {
@@ -197,16 +183,11 @@ pub(crate) fn merged(parts: Vec<Segmentation>, bodies: &[Vec<usize>]) -> Segment
         whole
             .named_segments
             .extend(p.named_segments.iter().map(|&s| new_id[k][s]));
-        whole
-            .pieces
-            .extend(p.pieces.iter().filter(|g| own(k, g[0])).cloned());
-        for m in 0..markers {
-            if own(k, m) {
-                whole.markers[m] = MarkerDiagnostics {
-                    segment: p.markers[m].segment.map(|s| new_id[k][s]),
-                    ..p.markers[m].clone()
-                };
-            }
+        for &m in &bodies[k] {
+            whole.markers[m] = MarkerDiagnostics {
+                segment: p.markers[m].segment.map(|s| new_id[k][s]),
+                ..p.markers[m].clone()
+            };
         }
     }
     // Far apart in ρ, bodies have no affinity between them: the capture's spectrum is
@@ -285,34 +266,16 @@ fn components(
     width: f64,
     together: &[Vec<usize>],
 ) -> Vec<Vec<usize>> {
-    let mut parent: Vec<usize> = (0..markers).collect();
-    fn root(parent: &mut [usize], mut m: usize) -> usize {
-        while parent[m] != m {
-            parent[m] = parent[parent[m]];
-            m = parent[m];
-        }
-        m
+    let mut sets = DisjointSets::new(markers);
+    for &(a, b, _) in links.iter().filter(|l| l.2 < width) {
+        sets.union(a, b);
     }
-    let mut join = |a: usize, b: usize| {
-        let (ra, rb) = (root(&mut parent, a), root(&mut parent, b));
-        if ra != rb {
-            parent[ra.max(rb)] = ra.min(rb);
-        }
-    };
-    for &(a, b, w) in links {
-        if w < width {
-            join(a, b);
-        }
+    for pair in together.iter().flat_map(|g| g.windows(2)) {
+        sets.union(pair[0], pair[1]);
     }
-    for group in together {
-        for pair in group.windows(2) {
-            join(pair[0], pair[1]);
-        }
-    }
-    let mut by_root: std::collections::BTreeMap<usize, Vec<usize>> = Default::default();
+    let mut by_root: BTreeMap<usize, Vec<usize>> = BTreeMap::new();
     for &m in nodes {
-        let r = root(&mut parent, m);
-        by_root.entry(r).or_default().push(m);
+        by_root.entry(sets.find(m)).or_default().push(m);
     }
     let mut parts: Vec<Vec<usize>> = by_root.into_values().collect();
     for p in &mut parts {

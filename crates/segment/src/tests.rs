@@ -1762,7 +1762,7 @@ fn props_that_move_on_their_own_leave_the_subject_s_segments_as_they_are() {
                 "{subject} {seed}: {prop:?}"
             );
         }
-        // Every marker's diagnostics and reason are its own body's.
+        // Every marker's diagnostics are its own body's part's.
         for m in 0..n {
             assert_eq!(
                 seg_with.markers[m].visible_frames,

@@ -4,6 +4,7 @@
 use std::collections::VecDeque;
 
 use jointfit::{JointKind, PairFits};
+use mocap_io::DisjointSets;
 use segment::Segmentation;
 
 use crate::independence::HubCorrelations;
@@ -762,43 +763,6 @@ fn spatial_spread(fits: &PairFits, tree: &[usize], s: usize) -> f64 {
         f64::INFINITY
     } else {
         sum / count as f64
-    }
-}
-
-/// Union–find with path halving and union by size.
-struct DisjointSets {
-    parent: Vec<usize>,
-    size: Vec<usize>,
-}
-
-impl DisjointSets {
-    fn new(n: usize) -> Self {
-        Self {
-            parent: (0..n).collect(),
-            size: vec![1; n],
-        }
-    }
-
-    fn find(&mut self, mut x: usize) -> usize {
-        while self.parent[x] != x {
-            self.parent[x] = self.parent[self.parent[x]];
-            x = self.parent[x];
-        }
-        x
-    }
-
-    /// Joins the sets of `a` and `b`; false when they were already one set.
-    fn union(&mut self, a: usize, b: usize) -> bool {
-        let (mut ra, mut rb) = (self.find(a), self.find(b));
-        if ra == rb {
-            return false;
-        }
-        if self.size[ra] < self.size[rb] {
-            std::mem::swap(&mut ra, &mut rb);
-        }
-        self.parent[rb] = ra;
-        self.size[ra] += self.size[rb];
-        true
     }
 }
 
